@@ -1,0 +1,143 @@
+"""The pinhole camera model shared by the simulator, calibration and processing.
+
+OpenCV conventions: the camera looks along its +z axis, x to the right, y down;
+a world point ``X`` maps to camera coordinates ``R @ X + t``; lens distortion
+is Brown–Conrady with coefficients ``(k1, k2, p1, p2, k3)`` as in
+``cv2.projectPoints``. Lengths are in millimetres, pixels have their centre at
+integer coordinates.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["PinholeCamera", "look_at"]
+
+
+def look_at(eye, target, up=(0.0, 0.0, 1.0)) -> tuple[np.ndarray, np.ndarray]:
+    """World→camera rotation ``R`` and translation ``t`` of a camera at ``eye``
+    looking at ``target``, with image "up" as close to ``up`` as possible.
+
+    Raises ``ValueError`` when ``eye`` equals ``target``. When the view axis is
+    parallel to ``up`` the world x axis is used as a fallback up direction.
+    """
+    eye = np.asarray(eye, dtype=np.float64)
+    target = np.asarray(target, dtype=np.float64)
+    forward = target - eye
+    dist = np.linalg.norm(forward)
+    if dist == 0:
+        raise ValueError("look_at: eye and target are the same point")
+    z = forward / dist
+    up = np.asarray(up, dtype=np.float64)
+    if np.linalg.norm(np.cross(z, up)) < 1e-9:
+        up = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    x = np.cross(z, -up)  # image y points down, so "up" is -y
+    x /= np.linalg.norm(x)
+    y = np.cross(z, x)
+    R = np.stack([x, y, z])
+    return R, -R @ eye
+
+
+@dataclass(frozen=True)
+class PinholeCamera:
+    """Intrinsics, distortion and pose of one camera.
+
+    Parameters
+    ----------
+    K : (3, 3) float64
+        Intrinsic matrix, pixels.
+    dist : (5,) float64
+        Brown–Conrady ``(k1, k2, p1, p2, k3)``.
+    R : (3, 3) float64
+        World→camera rotation.
+    t : (3,) float64
+        World→camera translation, mm.
+    width, height : int
+        Image size in pixels.
+    """
+
+    K: np.ndarray
+    dist: np.ndarray
+    R: np.ndarray
+    t: np.ndarray
+    width: int
+    height: int
+
+    def __post_init__(self) -> None:
+        for name, shape in (("K", (3, 3)), ("dist", (5,)), ("R", (3, 3)), ("t", (3,))):
+            value = np.array(getattr(self, name), dtype=np.float64)
+            if value.shape != shape or not np.all(np.isfinite(value)):
+                raise ValueError(f"PinholeCamera.{name}: expected finite {shape}, got {value}")
+            value.setflags(write=False)
+            object.__setattr__(self, name, value)
+        if not np.allclose(self.R @ self.R.T, np.eye(3), atol=1e-9):
+            raise ValueError("PinholeCamera.R is not a rotation matrix")
+
+    @property
+    def center(self) -> np.ndarray:
+        """(3,) camera centre in world coordinates, mm."""
+        return -self.R.T @ self.t
+
+    def project(self, points) -> tuple[np.ndarray, np.ndarray]:
+        """Pixel coordinates of world points.
+
+        Returns
+        -------
+        pixels : (n, 2) float64
+        in_front : (n,) bool
+            False for points at or behind the camera plane (their pixels are
+            not meaningful and are set to -1).
+        """
+        X = np.atleast_2d(np.asarray(points, dtype=np.float64)) @ self.R.T + self.t
+        in_front = X[:, 2] > 1e-9
+        z = np.where(in_front, X[:, 2], 1.0)
+        xn = np.stack([X[:, 0] / z, X[:, 1] / z], axis=1)
+        xd = self._distort(xn)
+        pix = xd @ self.K[:2, :2].T + self.K[:2, 2]
+        pix[~in_front] = -1.0
+        return pix, in_front
+
+    def rays(self, pixels) -> tuple[np.ndarray, np.ndarray]:
+        """World-space rays through pixel coordinates.
+
+        Returns
+        -------
+        origin : (3,) float64
+            The camera centre.
+        directions : (n, 3) float64
+            Unit direction of each pixel's ray.
+        """
+        pix = np.atleast_2d(np.asarray(pixels, dtype=np.float64))
+        xd = np.linalg.solve(self.K[:2, :2], (pix - self.K[:2, 2]).T).T
+        xn = self._undistort(xd)
+        d_cam = np.column_stack([xn, np.ones(len(xn))])
+        d = d_cam @ self.R  # R.T @ d for each row
+        return self.center, d / np.linalg.norm(d, axis=1, keepdims=True)
+
+    def _distort(self, xn: np.ndarray) -> np.ndarray:
+        k1, k2, p1, p2, k3 = self.dist
+        if not np.any(self.dist):
+            return xn
+        x, y = xn[:, 0], xn[:, 1]
+        r2 = x * x + y * y
+        radial = 1 + r2 * (k1 + r2 * (k2 + r2 * k3))
+        xd = x * radial + 2 * p1 * x * y + p2 * (r2 + 2 * x * x)
+        yd = y * radial + p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
+        return np.stack([xd, yd], axis=1)
+
+    def _undistort(self, xd: np.ndarray, iterations: int = 20) -> np.ndarray:
+        # Fixed-point inversion of the Brown–Conrady model, as cv2.undistortPoints.
+        if not np.any(self.dist):
+            return xd
+        k1, k2, p1, p2, k3 = self.dist
+        x, y = xd[:, 0].copy(), xd[:, 1].copy()
+        for _ in range(iterations):
+            r2 = x * x + y * y
+            radial = 1 + r2 * (k1 + r2 * (k2 + r2 * k3))
+            dx = 2 * p1 * x * y + p2 * (r2 + 2 * x * x)
+            dy = p1 * (r2 + 2 * y * y) + 2 * p2 * x * y
+            x = (xd[:, 0] - dx) / radial
+            y = (xd[:, 1] - dy) / radial
+        return np.stack([x, y], axis=1)

@@ -1,0 +1,5 @@
+"""The `rig` command line."""
+
+
+def main() -> None:
+    raise SystemExit("rig: CLI not assembled yet")

@@ -1,0 +1,276 @@
+"""The rig config: geometry, motion and timing of a Wang-style rig, and its devices.
+
+A turntable carries the sample; a light arc rotates about the vertical axis and
+carries N lamps (and the laser unit); a fixed camera arc carries M cameras. All
+positions are in the *world* (turntable) frame: origin at the turntable centre
+on the reference plane (the top of the holder plate), z up, x towards the
+camera arc at azimuth 0. Lengths in mm, angles in degrees, times in seconds.
+
+Arc positions use a signed polar angle: a lamp at ``theta_deg = -30`` sits on
+the far half of its arc, i.e. at azimuth (arc angle + 180°).
+"""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+from typing import Annotated, Literal
+
+import numpy as np
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+
+from rig.camera import PinholeCamera, look_at
+from rig.connections import CameraConnection, DynamixelConnection, ModbusConnection, NxtConnection
+from rig.errors import ConfigError
+from rig.geometry import direction_vector
+
+__all__ = [
+    "Axis",
+    "CameraArc",
+    "CameraSpec",
+    "Holder",
+    "Lamp",
+    "LampBank",
+    "Laser",
+    "LightArc",
+    "RigConfig",
+    "Turntable",
+    "default_rig_config",
+    "format_validation_error",
+    "load_rig_config",
+]
+
+SignedPolar = Annotated[float, Field(ge=-90, le=90, description="signed polar angle on an arc")]
+
+
+class _Closed(BaseModel):
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+
+class Axis(_Closed):
+    """Motion limits and timing of one rotary axis (trapezoidal velocity profile)."""
+
+    speed_deg_s: float = Field(gt=0, description="cruise speed")
+    accel_deg_s2: float = Field(gt=0, description="acceleration and deceleration")
+    settle_s: float = Field(0.2, ge=0, description="wait after the move before exposing")
+    min_deg: float = 0.0
+    max_deg: float = 360.0
+
+    @model_validator(mode="after")
+    def _range(self) -> Axis:
+        if self.max_deg <= self.min_deg:
+            raise ValueError(f"max_deg ({self.max_deg}) must exceed min_deg ({self.min_deg})")
+        return self
+
+    def move_time_s(self, delta_deg) -> np.ndarray:
+        """Time of a point-to-point move of ``delta_deg`` (no settle), broadcast."""
+        d = np.abs(np.asarray(delta_deg, dtype=np.float64))
+        v, a = self.speed_deg_s, self.accel_deg_s2
+        d_ramp = v * v / a  # distance spent accelerating and decelerating
+        return np.where(d < d_ramp, 2.0 * np.sqrt(d / a), d / v + v / a)
+
+
+class Turntable(_Closed):
+    axis: Axis = Axis(speed_deg_s=30.0, accel_deg_s2=60.0, settle_s=0.3)
+    drive: ModbusConnection = ModbusConnection(port=5020)
+
+
+class Lamp(_Closed):
+    id: str
+    theta_deg: SignedPolar
+    kind: Literal["point", "spot", "directional"] = "point"
+    intensity: float = Field(1.0, gt=0, description="relative radiant intensity")
+    spot_cutoff_deg: float = Field(60.0, gt=0, le=90, description="spot lamps: half-angle")
+
+
+class LampBank(_Closed):
+    """The lamps' power switches: Modbus coils (and optional dimming registers)."""
+
+    connection: ModbusConnection = ModbusConnection(port=5021)
+    warmup_s: float = Field(0.05, ge=0, description="from switching on to stable light")
+
+
+_H2_THETAS = (0.0, 15.0, 30.0, 45.0, 60.0, 75.0, 34.0, 68.0)
+
+
+class LightArc(_Closed):
+    radius_mm: float = Field(650.0, gt=0)
+    axis: Axis = Axis(speed_deg_s=20.0, accel_deg_s2=40.0, settle_s=0.5)
+    lamps: tuple[Lamp, ...] = tuple(
+        Lamp(id=f"lamp{i}", theta_deg=t) for i, t in enumerate(_H2_THETAS)
+    )
+    servos: DynamixelConnection = DynamixelConnection(serial_port="/dev/ttyUSB0")
+    servo_ids: tuple[int, ...] = (1,)
+
+    @model_validator(mode="after")
+    def _unique_lamps(self) -> LightArc:
+        ids = [lamp.id for lamp in self.lamps]
+        if len(set(ids)) != len(ids) or not ids:
+            raise ValueError(f"lamps need unique ids, at least one; got {ids}")
+        return self
+
+
+class CameraSpec(_Closed):
+    """One camera on the camera arc, pointing at the turntable centre."""
+
+    id: str
+    theta_deg: SignedPolar
+    width: int = Field(1024, gt=0, le=16384)
+    height: int = Field(768, gt=0, le=16384)
+    fx_px: float = Field(3000.0, gt=0)
+    fy_px: float = Field(3000.0, gt=0)
+    cx_px: float | None = None
+    cy_px: float | None = None
+    dist: tuple[float, float, float, float, float] = (0.0, 0.0, 0.0, 0.0, 0.0)
+    channels: Literal[1, 3] = 3
+    bit_depth: Literal[8, 10, 12, 16] = 8
+    readout_s: float = Field(1 / 15, ge=0, description="sensor readout per frame")
+    connection: CameraConnection = CameraConnection()
+
+
+class CameraArc(_Closed):
+    radius_mm: float = Field(800.0, gt=0)
+    azimuth_deg: float = Field(0.0, description="azimuth of the arc's plane (world)")
+    cameras: tuple[CameraSpec, ...] = tuple(
+        CameraSpec(id=f"cam{i}", theta_deg=t) for i, t in enumerate(_H2_THETAS)
+    )
+
+    @model_validator(mode="after")
+    def _unique_cameras(self) -> CameraArc:
+        ids = [cam.id for cam in self.cameras]
+        if len(set(ids)) != len(ids) or not ids:
+            raise ValueError(f"cameras need unique ids, at least one; got {ids}")
+        return self
+
+
+class Laser(_Closed):
+    """The LEGO laser unit on the light arc: it tilts the laser sheet to sweep it."""
+
+    mount_theta_deg: tuple[SignedPolar, ...] = (45.0,)
+    radius_mm: float = Field(500.0, gt=0, description="distance from the turntable centre")
+    sweep_deg: float = Field(12.0, gt=0, le=90, description="total tilt of the sheet per scan")
+    sweep_speed_deg_s: float = Field(1.0, gt=0, description="tilt speed while scanning")
+    frame_rate_hz: float = Field(7.5, gt=0, description="camera rate while scanning")
+    brick: NxtConnection = NxtConnection()
+
+
+class Holder(_Closed):
+    """The holder plate: the sample in the middle, ArUco markers around it."""
+
+    plate_mm: float = Field(180.0, gt=0, description="side of the square plate")
+    sample_mm: float = Field(100.0, gt=0, description="side of the square sample area")
+    marker_mm: float = Field(14.0, gt=0, description="side of one ArUco marker")
+    aruco_dictionary: str = "DICT_4X4_50"
+    markers_per_side: int = Field(4, ge=1, le=12)
+
+    @model_validator(mode="after")
+    def _fits(self) -> Holder:
+        border = (self.plate_mm - self.sample_mm) / 2
+        if border < self.marker_mm * 1.2:
+            raise ValueError(
+                f"the border between sample ({self.sample_mm} mm) and plate edge "
+                f"({border:.1f} mm) must hold a marker of {self.marker_mm} mm with margin"
+            )
+        return self
+
+    def marker_centers_mm(self) -> np.ndarray:
+        """(n, 2) marker centres on the plate (sample frame, mm), ids in order."""
+        mid = (self.plate_mm + self.sample_mm) / 4  # middle of the border strip
+        half = self.plate_mm / 2 - self.marker_mm
+        ticks = np.linspace(-half, half, self.markers_per_side)
+        sides = [
+            np.column_stack([ticks, np.full_like(ticks, -mid)]),
+            np.column_stack([np.full_like(ticks, mid), ticks]),
+            np.column_stack([ticks[::-1], np.full_like(ticks, mid)]),
+            np.column_stack([np.full_like(ticks, -mid), ticks[::-1]]),
+        ]
+        return np.vstack(sides)
+
+
+class RigConfig(_Closed):
+    """Everything the daemon, the simulator and the planner know about a rig."""
+
+    name: str = "default"
+    turntable: Turntable = Turntable()
+    light_arc: LightArc = LightArc()
+    lamp_bank: LampBank = LampBank()
+    camera_arc: CameraArc = CameraArc()
+    laser: Laser = Laser()
+    holder: Holder = Holder()
+    calibration: str | None = Field(None, description="path of a calibration file")
+
+    def camera(self, camera_id: str) -> CameraSpec:
+        for cam in self.camera_arc.cameras:
+            if cam.id == camera_id:
+                return cam
+        valid = [c.id for c in self.camera_arc.cameras]
+        raise ConfigError(f"unknown camera {camera_id!r}; this rig has {valid}")
+
+    def lamp(self, lamp_id: str) -> Lamp:
+        for lamp in self.light_arc.lamps:
+            if lamp.id == lamp_id:
+                return lamp
+        valid = [lamp.id for lamp in self.light_arc.lamps]
+        raise ConfigError(f"unknown lamp {lamp_id!r}; this rig has {valid}")
+
+    def camera_model(self, camera_id: str) -> PinholeCamera:
+        """The nominal (uncalibrated) pinhole model of a camera, world frame."""
+        cam = self.camera(camera_id)
+        eye = self.camera_arc.radius_mm * arc_direction(cam.theta_deg, self.camera_arc.azimuth_deg)
+        R, t = look_at(eye, np.zeros(3), up=_arc_up(cam.theta_deg, self.camera_arc.azimuth_deg))
+        cx = (cam.width - 1) / 2 if cam.cx_px is None else cam.cx_px
+        cy = (cam.height - 1) / 2 if cam.cy_px is None else cam.cy_px
+        K = np.array([[cam.fx_px, 0, cx], [0, cam.fy_px, cy], [0, 0, 1.0]])
+        return PinholeCamera(K, np.array(cam.dist), R, t, cam.width, cam.height)
+
+
+def arc_direction(signed_theta_deg, arc_azimuth_deg) -> np.ndarray:
+    """World unit vector of a signed polar position on an arc at an azimuth."""
+    theta = np.asarray(signed_theta_deg, dtype=np.float64)
+    phi = np.asarray(arc_azimuth_deg, dtype=np.float64) + np.where(theta < 0, 180.0, 0.0)
+    return direction_vector(np.abs(theta), phi)
+
+
+def _arc_up(signed_theta_deg: float, arc_azimuth_deg: float) -> np.ndarray:
+    # Image "up" points along the arc towards the zenith, so frontal and
+    # oblique cameras share an orientation (x of the image ≈ world y).
+    phi = np.deg2rad(arc_azimuth_deg)
+    return (
+        np.array([-np.cos(phi), -np.sin(phi), 0.0])
+        if abs(signed_theta_deg) < 1e-9
+        else (np.array([0.0, 0.0, 1.0]))
+    )
+
+
+def format_validation_error(source: str, err: ValidationError) -> list[str]:
+    """One line per problem: the field's dotted path, the value, what is valid."""
+    lines = []
+    for e in err.errors():
+        where = ".".join(str(p) for p in e["loc"]) or "(top level)"
+        msg = e["msg"].removeprefix("Value error, ")
+        value = e.get("input")
+        shown = "" if isinstance(value, dict) else f" (got {value!r})"
+        lines.append(f"{where}: {msg}{shown}")
+    return lines
+
+
+def load_rig_config(path: str | Path) -> RigConfig:
+    """Read and validate a rig config TOML file; errors name file and fields."""
+    path = Path(path)
+    try:
+        data = tomllib.loads(path.read_text())
+    except FileNotFoundError:
+        raise ConfigError(f"rig config {path} does not exist") from None
+    except tomllib.TOMLDecodeError as err:
+        raise ConfigError(f"rig config {path} is not valid TOML: {err}") from err
+    try:
+        return RigConfig.model_validate(data)
+    except ValidationError as err:
+        lines = "\n".join(f"  - {line}" for line in format_validation_error(str(path), err))
+        raise ConfigError(f"rig config {path}: invalid\n{lines}") from err
+
+
+def default_rig_config() -> RigConfig:
+    """The default Wang-style rig: 8 cameras and 8 lamps at the H2 ring angles
+    (plus 34° and 68° of H1), turntable and light arc, one laser unit."""
+    return RigConfig()
