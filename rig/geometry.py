@@ -30,6 +30,7 @@ __all__ = [
     "direction_angles",
     "direction_vector",
     "nearest_directions",
+    "texel_centers_mm",
 ]
 
 
@@ -256,3 +257,24 @@ def barycentric_weights(table_vectors, query_vectors) -> Interpolation:
     idx = owner[tri[best]]
     angles = angular_distance_deg(query[:, None, :], table[idx])
     return Interpolation(idx, wq, angles)
+
+
+def texel_centers_mm(sample_mm: float, n: int) -> np.ndarray:
+    """Sample-frame (x, y) in mm of the centres of an n×n texel grid.
+
+    The grid covers the sample square [-s/2, s/2]² on the reference plane
+    z = 0 (the holder's top, flush with the highest point of the sample).
+    Row 0 is at +y, column 0 at -x, like an image seen from above, so
+    ``texel[r, c]`` lies at ``x = -s/2 + (c + ½)·s/n``, ``y = s/2 - (r + ½)·s/n``.
+    Normtextures, MDFs and photometric maps all use this grid.
+
+    Returns
+    -------
+    (n, n, 2) float64
+    """
+    if n < 1 or sample_mm <= 0:
+        raise ValueError(f"texel_centers_mm: need n ≥ 1 and sample_mm > 0, got {n}, {sample_mm}")
+    step = sample_mm / n
+    coords = -sample_mm / 2 + (np.arange(n) + 0.5) * step
+    xx, yy = np.meshgrid(coords, coords[::-1])
+    return np.stack([xx, yy], axis=-1)

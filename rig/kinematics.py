@@ -166,3 +166,40 @@ def inverse(
         view_residual_deg=float(view_err[m]),
         light_residual_deg=float(light_err[m, n]),
     )
+
+
+def laser_plane(
+    config: RigConfig, *, arc_deg: float, mount: int, tilt_deg: float, turntable_deg: float
+) -> tuple[np.ndarray, float]:
+    """The laser sheet as a plane ``n · x = d`` in the sample frame (mm).
+
+    The emitter sits at ``laser.radius_mm`` along the mount's arc direction. At
+    tilt 0 its sheet contains the emitter, the turntable centre and the
+    horizontal direction across the arc, so the strip on the reference plane
+    runs across the arc; tilting the emitter by ``tilt_deg`` about that
+    horizontal direction sweeps the strip along the arc's radial direction.
+
+    Returns
+    -------
+    normal : (3,) float64 unit vector, with ``normal[2] ≥ 0``
+    d : float
+    """
+    mounts = config.laser.mount_theta_deg
+    if not 0 <= mount < len(mounts):
+        raise KinematicsError(f"laser mount {mount} does not exist; valid are 0..{len(mounts) - 1}")
+    source = config.laser.radius_mm * arc_direction(mounts[mount], arc_deg)
+    across = np.array([-np.sin(np.deg2rad(arc_deg)), np.cos(np.deg2rad(arc_deg)), 0.0])
+    normal = np.cross(across, source)
+    normal /= np.linalg.norm(normal)
+    # Rodrigues rotation of the normal about `across` by the tilt.
+    a = np.deg2rad(tilt_deg)
+    normal = (
+        normal * np.cos(a)
+        + np.cross(across, normal) * np.sin(a)
+        + across * np.dot(across, normal) * (1 - np.cos(a))
+    )
+    normal = rotate_z(normal, -turntable_deg)
+    source = rotate_z(source, -turntable_deg)
+    if normal[2] < 0:
+        normal = -normal
+    return normal, float(normal @ source)
