@@ -1,0 +1,32 @@
+"""The session archive: frames, step table, plan, rig config, calibration and
+event log of one measurement session in a Zarr v3 directory, appended step by
+step with crash-consistent commits (see ``docs/archive.md``).
+"""
+
+from rig.archive._errors import ArchiveError, StepAlreadyCommitted
+from rig.archive._index import FRAME_TABLE_DTYPE
+from rig.archive._records import (
+    FRAME_DTYPES,
+    Event,
+    FrameFormat,
+    FrameInfo,
+    FrameRecord,
+    StepRecord,
+)
+from rig.archive._versions import software_versions
+from rig.archive.archive import FORMAT_VERSION, Archive
+
+__all__ = [
+    "FORMAT_VERSION",
+    "FRAME_DTYPES",
+    "FRAME_TABLE_DTYPE",
+    "Archive",
+    "ArchiveError",
+    "Event",
+    "FrameFormat",
+    "FrameInfo",
+    "FrameRecord",
+    "StepAlreadyCommitted",
+    "StepRecord",
+    "software_versions",
+]

@@ -1,0 +1,184 @@
+"""Zarr v3 metadata documents and crash-safe small-file writes.
+
+The archive writes its ``zarr.json`` documents itself (they follow the Zarr v3
+core specification, and any zarr reader opens them) so that no write goes
+through zarr's global event-loop thread and every write is ordered and
+``fsync``-ed as the commit protocol needs.
+
+References
+----------
+.. [1] Zarr core specification, version 3.0,
+   https://zarr-specs.readthedocs.io/en/latest/v3/core/index.html
+"""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+from typing import Any
+
+from rig.archive._errors import ArchiveError
+from rig.archive._records import FrameFormat
+
+__all__ = [
+    "array_document",
+    "check_array_document",
+    "chunk_name",
+    "fsync_dir",
+    "group_document",
+    "log_document",
+    "read_document",
+    "write_atomic",
+]
+
+#: Frames of one camera are chunked one image per chunk; "." keeps every
+#: chunk of an array in one directory (one file per frame, no sub-folders).
+_CHUNK_SEPARATOR = "."
+
+
+def chunk_name(position: int) -> str:
+    """File name of the chunk holding frame ``position`` of a camera array."""
+    return f"c.{position}.0.0.0"
+
+
+def fsync_dir(path: Path) -> None:
+    """Make the entries of directory ``path`` (new or renamed files) durable."""
+    fd = os.open(path, os.O_RDONLY | os.O_DIRECTORY)
+    try:
+        os.fsync(fd)
+    finally:
+        os.close(fd)
+
+
+def write_atomic(path: Path, data: bytes, *, fsync: bool) -> None:
+    """Replace ``path`` by ``data`` so that a reader sees the old or the new file.
+
+    Writes a temporary sibling, optionally ``fsync``-s it, then ``os.replace``-s
+    it over ``path`` (atomic on POSIX) and ``fsync``-s the directory.
+    """
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    with open(tmp, "wb") as f:
+        f.write(data)
+        if fsync:
+            f.flush()
+            os.fsync(f.fileno())
+    os.replace(tmp, path)
+    if fsync:
+        fsync_dir(path.parent)
+
+
+def _dumps(document: dict) -> bytes:
+    return json.dumps(document, indent=2, allow_nan=False).encode()
+
+
+def group_document(attributes: dict[str, Any] | None = None) -> bytes:
+    """``zarr.json`` of a Zarr v3 group."""
+    return _dumps({"zarr_format": 3, "node_type": "group", "attributes": attributes or {}})
+
+
+def array_document(frame_format: FrameFormat, *, length: int, zstd_level: int) -> bytes:
+    """``zarr.json`` of one camera's frame array, shape ``(length, H, W, C)``.
+
+    One frame per chunk, codecs ``bytes`` (little-endian) then ``zstd`` with
+    its content checksum, so that a corrupted chunk fails to decode.
+    """
+    bytes_codec: dict[str, Any] = {"name": "bytes"}
+    if frame_format.dtype != "uint8":
+        bytes_codec["configuration"] = {"endian": "little"}
+    fill_value = 0.0 if frame_format.dtype == "float32" else 0
+    return _dumps(
+        {
+            "zarr_format": 3,
+            "node_type": "array",
+            "shape": [length, *frame_format.shape],
+            "data_type": frame_format.dtype,
+            "chunk_grid": {
+                "name": "regular",
+                "configuration": {"chunk_shape": [1, *frame_format.shape]},
+            },
+            "chunk_key_encoding": {
+                "name": "default",
+                "configuration": {"separator": _CHUNK_SEPARATOR},
+            },
+            "fill_value": fill_value,
+            "codecs": [
+                bytes_codec,
+                {"name": "zstd", "configuration": {"level": zstd_level, "checksum": True}},
+            ],
+            "dimension_names": ["frame", "y", "x", "channel"],
+            "attributes": {},
+        }
+    )
+
+
+def log_document() -> bytes:
+    """``zarr.json`` of ``log``: an empty array node that holds the journal file."""
+    return _dumps(
+        {
+            "zarr_format": 3,
+            "node_type": "array",
+            "shape": [0],
+            "data_type": "uint8",
+            "chunk_grid": {"name": "regular", "configuration": {"chunk_shape": [1]}},
+            "chunk_key_encoding": {"name": "default", "configuration": {"separator": "/"}},
+            "fill_value": 0,
+            "codecs": [{"name": "bytes"}],
+            "attributes": {
+                "description": "no data: the archive's append-only event log is the "
+                "JSON-lines file log/journal.jsonl (see btfrig docs/archive.md)"
+            },
+        }
+    )
+
+
+def read_document(path: Path, *, node_type: str) -> dict[str, Any]:
+    """Parse the ``zarr.json`` at ``path`` and check it is a v3 ``node_type``."""
+    try:
+        document = json.loads(path.read_bytes())
+    except FileNotFoundError as err:
+        raise ArchiveError(f"{path.parent}: missing {node_type} metadata {path.name}") from err
+    except (OSError, ValueError) as err:
+        raise ArchiveError(f"{path}: unreadable metadata: {err}") from err
+    if not isinstance(document, dict):
+        raise ArchiveError(f"{path}: metadata is not a JSON object")
+    if document.get("zarr_format") != 3 or document.get("node_type") != node_type:
+        raise ArchiveError(
+            f"{path}: expected a Zarr v3 {node_type}, found zarr_format="
+            f"{document.get('zarr_format')!r} node_type={document.get('node_type')!r}"
+        )
+    return document
+
+
+def check_array_document(path: Path, document: dict, frame_format: FrameFormat) -> tuple[int, int]:
+    """Check a camera array against its ``FrameFormat``.
+
+    Returns
+    -------
+    length, zstd_level : int
+        Frames the array's shape declares, and its zstd level.
+    """
+    dtype = document.get("data_type")
+    if dtype != frame_format.dtype:
+        raise ArchiveError(
+            f"{path}: dtype {dtype!r}, but the archive declares {frame_format.dtype!r} "
+            "for this camera"
+        )
+    shape = document.get("shape")
+    if not isinstance(shape, list) or len(shape) != 4 or list(shape[1:]) != [*frame_format.shape]:
+        raise ArchiveError(
+            f"{path}: shape {shape!r}, expected [n, {', '.join(map(str, frame_format.shape))}]"
+        )
+    chunk_shape = document.get("chunk_grid", {}).get("configuration", {}).get("chunk_shape")
+    separator = document.get("chunk_key_encoding", {}).get("configuration", {}).get("separator")
+    if chunk_shape != [1, *frame_format.shape] or separator != _CHUNK_SEPARATOR:
+        raise ArchiveError(
+            f"{path}: chunking {chunk_shape!r} with separator {separator!r}; the archive "
+            f"stores one frame per chunk, [1, {', '.join(map(str, frame_format.shape))}] "
+            f"with separator {_CHUNK_SEPARATOR!r}"
+        )
+    codecs = document.get("codecs")
+    names = [c.get("name") for c in codecs] if isinstance(codecs, list) else codecs
+    if names != ["bytes", "zstd"]:
+        raise ArchiveError(f"{path}: codecs {names!r}, expected ['bytes', 'zstd']")
+    return int(shape[0]), int(codecs[1].get("configuration", {}).get("level", 3))

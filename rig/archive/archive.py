@@ -1,0 +1,493 @@
+"""The session archive: one Zarr v3 directory per measurement session.
+
+Layout (``docs/archive.md`` describes it and the commit protocol)::
+
+    session.zarr/
+      zarr.json              root group; attributes: format, cameras, plan,
+                             rig_config, software versions
+      frames/<camera>/       (n, H, W, C) array, one frame per chunk, zstd
+      calibration/zarr.json  group; attributes mirror the current calibration
+      material/              processing results (zarr groups/arrays)
+      log/journal.jsonl      append-only event log = commit log
+
+A step is committed when its ``"step"`` record is complete in the journal;
+its frame chunks are written (and ``fsync``-ed) before that record. Readers
+trust only committed records, so after a crash either a whole step is
+visible or none of it.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import fcntl
+import logging
+import os
+import time
+from collections.abc import Iterable, Iterator, Mapping, Sequence
+from concurrent.futures import ThreadPoolExecutor
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from rig.archive._errors import ArchiveError
+from rig.archive._frames import FrameArray
+from rig.archive._index import FRAME_TABLE_DTYPE, SessionIndex
+from rig.archive._journal import Journal, read_journal
+from rig.archive._material import check_result_name, recover_material, replace_result
+from rig.archive._records import Event, FrameFormat, FrameInfo, FrameRecord, StepRecord, json_safe
+from rig.archive._store import (
+    array_document,
+    check_array_document,
+    fsync_dir,
+    group_document,
+    log_document,
+    read_document,
+    write_atomic,
+)
+from rig.archive._versions import software_versions
+
+__all__ = ["FORMAT_VERSION", "Archive"]
+
+log = logging.getLogger(__name__)
+
+#: Version of the archive layout written by this code.
+FORMAT_VERSION = 1
+# The journal and the writer lock sit inside the ``log`` node, an empty zarr
+# array: zarr never lists inside an array, so zarr readers see no stray files.
+_JOURNAL = "log/journal.jsonl"
+_LOCK = "log/writer.lock"
+_RESERVED_KINDS = frozenset({"created", "opened", "closed", "step", "calibration", "material"})
+_MIN_CAPACITY = 64
+
+
+class Archive:
+    """A session archive opened for reading (``mode="r"``) or appending (``"a"``).
+
+    Use ``Archive.create`` or ``Archive.open``; close it (or use ``with``).
+    Only one process may append at a time (an advisory lock enforces it).
+    """
+
+    def __init__(self, path: Path, *, mode: str, fsync: bool, workers: int | None):
+        if mode not in ("r", "a"):
+            raise ArchiveError(f"{path}: mode {mode!r}, expected 'r' or 'a'")
+        self.path = path
+        self.mode = mode
+        self._fsync = fsync
+        self._workers = workers or min(8, os.cpu_count() or 1)
+        self._lock_fd = -1
+        self._journal: Journal | None = None
+        self._pool: ThreadPoolExecutor | None = None
+        if mode == "a":
+            self._lock()
+        try:
+            self._load()
+        except BaseException:
+            self.close()
+            raise
+
+    # -- creating and opening -------------------------------------------------------------
+
+    @classmethod
+    def create(
+        cls,
+        path: str | os.PathLike,
+        *,
+        plan: Mapping[str, Any],
+        rig_config: Mapping[str, Any],
+        cameras: Mapping[str, FrameFormat],
+        calibration: Mapping[str, Any] | None = None,
+        plan_toml: str | None = None,
+        zstd_level: int = 1,
+        fsync: bool = True,
+        workers: int | None = None,
+    ) -> Archive:
+        """Create a new archive at ``path`` (which must not exist) and open it for appending.
+
+        ``plan``, ``rig_config`` and ``calibration`` are stored as JSON (numpy
+        arrays become lists); ``plan_toml`` keeps the plan file's text verbatim.
+        ``fsync=False`` keeps the commit order (safe against a killed process)
+        but not durability against power loss. ``workers`` threads compress.
+        """
+        path = Path(path)
+        if path.exists():
+            raise ArchiveError(f"{path}: already exists; open it with Archive.open(..., mode='a')")
+        if not cameras:
+            raise ArchiveError(f"{path}: cameras is empty; give at least one FrameFormat")
+        for name, fmt in cameras.items():
+            if not isinstance(fmt, FrameFormat):
+                raise ArchiveError(f"{path}: cameras[{name!r}] is not a FrameFormat: {fmt!r}")
+            check_result_name(name)
+        if not (isinstance(zstd_level, int) and -7 <= zstd_level <= 22):
+            raise ArchiveError(f"{path}: zstd_level = {zstd_level!r}, expected an int in -7..22")
+        attributes = {
+            "btfrig_archive": {"format_version": FORMAT_VERSION},
+            "cameras": {name: fmt.to_json() for name, fmt in cameras.items()},
+            "zstd_level": zstd_level,
+            "plan": json_safe(dict(plan), where="plan"),
+            "plan_toml": plan_toml,
+            "rig_config": json_safe(dict(rig_config), where="rig_config"),
+            "software": software_versions(),
+        }
+        calibration = json_safe(dict(calibration or {}), where="calibration")
+        tmp = path.with_name(f".{path.name}.creating")
+        tmp.mkdir(parents=True)
+        (tmp / "frames").mkdir()
+        for name, fmt in cameras.items():
+            (tmp / "frames" / name).mkdir()
+            doc = array_document(fmt, length=0, zstd_level=zstd_level)
+            (tmp / "frames" / name / "zarr.json").write_bytes(doc)
+        (tmp / "frames" / "zarr.json").write_bytes(group_document())
+        (tmp / "calibration").mkdir()
+        (tmp / "calibration" / "zarr.json").write_bytes(
+            group_document({"version": 0, "calibration": {}})
+        )
+        (tmp / "material").mkdir()
+        (tmp / "material" / "zarr.json").write_bytes(group_document())
+        (tmp / "log").mkdir()
+        (tmp / "log" / "zarr.json").write_bytes(log_document())
+        (tmp / _JOURNAL).touch()
+        (tmp / "zarr.json").write_bytes(group_document(attributes))
+        # The directory appears under its name only when complete.
+        os.rename(tmp, path)
+        archive = cls(path, mode="a", fsync=fsync, workers=workers)
+        if calibration:
+            archive.set_calibration(calibration)
+        return archive
+
+    @classmethod
+    def open(
+        cls,
+        path: str | os.PathLike,
+        *,
+        mode: str = "r",
+        fsync: bool = True,
+        workers: int | None = None,
+    ) -> Archive:
+        """Open an existing archive, checking its structure.
+
+        With ``mode="a"`` leftovers of a crash (an uncommitted step's chunks, a
+        torn journal line, an interrupted material replacement) are removed.
+        Raises ArchiveError naming what is damaged and where.
+        """
+        path = Path(path)
+        if not path.is_dir():
+            raise ArchiveError(f"{path}: no archive here (not a directory)")
+        return cls(path, mode=mode, fsync=fsync, workers=workers)
+
+    def _lock(self) -> None:
+        self._lock_fd = os.open(self.path / _LOCK, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fcntl.flock(self._lock_fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+        except BlockingIOError as err:
+            raise ArchiveError(
+                f"{self.path}: another process has it open for appending; "
+                "close that one or open this one with mode='r'"
+            ) from err
+
+    def _load(self) -> None:
+        root = read_document(self.path / "zarr.json", node_type="group")
+        attributes = root.get("attributes", {})
+        for key in ("btfrig_archive", "cameras", "zstd_level", "plan", "rig_config", "software"):
+            if key not in attributes:
+                raise ArchiveError(f"{self.path}/zarr.json: attribute {key!r} is missing")
+        version = attributes["btfrig_archive"].get("format_version")
+        if version != FORMAT_VERSION:
+            raise ArchiveError(
+                f"{self.path}: archive format version {version!r}, this btfrig reads "
+                f"version {FORMAT_VERSION}"
+            )
+        self._attributes = attributes
+        self._zstd_level = int(attributes["zstd_level"])
+        for group in ("frames", "calibration", "material"):
+            read_document(self.path / group / "zarr.json", node_type="group")
+        read_document(self.path / "log" / "zarr.json", node_type="array")
+        self.cameras = {n: FrameFormat.from_json(f) for n, f in attributes["cameras"].items()}
+        self._arrays: dict[str, FrameArray] = {}
+        self._capacity: dict[str, int] = {}
+        for name, fmt in self.cameras.items():
+            directory = self.path / "frames" / name
+            document = read_document(directory / "zarr.json", node_type="array")
+            length, level = check_array_document(directory / "zarr.json", document, fmt)
+            self._capacity[name] = length
+            self._arrays[name] = FrameArray(directory, name, fmt, level)
+        contents = read_journal(self.path / _JOURNAL)
+        self._index = SessionIndex(self.path, self.cameras, contents.events)
+        recovered = self._check_chunks()
+        if self.mode == "a":
+            self._journal = Journal(self.path / _JOURNAL, contents, fsync=self._fsync)
+            self._events = list(contents.events)
+            if contents.torn_bytes:
+                recovered["torn_journal_bytes"] = contents.torn_bytes
+            material = recover_material(self.path / "material")
+            if material:
+                recovered["material"] = material
+            self._mirror_calibration()
+            kind = "created" if not self._events else "opened"
+            self._append_event(kind, {"software": software_versions(), "recovered": recovered})
+        else:
+            self._events = list(contents.events)
+
+    def _check_chunks(self) -> dict[str, Any]:
+        """Check every committed chunk is present and whole; drop leftovers in mode 'a'."""
+        recovered: dict[str, Any] = {}
+        for name, array in self._arrays.items():
+            sizes = array.chunk_sizes()
+            for info, nbytes in self._index.committed_chunks(name):
+                where = f"step {info.step}, camera {name!r}, sub {info.sub}"
+                size = sizes.get(info.position)
+                if size is None:
+                    raise ArchiveError(
+                        f"{where}: chunk file {array.path(info.position)} is missing"
+                    )
+                if size != nbytes:
+                    raise ArchiveError(
+                        f"{where}: chunk file {array.path(info.position)} has {size} bytes, "
+                        f"{nbytes} were committed (truncated or overwritten)"
+                    )
+            leftovers = sorted(p for p in sizes if p >= self._index.next_position[name])
+            if leftovers and self.mode == "a":
+                array.remove(leftovers)
+                recovered[f"uncommitted_chunks/{name}"] = len(leftovers)
+                log.warning("%s: removed %d uncommitted chunks", array.directory, len(leftovers))
+        return recovered
+
+    # -- appending ------------------------------------------------------------------------
+
+    def append_step(
+        self,
+        step: StepRecord,
+        frames: Mapping[str, Sequence[FrameRecord | np.ndarray]],
+    ) -> StepRecord:
+        """Store a step's frames and commit it atomically; returns the committed record.
+
+        ``frames`` maps each of ``step.cameras`` to its frames. A bare array is
+        frame ``sub = i`` (its position in the sequence), exposed for
+        ``step.exposures_s[i]`` (or the single exposure), at the time of the call.
+        Raises StepAlreadyCommitted if ``step.index`` is already committed.
+        """
+        self._check_writable()
+        now = time.time()
+        records = {}
+        for camera, sequence in frames.items():
+            records[camera] = [_as_record(f, i, step, now) for i, f in enumerate(sequence)]
+        self._index.check_new_step(step, records)
+        jobs = []
+        rows: dict[str, list[list]] = {}
+        for camera in step.cameras:
+            array = self._arrays[camera]
+            start = self._index.next_position[camera]
+            self._ensure_capacity(camera, start + len(records[camera]))
+            rows[camera] = []
+            for position, record in enumerate(records[camera], start):
+                where = f"{self.path}: step {step.index}, camera {camera!r}, sub {record.sub}"
+                jobs.append((array, position, array.check_image(record.image, where=where)))
+                row = [int(record.sub), float(record.exposure_s), float(record.timestamp)]
+                rows[camera].append([*row, position])
+        sizes = self._executor().map(self._write_chunk, jobs)
+        for (array, position, _), nbytes in zip(jobs, sizes, strict=True):
+            rows[array.camera][position - self._index.next_position[array.camera]].append(nbytes)
+        if self._fsync:
+            for camera in step.cameras:
+                fsync_dir(self._arrays[camera].directory)
+        committed = StepRecord.from_json({**step.to_json(), "committed_at": time.time()})
+        event = self._append_event("step", {"step": committed.to_json(), "frames": rows})
+        self._index.add_step(event)
+        return committed
+
+    def _write_chunk(self, job: tuple[FrameArray, int, np.ndarray]) -> int:
+        array, position, image = job
+        return array.write(position, image, fsync=self._fsync)
+
+    def _executor(self) -> ThreadPoolExecutor:
+        if self._pool is None:
+            self._pool = ThreadPoolExecutor(self._workers, thread_name_prefix="archive-zstd")
+        return self._pool
+
+    def _ensure_capacity(self, camera: str, length: int) -> None:
+        # The array's declared shape grows geometrically; the journal, not the
+        # shape, says which frames exist, so growing it is not part of a commit.
+        if length > self._capacity[camera]:
+            capacity = max(length, 2 * self._capacity[camera], _MIN_CAPACITY)
+            self._write_shape(camera, capacity)
+
+    def _write_shape(self, camera: str, length: int) -> None:
+        doc = array_document(self.cameras[camera], length=length, zstd_level=self._zstd_level)
+        write_atomic(self._arrays[camera].directory / "zarr.json", doc, fsync=self._fsync)
+        self._capacity[camera] = length
+
+    def log_event(self, kind: str, **payload: Any) -> Event:
+        """Append an event to the log; payload values must be JSON-able (numpy allowed)."""
+        self._check_writable()
+        if not isinstance(kind, str) or not kind or kind in _RESERVED_KINDS:
+            raise ArchiveError(
+                f"{self.path}: event kind {kind!r}: use a non-empty str other than the "
+                f"archive's own kinds {sorted(_RESERVED_KINDS)}"
+            )
+        return self._append_event(kind, json_safe(payload, where=f"event {kind!r}"))
+
+    def _append_event(self, kind: str, payload: dict[str, Any]) -> Event:
+        assert self._journal is not None
+        event = self._journal.append(kind, payload, time=time.time())
+        self._events.append(event)
+        return event
+
+    def set_calibration(self, calibration: Mapping[str, Any]) -> int:
+        """Replace the calibration; returns its new version (1, 2, …). Old ones stay in the log."""
+        self._check_writable()
+        data = json_safe(dict(calibration), where="calibration")
+        version = self.calibration_version + 1
+        event = self._append_event("calibration", {"version": version, "calibration": data})
+        self._index.add_calibration(event)
+        self._mirror_calibration()
+        return version
+
+    def _mirror_calibration(self) -> None:
+        # The journal is authoritative; calibration/zarr.json mirrors it for zarr readers.
+        document = group_document(
+            {"version": self.calibration_version, "calibration": self.calibration}
+        )
+        path = self.path / "calibration" / "zarr.json"
+        if path.read_bytes() != document:
+            write_atomic(path, document, fsync=self._fsync)
+
+    @contextlib.contextmanager
+    def replace_material(self, name: str) -> Iterator[Any]:
+        """Write result ``name`` of ``material/`` anew and swap it in atomically.
+
+        Yields an empty ``zarr.Group`` to write into; when the block ends
+        without an exception it replaces ``material/<name>`` as a whole.
+        """
+        import zarr
+
+        self._check_writable()
+        check_result_name(name)
+        with replace_result(self.path / "material", name, fsync=self._fsync) as tmp:
+            yield zarr.open_group(tmp, mode="w", zarr_format=3)
+        self._append_event("material", {"name": name})
+
+    def _check_writable(self) -> None:
+        if self._journal is None:
+            raise ArchiveError(
+                f"{self.path}: not open for appending (opened with mode={self.mode!r} or "
+                "closed); use Archive.open(path, mode='a')"
+            )
+
+    def close(self) -> None:
+        """Record the clean close, trim array shapes to the committed frames, release all."""
+        if self._journal is not None:
+            for camera in self.cameras:
+                if self._capacity[camera] != self._index.next_position[camera]:
+                    self._write_shape(camera, self._index.next_position[camera])
+            self._append_event("closed", {"committed_steps": len(self._index.steps)})
+            self._journal.close()
+            self._journal = None
+        if self._pool is not None:
+            self._pool.shutdown(wait=True)
+            self._pool = None
+        if self._lock_fd >= 0:
+            os.close(self._lock_fd)
+            self._lock_fd = -1
+
+    def __enter__(self) -> Archive:
+        return self
+
+    def __exit__(self, *exc_info) -> None:
+        self.close()
+
+    # -- reading --------------------------------------------------------------------------
+
+    @property
+    def plan(self) -> dict[str, Any]:
+        """The measurement plan, as stored."""
+        return self._attributes["plan"]
+
+    @property
+    def plan_toml(self) -> str | None:
+        """The plan file's text, if it was given."""
+        return self._attributes["plan_toml"]
+
+    @property
+    def rig_config(self) -> dict[str, Any]:
+        """The rig configuration, as stored."""
+        return self._attributes["rig_config"]
+
+    @property
+    def software(self) -> dict[str, str]:
+        """Software versions at creation (later openings are in ``events("opened")``)."""
+        return self._attributes["software"]
+
+    @property
+    def calibration(self) -> dict[str, Any]:
+        """The current calibration (``{}`` when none was set)."""
+        return self._index.calibration
+
+    @property
+    def calibration_version(self) -> int:
+        """Version of the current calibration: 0 for none, then 1, 2, …"""
+        return self._index.calibration_version
+
+    @property
+    def material(self) -> Any:
+        """The ``material/`` zarr group (writable in mode ``"a"``)."""
+        import zarr
+
+        return zarr.open_group(self.path / "material", mode="r" if self.mode == "r" else "r+")
+
+    def committed_steps(self) -> tuple[int, ...]:
+        """Indices of the committed steps, ascending."""
+        return tuple(sorted(self._index.steps))
+
+    def step_table(self) -> list[StepRecord]:
+        """Every committed step, ordered by index."""
+        return [self._index.steps[i] for i in sorted(self._index.steps)]
+
+    def frame_table(self) -> np.ndarray:
+        """Every committed frame, in commit order, as a structured array.
+
+        Fields: ``step`` int64, ``camera`` str, ``sub`` int64, ``exposure_s``
+        float64, ``timestamp`` float64 (Unix s), ``position`` int64 (row in
+        ``frames/<camera>``).
+        """
+        infos = self._index.frame_infos()
+        rows = [(f.step, f.camera, f.sub, f.exposure_s, f.timestamp, f.position) for f in infos]
+        return np.array(rows, dtype=FRAME_TABLE_DTYPE)
+
+    def read_frame(self, step: int, camera: str, sub: int = 0) -> np.ndarray:
+        """Frame ``sub`` of ``camera`` at committed ``step``: ``(H, W, C)``, camera dtype."""
+        info, nbytes = self._index.lookup(step, camera, sub)
+        where = f"{self.path}: step {step}, camera {camera!r}, sub {sub}"
+        return self._arrays[camera].read(info.position, nbytes=nbytes, where=where)
+
+    def iter_frames(
+        self, *, steps: Iterable[int] | None = None, cameras: Iterable[str] | None = None
+    ) -> Iterator[tuple[FrameInfo, np.ndarray]]:
+        """Yield ``(FrameInfo, image)`` of committed frames, by step, camera and sub."""
+        wanted_steps = None if steps is None else set(steps)
+        wanted_cameras = None if cameras is None else set(cameras)
+        for info in self._index.frame_infos():
+            if wanted_steps is not None and info.step not in wanted_steps:
+                continue
+            if wanted_cameras is not None and info.camera not in wanted_cameras:
+                continue
+            yield info, self.read_frame(info.step, info.camera, info.sub)
+
+    def events(self, kind: str | None = None) -> list[Event]:
+        """The event log (as of opening, plus this handle's appends), optionally one kind."""
+        return [e for e in self._events if kind is None or e.kind == kind]
+
+
+def _as_record(frame, i: int, step: StepRecord, now: float) -> FrameRecord:
+    if isinstance(frame, FrameRecord):
+        return frame
+    exposures = step.exposures_s
+    if len(exposures) == 1:
+        exposure = exposures[0]
+    elif i < len(exposures):
+        exposure = exposures[i]
+    else:
+        raise ArchiveError(
+            f"step {step.index}: bare frame {i} has no exposure: exposures_s has "
+            f"{len(exposures)} values; pass FrameRecord(image, sub, exposure_s, timestamp)"
+        )
+    return FrameRecord(frame, sub=i, exposure_s=exposure, timestamp=now)
