@@ -242,13 +242,44 @@ def _arc_up(signed_theta_deg: float, arc_azimuth_deg: float) -> np.ndarray:
     )
 
 
-def format_validation_error(source: str, err: ValidationError) -> list[str]:
-    """One line per problem: the field's dotted path, the value, what is valid."""
+def _fields_at(model: type[BaseModel] | None, loc: tuple) -> list[str] | None:
+    """The field names valid at ``loc`` inside ``model`` (for "unknown field" hints)."""
+    for part in loc[:-1]:
+        if model is None or not isinstance(part, str) or part not in model.model_fields:
+            return None
+        model = _model_in(model.model_fields[part].annotation)
+    return sorted(model.model_fields) if model is not None else None
+
+
+def _model_in(annotation) -> type[BaseModel] | None:
+    if isinstance(annotation, type) and issubclass(annotation, BaseModel):
+        return annotation
+    for arg in getattr(annotation, "__args__", ()) + getattr(annotation, "__metadata__", ()):
+        found = _model_in(arg)
+        if found is not None:
+            return found
+    origin = getattr(annotation, "__origin__", None)
+    return _model_in(origin) if origin is not None else None
+
+
+def format_validation_error(
+    source: str, err: ValidationError, model: type[BaseModel] | None = None
+) -> list[str]:
+    """One line per problem: the field's dotted path, the value, what is valid.
+
+    With ``model`` (the root model validated), an unknown field's line lists
+    the valid field names at that place.
+    """
     lines = []
     for e in err.errors():
         where = ".".join(str(p) for p in e["loc"]) or "(top level)"
-        msg = e["msg"].removeprefix("Value error, ")
         value = e.get("input")
+        if e["type"] == "extra_forbidden":
+            valid = _fields_at(model, e["loc"])
+            hint = f"; valid fields here are {valid}" if valid else ""
+            lines.append(f"{where}: unknown field{hint}")
+            continue
+        msg = e["msg"].removeprefix("Value error, ")
         shown = "" if isinstance(value, dict) else f" (got {value!r})"
         lines.append(f"{where}: {msg}{shown}")
     return lines
@@ -266,7 +297,9 @@ def load_rig_config(path: str | Path) -> RigConfig:
     try:
         return RigConfig.model_validate(data)
     except ValidationError as err:
-        lines = "\n".join(f"  - {line}" for line in format_validation_error(str(path), err))
+        lines = "\n".join(
+            f"  - {line}" for line in format_validation_error(str(path), err, RigConfig)
+        )
         raise ConfigError(f"rig config {path}: invalid\n{lines}") from err
 
 

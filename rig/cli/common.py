@@ -1,0 +1,57 @@
+"""What every `rig` command shares: the console, exit codes, error reporting."""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+import typer
+from rich.console import Console
+
+from rig.config import RigConfig, default_rig_config, load_rig_config
+from rig.errors import ConfigError, PlanError, RigError
+
+__all__ = [
+    "EXIT_FAILURE",
+    "EXIT_INVALID",
+    "EXIT_NOT_BUILT",
+    "console",
+    "load_config_option",
+    "not_built",
+    "reporting_errors",
+]
+
+console = Console(highlight=False)
+err_console = Console(stderr=True, highlight=False)
+
+EXIT_FAILURE = 1
+EXIT_INVALID = 2
+EXIT_NOT_BUILT = 3
+
+
+@contextmanager
+def reporting_errors() -> Iterator[None]:
+    """Turn domain errors into a readable message and the right exit code."""
+    try:
+        yield
+    except (PlanError, ConfigError) as err:
+        err_console.print(f"[red]error:[/red] {err}")
+        raise typer.Exit(EXIT_INVALID) from err
+    except RigError as err:
+        err_console.print(f"[red]error:[/red] {err}")
+        raise typer.Exit(EXIT_FAILURE) from err
+
+
+def load_config_option(path: Path | None) -> RigConfig:
+    """The rig config at ``path``, or the default rig when none is given."""
+    return default_rig_config() if path is None else load_rig_config(path)
+
+
+def not_built(command: str, issue: int | None, what: str) -> None:
+    """Say plainly that a command does not exist yet, and fail."""
+    tracked = f"tracked in issue {issue}" if issue is not None else "not scheduled yet"
+    err_console.print(
+        f"[yellow]rig {command}:[/yellow] not built yet — {what} ({tracked}). Nothing was done."
+    )
+    raise typer.Exit(EXIT_NOT_BUILT)
