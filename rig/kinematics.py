@@ -153,7 +153,7 @@ def inverse(
     light_got = rotate_z(light_w, -tt_mc)
     light_err = angular_distance_deg(light_got, want_l)  # (M, N)
 
-    residual = np.maximum(view_err[:, None], light_err)
+    residual = view_err[:, None] + light_err
     motion = np.maximum(tt_axis.move_time_s(tt_mc - cur_tt), arc_axis.move_time_s(arc - cur_arc))
     # Lexicographic: residual (to 1e-6°), then motion time.
     score = np.round(residual, 6) * 1e6 + motion

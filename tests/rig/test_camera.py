@@ -1,0 +1,57 @@
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from numpy.testing import assert_allclose
+
+from rig.camera import PinholeCamera, look_at
+from rig.config import default_rig_config
+
+
+def _camera(dist=(0, 0, 0, 0, 0)):
+    R, t = look_at([300.0, 100.0, 700.0], [0, 0, 0])
+    K = np.array([[2000.0, 0, 320], [0, 2010.0, 240], [0, 0, 1]])
+    return PinholeCamera(K, np.array(dist, dtype=float), R, t, 640, 480)
+
+
+@given(
+    st.floats(-60, 60),
+    st.floats(-60, 60),
+    st.floats(-20, 0),
+    st.sampled_from([(0, 0, 0, 0, 0), (-0.2, 0.05, 0.001, -0.001, 0.0)]),
+)
+def test_rays_invert_projection(x, y, z, dist):
+    cam = _camera(dist)
+    pix, ok = cam.project([[x, y, z]])
+    assert ok[0]
+    origin, d = cam.rays(pix)
+    # The ray passes through the point: distance from point to the ray line.
+    p = np.array([x, y, z]) - origin
+    off = np.linalg.norm(p - (p @ d[0]) * d[0])
+    assert off < 1e-6
+
+
+def test_matches_opencv_projection():
+    cv2 = pytest.importorskip("cv2")
+    cam = _camera((-0.2, 0.05, 0.001, -0.001, 0.01))
+    pts = np.random.default_rng(1).uniform(-50, 50, (20, 3))
+    rvec, _ = cv2.Rodrigues(cam.R)
+    expected, _ = cv2.projectPoints(pts, rvec, cam.t, cam.K, cam.dist)
+    assert_allclose(cam.project(pts)[0], expected[:, 0], atol=1e-8)
+
+
+def test_points_behind_are_flagged():
+    cam = _camera()
+    _, ok = cam.project([cam.center + (cam.center - 0) * 0.5])
+    assert not ok[0]
+
+
+def test_default_rig_sees_whole_plate():
+    config = default_rig_config()
+    half = config.holder.plate_mm / 2
+    corners = np.array([[sx * half, sy * half, 0] for sx in (-1, 1) for sy in (-1, 1)])
+    for cam_spec in config.camera_arc.cameras:
+        cam = config.camera_model(cam_spec.id)
+        pix, ok = cam.project(corners)
+        assert ok.all()
+        assert (pix >= 0).all() and (pix[:, 0] < cam.width).all() and (pix[:, 1] < cam.height).all()

@@ -1,0 +1,115 @@
+import numpy as np
+import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from numpy.testing import assert_allclose
+
+from rig.errors import ConfigError
+from rig.geometry import (
+    Sampling,
+    angular_distance_deg,
+    barycentric_weights,
+    direction_angles,
+    direction_vector,
+    nearest_directions,
+    texel_centers_mm,
+)
+
+thetas = st.floats(0, 90, allow_nan=False)
+phis = st.floats(0, 359.999, allow_nan=False)
+
+
+@given(thetas, phis)
+def test_angles_round_trip(theta, phi):
+    v = direction_vector(theta, phi)
+    assert_allclose(np.linalg.norm(v), 1.0, atol=1e-12)
+    t, p = direction_angles(v)
+    assert_allclose(t, theta, atol=1e-6)
+    if theta > 1e-6:
+        assert_allclose(angular_distance_deg(direction_vector(t, p), v), 0.0, atol=1e-6)
+
+
+def test_convention_axes():
+    assert_allclose(direction_vector(0, 123), [0, 0, 1], atol=1e-15)
+    assert_allclose(direction_vector(90, 0), [1, 0, 0], atol=1e-15)
+    assert_allclose(direction_vector(90, 90), [0, 1, 0], atol=1e-15)
+    assert direction_angles([0, 0, 1])[1] == 0.0
+
+
+def test_zero_vector_rejected():
+    with pytest.raises(ValueError, match="zero vector"):
+        direction_angles([0, 0, 0])
+
+
+@pytest.mark.parametrize(
+    ("name", "thetas"), [("H1", [0, 17, 34, 51, 68, 85]), ("H2", [0, 15, 30, 45, 60, 75])]
+)
+def test_seed_samplings_table1(name, thetas):
+    s = Sampling.named(name)
+    assert len(s) == 81
+    rings = s.rings()
+    assert list(rings) == thetas
+    assert [len(i) for i in rings.values()] == [1, 6, 12, 18, 20, 24]
+    # Azimuths equally spaced within each ring, starting at 0.
+    for idx in rings.values():
+        phi = np.sort(s.directions[idx, 1])
+        assert phi[0] == 0.0
+        if len(phi) > 1:
+            assert_allclose(np.diff(phi), 360.0 / len(phi))
+
+
+def test_custom_sampling_validation():
+    with pytest.raises(ConfigError, match="theta 95"):
+        Sampling("mine", np.array([[95.0, 0.0]]))
+    with pytest.raises(ConfigError, match="same"):
+        Sampling("mine", np.array([[10.0, 0.0], [10.0, 360.0]]))
+    with pytest.raises(ConfigError, match="valid names"):
+        Sampling.named("H3")
+    s = Sampling("mine", np.array([[0.0, 77.0], [30, -90]]))
+    assert_allclose(s.directions, [[0, 0], [30, 270]])
+
+
+def test_nearest_directions_exact_at_table_points():
+    s = Sampling.named("H2")
+    interp = nearest_directions(s.vectors, s.vectors, k=4)
+    assert_allclose(interp.indices[:, 0], np.arange(81))
+    assert_allclose(interp.weights[:, 0], 1.0)
+    assert_allclose(interp.weights.sum(axis=1), 1.0)
+
+
+@given(thetas, phis)
+def test_interpolation_weights_are_a_partition_of_unity(theta, phi):
+    table = Sampling.named("H1").vectors
+    q = direction_vector(theta, phi)[None]
+    for interp in (nearest_directions(table, q), barycentric_weights(table, q)):
+        assert np.all(np.isfinite(interp.weights))
+        assert np.all(interp.weights >= 0)
+        assert_allclose(interp.weights.sum(), 1.0)
+
+
+def test_barycentric_reproduces_linear_functions_inside_a_triangle():
+    # Barycentric weights in the gnomonic projection reproduce the query
+    # direction up to scale: Σ w_i v_i ∥ q.
+    table = Sampling.named("H2").vectors
+    rng = np.random.default_rng(0)
+    q = direction_vector(rng.uniform(0, 75, 50), rng.uniform(0, 360, 50))
+    b = barycentric_weights(table, q)
+    blended = np.einsum("mk,mkj->mj", b.weights, table[b.indices])
+    assert_allclose(angular_distance_deg(blended, q), 0.0, atol=1e-6)
+    exact = barycentric_weights(table, table)
+    assert_allclose(np.max(exact.weights, axis=1), 1.0, atol=1e-9)
+
+
+def test_barycentric_degenerate_table():
+    ring = direction_vector(np.full(8, 90.0), np.arange(8) * 45.0)
+    with pytest.raises(ValueError, match="great circle"):
+        barycentric_weights(ring, [[0, 0, 1]])
+
+
+def test_texel_grid_orientation():
+    g = texel_centers_mm(100, 4)
+    assert g.shape == (4, 4, 2)
+    assert_allclose(g[0, 0], [-37.5, 37.5])  # row 0 at +y, column 0 at -x
+    assert_allclose(g[3, 3], [37.5, -37.5])
+    with pytest.raises(ValueError, match="n ≥ 1"):
+        texel_centers_mm(100, 0)
