@@ -19,9 +19,17 @@ import numpy as np
 
 from rig.config import Axis, RigConfig, arc_direction
 from rig.errors import KinematicsError
-from rig.geometry import angular_distance_deg, direction_angles, direction_vector
+from rig.geometry import Sampling, angular_distance_deg, direction_angles, direction_vector
 
-__all__ = ["RigPose", "forward", "inverse", "rotate_z", "wrap_into"]
+__all__ = [
+    "RigPose",
+    "forward",
+    "inverse",
+    "laser_plane",
+    "rotate_z",
+    "sampling_residuals",
+    "wrap_into",
+]
 
 
 @dataclass(frozen=True)
@@ -203,3 +211,28 @@ def laser_plane(
     if normal[2] < 0:
         normal = -normal
     return normal, float(normal @ source)
+
+
+def sampling_residuals(config: RigConfig, sampling: Sampling) -> list[dict]:
+    """How closely the rig achieves a sampling, ring by ring.
+
+    Each direction is tried as a view (with a frontal light, which the rig
+    always hits) and as a light (with a frontal view). Returns one row per ring:
+    ``theta_deg``, ``count``, ``max_view_residual_deg``, ``max_light_residual_deg``.
+    """
+    rows = []
+    for theta, idx in sampling.rings().items():
+        view_err = light_err = 0.0
+        for d in sampling.directions[idx]:
+            d = (float(d[0]), float(d[1]))
+            view_err = max(view_err, inverse(config, d, (0.0, 0.0)).view_residual_deg)
+            light_err = max(light_err, inverse(config, (0.0, 0.0), d).light_residual_deg)
+        rows.append(
+            {
+                "theta_deg": theta,
+                "count": len(idx),
+                "max_view_residual_deg": view_err,
+                "max_light_residual_deg": light_err,
+            }
+        )
+    return rows

@@ -9,7 +9,9 @@ import typer
 from rich.table import Table
 
 from rig.cli.common import console, load_config_option, reporting_errors
-from rig.plan import load_plan
+from rig.config import RigConfig
+from rig.kinematics import sampling_residuals
+from rig.plan import Plan, load_plan
 from rig.schedule import Schedule, compile_plan
 
 __all__ = ["register"]
@@ -65,12 +67,18 @@ def register(app: typer.Typer) -> None:
         steps: Annotated[
             int, typer.Option("--steps", min=0, help="also list the first N compiled steps")
         ] = 0,
+        residuals: Annotated[
+            bool,
+            typer.Option("--residuals", help="how closely the rig hits each sampling, per ring"),
+        ] = False,
     ) -> None:
         """Validate a plan; with --estimate, compile it for the rig and say what it costs."""
         with reporting_errors():
             the_plan = load_plan(plan_file)
             rig = load_config_option(config)
             console.print(f"plan [bold]{plan_file}[/bold] is valid (sample {the_plan.sample.name})")
+            if residuals:
+                _print_residuals(the_plan, rig)
             if not (estimate or steps):
                 return
             schedule = compile_plan(the_plan, rig)
@@ -95,3 +103,31 @@ def _print_steps(schedule: Schedule, n: int) -> None:
             str(step.frames_per_camera),
         )
     console.print(table)
+
+
+def _print_residuals(the_plan: Plan, rig: RigConfig) -> None:
+    seen = set()
+    for kind in ("btf", "ps", "mdf"):
+        capture = getattr(the_plan.captures, kind)
+        if capture is None:
+            continue
+        for field in type(capture).model_fields:
+            spec = getattr(capture, field)
+            if not hasattr(spec, "resolve"):
+                continue
+            sampling = spec.resolve()
+            key = (sampling.name, sampling.directions.tobytes())
+            if key in seen:
+                continue
+            seen.add(key)
+            table = Table(title=f"{kind}.{field}: sampling {sampling.name} on rig {rig.name}")
+            for col in ("θ ring", "directions", "max view residual", "max light residual"):
+                table.add_column(col)
+            for row in sampling_residuals(rig, sampling):
+                table.add_row(
+                    f"{row['theta_deg']:g}°",
+                    str(row["count"]),
+                    f"{row['max_view_residual_deg']:.2f}°",
+                    f"{row['max_light_residual_deg']:.2f}°",
+                )
+            console.print(table)
