@@ -1,1 +1,58 @@
-"""rig."""
+"""btfrig's rig package: plans, rig geometry and kinematics, the session
+archive, and (in submodules that are not imported here) the daemon and CLI.
+
+The names below are the data API that every other package may use.
+"""
+
+from rig.camera import PinholeCamera, look_at
+from rig.clock import Clock, RealClock, VirtualClock
+from rig.config import RigConfig, default_rig_config, load_rig_config
+from rig.errors import ConfigError, KinematicsError, PlanError, RigError
+from rig.geometry import (
+    Interpolation,
+    Sampling,
+    angular_distance_deg,
+    barycentric_weights,
+    direction_angles,
+    direction_vector,
+    nearest_directions,
+    texel_centers_mm,
+)
+from rig.kinematics import RigPose, forward, inverse, laser_plane, sampling_residuals
+from rig.plan import Plan, load_plan, parse_plan
+from rig.schedule import Estimate, Schedule, Step, compile_plan
+
+__all__ = [
+    "Clock",
+    "ConfigError",
+    "Estimate",
+    "Interpolation",
+    "KinematicsError",
+    "PinholeCamera",
+    "Plan",
+    "PlanError",
+    "RealClock",
+    "RigConfig",
+    "RigError",
+    "RigPose",
+    "Sampling",
+    "Schedule",
+    "Step",
+    "VirtualClock",
+    "angular_distance_deg",
+    "barycentric_weights",
+    "compile_plan",
+    "default_rig_config",
+    "direction_angles",
+    "direction_vector",
+    "forward",
+    "inverse",
+    "laser_plane",
+    "load_plan",
+    "load_rig_config",
+    "look_at",
+    "nearest_directions",
+    "parse_plan",
+    "sampling_residuals",
+    "texel_centers_mm",
+]
