@@ -1,0 +1,174 @@
+"""Solve one chunk of pixels: weights, normal equations, classification, fill.
+
+Every quantity of the fit follows from four per-pixel sums over the lights
+used, so no per-observation residual pass is needed:
+``A = Σ w s sᵀ``, ``g = Σ w I s``, ``e = Σ w I²`` and ``Σ w``; the residual of
+``x = ρ n`` is ``e − 2 x·g + xᵀ A x``.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import _robust, _system
+from ._result import CONDITION_CAP, Reason
+
+
+def solve_block(obs: np.ndarray, lights: np.ndarray, shared_condition, options) -> dict:
+    """Solve pixels of one chunk.
+
+    Parameters
+    ----------
+    obs : (L, n) or (L, n, C) float64
+        Normalised observations.
+    lights : (L, 3) or (L, n, 3) float64
+        Light vectors (shared for distant lamps, per pixel for near ones).
+    shared_condition : float or None
+        Condition number of the shared light matrix (distant lamps).
+    options : _solve._Options
+
+    Returns
+    -------
+    dict of per-pixel arrays named like ``PhotometricResult`` fields.
+    """
+    n_lights, n = obs.shape[:2]
+    colour = obs.ndim == 3
+    grey = obs.mean(axis=2) if colour else obs
+    per_channel_max = obs.max(axis=0)
+    brightest = per_channel_max.mean(axis=1) if colour else per_channel_max
+    saturated = None
+    if np.isfinite(options.saturation):
+        hit = per_channel_max >= options.saturation
+        if np.any(hit):
+            saturated = (
+                (obs >= options.saturation).any(axis=2) if colour else obs >= options.saturation
+            )
+    n_unsaturated = n_lights - (saturated.sum(axis=0) if saturated is not None else 0)
+    usable = ~saturated if saturated is not None else np.ones(grey.shape, bool)
+
+    if lights.ndim == 2:
+        condition_full = np.full(n, shared_condition)
+        if shared_condition > options.max_condition:
+            return _coplanar(n, colour, condition_full)
+    else:
+        a_full = _system.normal_matrix(lights, np.ones((n_lights, n)))
+        condition_full = _system.condition(a_full)
+
+    weights = _weights(grey, usable, lights, saturated is None, options)
+    if weights is None:  # every observation, unit weight
+        condition_used = condition_full
+        if lights.ndim == 2:
+            a = np.broadcast_to(lights.T @ lights, (n, 3, 3))
+            g = _shared_moment(lights, obs)
+        else:
+            a = a_full
+            g = _system.moment(lights, np.ones((n_lights, n)), obs)
+        e = np.einsum("ln...,ln...->n...", obs, obs)
+        weight_sum = np.full(n, float(n_lights))
+        used = np.full(n, n_lights)
+    else:
+        a = _system.normal_matrix(lights, weights)
+        condition_used = _system.condition(a)
+        g = _system.moment(lights, weights, obs)
+        wobs = obs * (weights[..., None] if colour else weights)
+        e = np.einsum("ln...,ln...->n...", wobs, obs)
+        weight_sum = weights.sum(axis=0)
+        used = np.count_nonzero(weights, axis=0)
+
+    solvable = (used >= 3) & (condition_used <= options.max_condition)
+    g_grey = g.mean(axis=2) if colour else g
+    scaled = _system.solve_sym3(a, g_grey, solvable)
+    rho = np.sqrt(np.einsum("ni,ni->n", scaled, scaled))
+    positive = solvable & (rho > 0)
+    normals = np.divide(scaled, rho[:, None], out=np.zeros_like(scaled), where=positive[:, None])
+    if colour:
+        per_channel = _system.solve_sym3(a, g, solvable)
+        albedo = np.einsum("nic,ni->nc", per_channel, normals)
+        along_g = np.einsum("ni,nic->nc", normals, g)
+    else:
+        albedo = rho
+        along_g = np.einsum("ni,ni->n", normals, g)
+    n_a_n = np.einsum("ni,nij,nj->n", normals, a, normals)
+    if colour:
+        n_a_n = n_a_n[:, None]
+    sq = np.clip(e - 2.0 * albedo * along_g + albedo**2 * n_a_n, 0.0, None)
+    if colour:
+        sq = sq.mean(axis=1)
+    residual = np.sqrt(np.divide(sq, weight_sum, out=np.zeros(n), where=weight_sum > 0))
+
+    reason = np.select(
+        [
+            condition_full > options.max_condition,
+            brightest <= options.dark_level,
+            n_unsaturated < 3,
+            used < 3,
+            condition_used > options.max_condition,
+            ~positive,
+            normals[:, 2] < 0,
+        ],
+        [
+            Reason.COPLANAR_LIGHTS,
+            Reason.DARK,
+            Reason.SATURATED,
+            Reason.TOO_FEW_LIGHTS,
+            Reason.ILL_CONDITIONED,
+            Reason.DARK,
+            Reason.BELOW_HORIZON,
+        ],
+        Reason.OK,
+    ).astype(np.uint8)
+    valid = reason == Reason.OK
+    fill_normal = np.array([0.0, 0.0, 1.0])
+    condition = np.where(reason == Reason.COPLANAR_LIGHTS, condition_full, condition_used)
+    condition = np.where(used >= 3, condition, 0.0)
+    return {
+        "normals": np.where(valid[:, None], normals, fill_normal),
+        "albedo": np.where(valid[:, None] if colour else valid, albedo, 0.0),
+        "reason": reason,
+        "condition": np.minimum(condition, CONDITION_CAP),
+        "residual": np.where(valid, residual, 0.0),
+        "lights_used": used.astype(np.uint16),
+    }
+
+
+def _weights(grey, usable, lights, all_usable: bool, options) -> np.ndarray | None:
+    """Per-observation weights, or None when every observation has weight 1."""
+    if options.method == "lsq":
+        return None if all_usable else usable.astype(np.float64)
+    if options.method == "threshold":
+        return _robust.threshold_weights(
+            grey,
+            usable,
+            shadow_fraction=options.shadow_fraction,
+            highlight_fraction=options.highlight_fraction,
+        )
+    return _robust.irls_weights(
+        grey,
+        usable,
+        lights,
+        shadow_fraction=options.shadow_fraction,
+        highlight_fraction=options.highlight_fraction,
+        iterations=options.irls_iterations,
+        max_condition=options.max_condition,
+    )
+
+
+def _shared_moment(lights: np.ndarray, obs: np.ndarray) -> np.ndarray:
+    """Σ_l I s for a shared (L, 3) light matrix as one matrix product."""
+    n_lights, n = obs.shape[:2]
+    if obs.ndim == 2:
+        return (lights.T @ obs).T
+    return (lights.T @ obs.reshape(n_lights, -1)).reshape(3, n, 3).transpose(1, 0, 2)
+
+
+def _coplanar(n: int, colour: bool, condition_full: np.ndarray) -> dict:
+    normals = np.zeros((n, 3))
+    normals[:, 2] = 1.0
+    return {
+        "normals": normals,
+        "albedo": np.zeros((n, 3) if colour else n),
+        "reason": np.full(n, Reason.COPLANAR_LIGHTS, np.uint8),
+        "condition": np.minimum(condition_full, CONDITION_CAP),
+        "residual": np.zeros(n),
+        "lights_used": np.zeros(n, np.uint16),
+    }

@@ -1,0 +1,95 @@
+"""Per-observation weights that reject shadows and highlights.
+
+Two strategies, compared in ``docs/photometric.md``:
+
+``threshold``
+    Relative to the pixel's own values: rank the observations, drop the
+    brightest ``highlight_fraction`` (specular spikes sit there) and every
+    observation darker than ``shadow_fraction`` × the brightest one kept
+    (attached and cast shadows).
+``irls``
+    Iteratively reweighted least squares with Tukey's biweight on the
+    residuals of the Lambertian fit, starting from the shadow floor alone.
+    The scale is the median absolute residual (MAD) of the observations in
+    play, with a floor so noise-free data keeps unit weights.
+
+Both return weights in [0, 1] of shape (L, n); saturated observations always
+get 0.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from . import _system
+
+#: Tukey biweight tuning constant (95 % efficiency under Gaussian noise).
+TUKEY_C = 4.685
+#: MAD → standard deviation for Gaussian noise.
+_MAD_TO_SIGMA = 1.4826
+#: Scale floor relative to the pixel's reference brightness.
+_SCALE_FLOOR = 1e-3
+
+
+def reference_level(grey: np.ndarray, highlight_fraction: float) -> np.ndarray:
+    """The brightest observation kept after dropping the top ``highlight_fraction``: (n,)."""
+    n_lights = grey.shape[0]
+    k_drop = highlight_count(n_lights, highlight_fraction)
+    rank = n_lights - 1 - k_drop
+    return np.partition(grey, rank, axis=0)[rank]
+
+
+def highlight_count(n_lights: int, highlight_fraction: float) -> int:
+    """How many of the brightest observations the threshold method drops (keeps ≥ 3)."""
+    return max(0, min(int(highlight_fraction * n_lights), n_lights - 3))
+
+
+def threshold_weights(
+    grey: np.ndarray, usable: np.ndarray, *, shadow_fraction: float, highlight_fraction: float
+) -> np.ndarray:
+    """0/1 weights from thresholds relative to each pixel's own values."""
+    ref = reference_level(grey, highlight_fraction)
+    keep = usable & (grey >= shadow_fraction * ref) & (grey <= ref)
+    return keep.astype(np.float64)
+
+
+def irls_weights(
+    grey: np.ndarray,
+    usable: np.ndarray,
+    lights: np.ndarray,
+    *,
+    shadow_fraction: float,
+    highlight_fraction: float,
+    iterations: int,
+    max_condition: float,
+) -> np.ndarray:
+    """Tukey-biweight IRLS weights, ``iterations`` reweighting steps."""
+    ref = reference_level(grey, highlight_fraction)
+    support = usable & (grey >= shadow_fraction * ref)
+    weights = support.astype(np.float64)
+    floor = _SCALE_FLOOR * np.maximum(ref, 0.0)
+    for _ in range(iterations):
+        a = _system.normal_matrix(lights, weights)
+        ok = _system.condition(a) <= max_condition
+        b = _system.solve_sym3(a, _system.moment(lights, weights, grey), ok)
+        predicted = _system.predict(lights, b)
+        residual = grey - predicted
+        scale = np.maximum(_MAD_TO_SIGMA * _median_abs(residual, support), floor)
+        u = np.divide(residual, TUKEY_C * scale, out=np.zeros_like(residual), where=scale > 0)
+        tukey = np.square(np.clip(1.0 - u * u, 0.0, None))
+        # An observation the current fit puts in attached shadow carries no information.
+        in_light = predicted > shadow_fraction * ref
+        weights = np.where(support & in_light, tukey, 0.0)
+    return weights
+
+
+def _median_abs(residual: np.ndarray, support: np.ndarray) -> np.ndarray:
+    """Per-pixel median of |residual| over the supported observations (0 when none)."""
+    ranked = np.sort(np.where(support, np.abs(residual), np.inf), axis=0)
+    count = support.sum(axis=0)
+    lower = np.clip((count - 1) // 2, 0, None)
+    upper = np.clip(count // 2, 0, None)
+    lo = np.take_along_axis(ranked, lower[None], axis=0)[0]
+    hi = np.take_along_axis(ranked, upper[None], axis=0)[0]
+    median = 0.5 * (lo + hi)
+    return np.where(count > 0, median, 0.0)
