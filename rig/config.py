@@ -31,10 +31,12 @@ __all__ = [
     "Holder",
     "Lamp",
     "LampBank",
+    "LampBankRegisters",
     "Laser",
     "LightArc",
     "RigConfig",
     "Turntable",
+    "TurntableRegisters",
     "default_rig_config",
     "format_validation_error",
     "load_rig_config",
@@ -70,9 +72,64 @@ class Axis(_Closed):
         return np.where(d < d_ramp, 2.0 * np.sqrt(d / a), d / v + v / a)
 
 
+class TurntableRegisters(_Closed):
+    """Register map of the turntable's stepper drive (Modbus holding registers).
+
+    Addresses are 0-based protocol addresses (register 40001 is address 0).
+    Positions are signed 32-bit counts of ``1 / units_per_deg`` degree in two
+    registers (``word_order`` says which comes first); speed and acceleration are
+    unsigned 16-bit in the same unit per s and per s². Drives differ: map
+    yours here. See ``docs/devices.md``.
+    """
+
+    target_position: int = Field(0, ge=0, le=65534, description="int32, write")
+    actual_position: int = Field(2, ge=0, le=65534, description="int32, read")
+    status: int = Field(4, ge=0, le=65535, description="bit field, read")
+    command: int = Field(5, ge=0, le=65535, description="write a command code")
+    speed: int = Field(6, ge=0, le=65535, description="uint16, units/s")
+    acceleration: int = Field(7, ge=0, le=65535, description="uint16, units/s²")
+    units_per_deg: float = Field(100.0, gt=0, description="position counts per degree")
+    word_order: Literal["high_first", "low_first"] = "high_first"
+    moving_bit: int = Field(0, ge=0, le=15)
+    in_position_bit: int = Field(1, ge=0, le=15)
+    fault_bit: int = Field(2, ge=0, le=15)
+    homed_bit: int = Field(3, ge=0, le=15)
+    go_code: int = Field(1, ge=0, le=65535, description="command: move to the target")
+    home_code: int = Field(2, ge=0, le=65535, description="command: find home, set 0°")
+    stop_code: int = Field(3, ge=0, le=65535, description="command: decelerate and stop")
+
+    @model_validator(mode="after")
+    def _distinct(self) -> TurntableRegisters:
+        words = {
+            "target_position": {self.target_position, self.target_position + 1},
+            "actual_position": {self.actual_position, self.actual_position + 1},
+            "status": {self.status},
+            "command": {self.command},
+            "speed": {self.speed},
+            "acceleration": {self.acceleration},
+        }
+        names = list(words)
+        for i, a in enumerate(names):
+            for b in names[i + 1 :]:
+                if words[a] & words[b]:
+                    raise ValueError(
+                        f"registers {a} and {b} overlap at {sorted(words[a] & words[b])}"
+                    )
+        bits = [self.moving_bit, self.in_position_bit, self.fault_bit, self.homed_bit]
+        if len(set(bits)) != len(bits):
+            raise ValueError(
+                f"status bits must differ; got moving/in_position/fault/homed = {bits}"
+            )
+        codes = [self.go_code, self.home_code, self.stop_code]
+        if len(set(codes)) != len(codes):
+            raise ValueError(f"command codes must differ; got go/home/stop = {codes}")
+        return self
+
+
 class Turntable(_Closed):
     axis: Axis = Axis(speed_deg_s=30.0, accel_deg_s2=60.0, settle_s=0.3)
     drive: ModbusConnection = ModbusConnection(port=5020)
+    registers: TurntableRegisters = TurntableRegisters()
 
 
 class Lamp(_Closed):
@@ -81,6 +138,22 @@ class Lamp(_Closed):
     kind: Literal["point", "spot", "directional"] = "point"
     intensity: float = Field(1.0, gt=0, description="relative radiant intensity")
     spot_cutoff_deg: float = Field(60.0, gt=0, le=90, description="spot lamps: half-angle")
+
+
+class LampBankRegisters(_Closed):
+    """Modbus layout of the lamp bank; lamp *i* is the *i*-th lamp of the light arc.
+
+    Coil ``coils + i`` switches lamp *i*; discrete input ``light_sensors + i``
+    is 1 while its light sensor (photodiode or current sense) sees the lamp
+    lit; with ``dimming``, holding register ``dimmers + i`` sets its level in
+    ``0..dim_full_scale``. Addresses are 0-based. See ``docs/devices.md``.
+    """
+
+    coils: int = Field(0, ge=0, le=65535, description="first lamp's on/off coil")
+    light_sensors: int = Field(0, ge=0, le=65535, description="first lamp's light-sensor input")
+    dimming: bool = Field(False, description="the bank has dimming holding registers")
+    dimmers: int = Field(0, ge=0, le=65535, description="first lamp's dimming register")
+    dim_full_scale: int = Field(1000, gt=0, le=65535, description="register value at 100 %")
 
 
 class LampBank(_Closed):
@@ -100,13 +173,41 @@ class LightArc(_Closed):
         Lamp(id=f"lamp{i}", theta_deg=t) for i, t in enumerate(_H2_THETAS)
     )
     servos: DynamixelConnection = DynamixelConnection(serial_port="/dev/ttyUSB0")
-    servo_ids: tuple[int, ...] = (1,)
+    servo_ids: tuple[int, ...] = Field((1,), description="Dynamixel ids driving the arc")
+    servo_ticks_per_rev: int = Field(4096, gt=0, description="encoder ticks per servo turn")
+    servo_gear_ratio: float = Field(1.0, gt=0, description="servo turns per arc turn")
+    servo_zero_tick: int = Field(0, description="present position (ticks) at arc 0°")
+    servo_profile_velocity: int | None = Field(
+        None, ge=1, le=32767, description="raw, 0.229 rpm units; None: from axis.speed_deg_s"
+    )
+    servo_profile_acceleration: int | None = Field(
+        None, ge=1, le=32767, description="raw, 214.577 rev/min² units; None: from axis"
+    )
+
+    def arc_deg_to_ticks(self, arc_deg: float) -> int:
+        """Servo goal position (ticks) for an arc angle (deg)."""
+        ticks = arc_deg / 360.0 * self.servo_gear_ratio * self.servo_ticks_per_rev
+        return self.servo_zero_tick + round(ticks)
+
+    def ticks_to_arc_deg(self, ticks: int) -> float:
+        """Arc angle (deg) of a servo present position (ticks)."""
+        turns = (ticks - self.servo_zero_tick) / self.servo_ticks_per_rev
+        return turns / self.servo_gear_ratio * 360.0
 
     @model_validator(mode="after")
     def _unique_lamps(self) -> LightArc:
         ids = [lamp.id for lamp in self.lamps]
         if len(set(ids)) != len(ids) or not ids:
             raise ValueError(f"lamps need unique ids, at least one; got {ids}")
+        return self
+
+    @model_validator(mode="after")
+    def _servo_ids(self) -> LightArc:
+        ids = self.servo_ids
+        if not ids or len(set(ids)) != len(ids) or not all(0 <= i <= 252 for i in ids):
+            raise ValueError(
+                f"servo_ids need unique Dynamixel ids in 0..252, at least one; got {ids}"
+            )
         return self
 
 
