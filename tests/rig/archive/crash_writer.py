@@ -10,6 +10,7 @@ and checker share one definition of every frame.
 """
 
 import argparse
+import functools
 import os
 import signal
 import sys
@@ -20,19 +21,32 @@ from rig.archive import Archive, FrameFormat, FrameRecord, StepRecord
 from rig.archive import _journal as journal_module
 
 CAMERAS = {
-    "cam0": FrameFormat(24, 32, 3, "uint8"),
+    "cam0": FrameFormat(120, 160, 3, "uint8"),
     "cam1": FrameFormat(24, 32, 1, "uint16"),
-    "cam2": FrameFormat(16, 20, 2, "float32"),
+    "cam2": FrameFormat(60, 80, 2, "float32"),
 }
 
 
-def frame(step: int, camera: str, sub: int) -> np.ndarray:
-    """The frame ``sub`` of ``camera`` at ``step``: pseudo-random, fixed by its ids."""
+@functools.cache
+def _noise(variant: int, camera: str, sub: int) -> np.ndarray:
     fmt = CAMERAS[camera]
-    rng = np.random.default_rng([step, sorted(CAMERAS).index(camera), sub])
+    rng = np.random.default_rng([variant, sorted(CAMERAS).index(camera), sub])
     if fmt.dtype == "float32":
         return rng.random(fmt.shape, dtype=np.float32)
     return rng.integers(0, np.iinfo(fmt.dtype).max, fmt.shape, dtype=fmt.dtype, endpoint=True)
+
+
+def frame(step: int, camera: str, sub: int) -> np.ndarray:
+    """The frame ``sub`` of ``camera`` at ``step``: pseudo-random, fixed by its ids.
+
+    Noise drawn once per (step mod 5, camera, sub), so that making a frame
+    costs next to nothing and a random kill almost always lands inside an
+    append; the first pixel values carry the step index, so frames of
+    different steps still differ.
+    """
+    image = _noise(step % 5, camera, sub).copy()
+    image.reshape(-1)[:2] = (step % 251, step // 251)
+    return image
 
 
 def n_subs(step: int, camera: str) -> int:
