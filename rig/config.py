@@ -253,6 +253,34 @@ class Laser(_Closed):
     sweep_speed_deg_s: float = Field(1.0, gt=0, description="tilt speed while scanning")
     frame_rate_hz: float = Field(7.5, gt=0, description="camera rate while scanning")
     brick: NxtConnection = NxtConnection()
+    motor_port: Literal["A", "B", "C"] = Field("A", description="NXT output that tilts the sheet")
+    laser_port: Literal["A", "B", "C"] = Field(
+        "B", description="NXT output that powers the laser diode (constant power)"
+    )
+    gear_ratio: float = Field(
+        1 / 24, gt=0, le=10, description="degrees of sheet tilt per motor degree (24:1 worm: 1/24)"
+    )
+    motor_power: int = Field(30, ge=1, le=100, description="NXT power set point while tilting, %")
+    laser_power: int = Field(100, ge=1, le=100, description="NXT power on the laser port, %")
+    min_battery_mv: int = Field(
+        6500, ge=0, le=10000, description="refuse to scan below this battery voltage (mV)"
+    )
+    tilt_limit_deg: float = Field(30.0, gt=0, le=90, description="mechanical tilt range: ±limit")
+    stall_timeout_s: float = Field(
+        1.0, gt=0, description="no tacho progress for this long while running: stalled"
+    )
+
+    @model_validator(mode="after")
+    def _ports_and_range(self) -> Laser:
+        if self.motor_port == self.laser_port:
+            raise ValueError(
+                f"motor_port and laser_port are both {self.motor_port!r}; use two NXT outputs"
+            )
+        if self.sweep_deg / 2 > self.tilt_limit_deg:
+            raise ValueError(
+                f"sweep_deg {self.sweep_deg} exceeds the tilt range ±{self.tilt_limit_deg}"
+            )
+        return self
 
 
 class Holder(_Closed):

@@ -1,0 +1,154 @@
+"""The laser unit's driver against the fake NXT brick, over both real transports:
+pyusb (with the fake brick as its backend) and a pty speaking Bluetooth framing."""
+
+import pytest
+
+from drivers.errors import DeviceError, DeviceFault, DeviceTimeout, MotionStalled, ProtocolError
+from drivers.nxt import NxtLaser
+from rig.clock import VirtualClock
+from rig.config import RigConfig
+from rig.connections import NxtConnection, Retry
+from sim.peers.nxt import FakeNxtBrick, FakeNxtUsbBackend, NxtSerialPeer
+from sim.world import World
+
+RETRY = Retry(timeout_s=0.05, retries=2, backoff_s=0.01)
+
+
+@pytest.fixture
+def world():
+    return World(RigConfig(), VirtualClock())
+
+
+@pytest.fixture
+def brick(world):
+    return FakeNxtBrick(world)
+
+
+@pytest.fixture(params=["usb", "serial"])
+def laser(request, world, brick):
+    """An ``NxtLaser`` on the fake brick over one transport; closed afterwards."""
+    if request.param == "usb":
+        connection = NxtConnection(transport="usb", retry=RETRY)
+        config = world.config.laser.model_copy(update={"brick": connection})
+        driver = NxtLaser.open(config, clock=world.clock, usb_backend=FakeNxtUsbBackend(brick))
+        yield driver
+        driver.close()
+    else:
+        with NxtSerialPeer(brick) as peer:
+            connection = NxtConnection(transport="serial", serial_port=peer.port, retry=RETRY)
+            config = world.config.laser.model_copy(update={"brick": connection})
+            driver = NxtLaser.open(config, clock=world.clock)
+            yield driver
+            driver.close()
+
+
+def test_device_name_says_which_transport(laser):
+    assert laser.device.startswith("laser brick (")
+    assert ("usb 0694:0002" in laser.device) or ("serial /dev/" in laser.device)
+
+
+def test_battery_check_passes_and_reports_mv(laser, brick):
+    brick.faults.battery_mv = 7900
+    assert laser.check_battery() == 7900
+
+
+def test_low_battery_is_a_fault_naming_both_voltages(laser, brick):
+    brick.faults.battery_mv = 6100
+    with pytest.raises(DeviceFault, match=r"battery at 6100 mV, below the minimum 6500 mV") as info:
+        laser.check_battery()
+    assert info.value.device == laser.device
+
+
+def test_laser_switch_reaches_the_world(laser, world):
+    laser.set_laser(True)
+    assert world.snapshot().laser_on
+    assert laser.laser_is_on()
+    laser.set_laser(False)
+    assert not world.snapshot().laser_on
+    assert not laser.laser_is_on()
+
+
+def test_move_tilts_the_world_axis_through_the_gear_ratio(laser, world):
+    gear = world.config.laser.gear_ratio
+    laser.zero_tilt()
+    t0 = world.clock.now()
+    reached = laser.move_tilt(6.0)
+    # 6° of tilt at 1/24 °/motor-degree: 144 motor degrees, whole counts.
+    assert reached == pytest.approx(round(6.0 / gear) * gear)
+    assert world.position("laser_tilt") == pytest.approx(reached, abs=0.5 * gear)
+    assert laser.tilt_deg() == pytest.approx(reached)
+    # The move took world time: at least distance / speed of the tilt axis.
+    assert world.clock.now() - t0 >= 6.0 / world.config.laser.sweep_speed_deg_s - 1e-9
+    back = laser.move_tilt(-6.0)
+    assert back == pytest.approx(round(-6.0 / gear) * gear)
+    assert world.position("laser_tilt") == pytest.approx(back, abs=0.5 * gear)
+
+
+def test_zero_tilt_makes_the_present_position_zero(laser, world):
+    laser.zero_tilt()
+    laser.move_tilt(3.0)
+    laser.zero_tilt()
+    assert laser.tilt_deg() == 0.0
+    laser.move_tilt(-2.0)
+    assert world.position("laser_tilt") == pytest.approx(1.0, abs=world.config.laser.gear_ratio)
+
+
+def test_target_outside_the_tilt_range_is_refused_before_anything_moves(laser, brick):
+    before = brick.telegrams
+    with pytest.raises(DeviceError, match=r"tilt to 40.0°.*outside the unit's tilt range ±30.0°"):
+        laser.move_tilt(40.0)
+    assert brick.telegrams == before
+
+
+def test_stall_is_detected_and_the_motor_stopped(laser, world, brick):
+    laser.zero_tilt()
+    brick.faults.stall_fraction = 0.5
+    with pytest.raises(
+        MotionStalled, match=r"stopped at 2\.\d+° tilt .*no progress for 1.0 s"
+    ) as info:
+        laser.move_tilt(5.0)
+    assert info.value.device == laser.device
+    assert world.position("laser_tilt") == pytest.approx(2.5, abs=0.05)
+    assert not world.is_moving("laser_tilt")
+    assert brick.outputs[brick.tilt_port].power == 0  # the driver braked it
+
+
+def test_lost_replies_are_retried_and_a_move_is_not_doubled(laser, world, brick):
+    laser.zero_tilt()
+    brick.faults.lost_replies = 2  # the GET before the move, then the move's own reply
+    reached = laser.move_tilt(4.0)
+    assert reached == pytest.approx(4.0, abs=world.config.laser.gear_ratio)
+    assert world.position("laser_tilt") == pytest.approx(4.0, abs=world.config.laser.gear_ratio)
+    assert brick.faults.lost_replies == 0
+
+
+def test_garbled_replies_are_retried(laser, brick):
+    brick.faults.garbled_replies = 2
+    brick.faults.battery_mv = 8000
+    assert laser.check_battery() == 8000
+    assert brick.faults.garbled_replies == 0
+
+
+def test_garbled_every_time_gives_a_protocol_error_after_the_retries(laser, brick):
+    brick.faults.garbled_replies = 100
+    with pytest.raises(ProtocolError, match=r"GET_BATTERY_LEVEL .*gave up after 3 tries") as info:
+        laser.check_battery()
+    assert info.value.device == laser.device
+    assert brick.faults.garbled_replies == 97
+
+
+def test_a_deaf_brick_times_out_after_the_retries(laser, brick):
+    brick.faults.deaf = True
+    before = brick.telegrams
+    with pytest.raises(
+        DeviceTimeout, match=r"laser brick .*GET_BATTERY_LEVEL failed: .*no reply"
+    ) as info:
+        laser.check_battery()
+    assert "gave up after 3 tries" in str(info.value)
+    assert brick.telegrams - before == 3
+
+
+def test_a_move_to_a_deaf_brick_fails_naming_the_target(laser, brick):
+    brick.faults.deaf = True
+    with pytest.raises(DeviceTimeout, match=r"tilt to 2.0° failed"):
+        laser.move_tilt(2.0)
