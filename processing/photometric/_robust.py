@@ -9,7 +9,7 @@ Two strategies, compared in ``docs/photometric.md``:
     (attached and cast shadows).
 ``irls``
     Iteratively reweighted least squares with Tukey's biweight on the
-    residuals of the Lambertian fit, starting from the shadow floor alone.
+    residuals of the Lambertian fit, starting from the ``threshold`` weights.
     The scale is the median absolute residual (MAD) of the observations in
     play, with a floor so noise-free data keeps unit weights.
 
@@ -63,10 +63,15 @@ def irls_weights(
     iterations: int,
     max_condition: float,
 ) -> np.ndarray:
-    """Tukey-biweight IRLS weights, ``iterations`` reweighting steps."""
+    """Tukey-biweight IRLS weights after ``iterations`` reweighting steps.
+
+    Starts from :func:`threshold_weights`; every observation above the shadow
+    floor may come back in (a bright but consistent lamp is not a highlight)
+    or drop out (a cast shadow or a specular tail above the floor).
+    """
     ref = reference_level(grey, highlight_fraction)
     support = usable & (grey >= shadow_fraction * ref)
-    weights = support.astype(np.float64)
+    weights = (support & (grey <= ref)).astype(np.float64)
     floor = _SCALE_FLOOR * np.maximum(ref, 0.0)
     for _ in range(iterations):
         a = _system.normal_matrix(lights, weights)
@@ -74,7 +79,7 @@ def irls_weights(
         b = _system.solve_sym3(a, _system.moment(lights, weights, grey), ok)
         predicted = _system.predict(lights, b)
         residual = grey - predicted
-        scale = np.maximum(_MAD_TO_SIGMA * _median_abs(residual, support), floor)
+        scale = np.maximum(_MAD_TO_SIGMA * _median_abs(residual, weights > 0), floor)
         u = np.divide(residual, TUKEY_C * scale, out=np.zeros_like(residual), where=scale > 0)
         tukey = np.square(np.clip(1.0 - u * u, 0.0, None))
         # An observation the current fit puts in attached shadow carries no information.

@@ -53,8 +53,12 @@ def ring_directions(n_lights, *, theta_deg=(20, 40, 60), phase_deg=7.0):
     for k, (theta, count) in enumerate(zip(theta_deg, per_ring, strict=True)):
         phi = np.deg2rad(phase_deg + k * 17.0 + 360.0 * np.arange(count) / count)
         t = np.deg2rad(theta)
-        dirs.append(np.stack([np.sin(t) * np.cos(phi), np.sin(t) * np.sin(phi),
-                              np.full(count, np.cos(t))], axis=1))
+        dirs.append(
+            np.stack(
+                [np.sin(t) * np.cos(phi), np.sin(t) * np.sin(phi), np.full(count, np.cos(t))],
+                axis=1,
+            )
+        )
     return np.concatenate(dirs)
 
 
