@@ -164,8 +164,10 @@ class ModbusTurntable:
             where = self.position()
             if status.fault:
                 raise DeviceFault(
-                    self.name, operation, f"the drive reports a fault {status} at {where:.2f}°"
-                    + ("" if target is None else f" moving to {target:.2f}°")
+                    self.name,
+                    operation,
+                    f"the drive reports a fault {status} at {where:.2f}°"
+                    + ("" if target is None else f" moving to {target:.2f}°"),
                 )
             if status.in_position or (target is None and not status.moving):
                 log.debug("%s: settled at %.3f° (%r)", self.name, where, status)

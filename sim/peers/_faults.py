@@ -103,7 +103,9 @@ class ReplyFaults:
             else:
                 draw = self._rng.random() if any(self._rates) else 1.0
                 p_drop, p_garble = self._rates
-                decision = "drop" if draw < p_drop else "garble" if draw < p_drop + p_garble else "send"
+                decision = (
+                    "drop" if draw < p_drop else "garble" if draw < p_drop + p_garble else "send"
+                )
             if decision == "drop":
                 self.dropped += 1
             elif decision == "garble":

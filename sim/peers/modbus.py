@@ -169,10 +169,14 @@ class TurntableDrivePeer(_ModbusPeer):
             SimData(r.actual_position, values=[0, 0], datatype=regs, readonly=True),
             SimData(r.status, values=0, datatype=regs, readonly=True),
             SimData(r.command, values=0, datatype=regs),
-            SimData(r.speed, values=min(0xFFFF, round(self._limits.speed_deg_s * units)),
-                    datatype=regs),
-            SimData(r.acceleration, values=min(0xFFFF, round(self._limits.accel_deg_s2 * units)),
-                    datatype=regs),
+            SimData(
+                r.speed, values=min(0xFFFF, round(self._limits.speed_deg_s * units)), datatype=regs
+            ),
+            SimData(
+                r.acceleration,
+                values=min(0xFFFF, round(self._limits.accel_deg_s2 * units)),
+                datatype=regs,
+            ),
         ]
 
     async def _action(
@@ -308,8 +312,9 @@ class LampBankPeer(_ModbusPeer):
     def _simdata(self) -> tuple[list[SimData], list[SimData], list[SimData], list[SimData]]:
         r, n = self.registers, len(self.lamp_ids)
         coils = [SimData(r.coils, values=[False] * n, datatype=DataType.BITS)]
-        sensors = [SimData(r.light_sensors, values=[False] * n, datatype=DataType.BITS,
-                           readonly=True)]
+        sensors = [
+            SimData(r.light_sensors, values=[False] * n, datatype=DataType.BITS, readonly=True)
+        ]
         dimmers = (
             [SimData(r.dimmers, values=[r.dim_full_scale] * n, datatype=DataType.REGISTERS)]
             if r.dimming
@@ -351,4 +356,6 @@ class LampBankPeer(_ModbusPeer):
         for i, value in enumerate(bits):
             index = first_bit + i - 16 * start_register
             word, bit = divmod(index, 16)
-            registers[word] = registers[word] | (1 << bit) if value else registers[word] & ~(1 << bit)
+            registers[word] = (
+                registers[word] | (1 << bit) if value else registers[word] & ~(1 << bit)
+            )

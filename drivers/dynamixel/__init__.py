@@ -1,0 +1,6 @@
+"""Dynamixel Protocol 2.0 servos (X series) through dynamixel-sdk: the light arc."""
+
+from drivers.dynamixel._bus import HARDWARE_ERRORS, DynamixelBus, describe_hardware_error
+from drivers.dynamixel.arc import DynamixelArc, X
+
+__all__ = ["HARDWARE_ERRORS", "DynamixelArc", "DynamixelBus", "X", "describe_hardware_error"]
