@@ -1,0 +1,198 @@
+"""``rig bench ps``: what photometric accuracy costs in time.
+
+:func:`run_bench` returns table rows (dicts) of three kinds:
+
+``read``
+    The baseline: one pass over the float32 image stack (``stack.sum()``)
+    and one read with a conversion (``stack.astype(np.float32).sum()``).
+``solver`` / ``integrator``
+    Seconds per megapixel for each method on the same stack, the least
+    squares time as a ratio to both baselines, and each robust method's cost
+    as a multiple of least squares.
+``accuracy``
+    Mean angular error against the number of lamps used, on a synthetic
+    surface with attached shadows, cast shadows, highlights and noise, per
+    method; ``capture_time_s`` comes from a callable (the plan estimate).
+"""
+
+from __future__ import annotations
+
+import time
+from collections.abc import Callable
+
+import numpy as np
+
+from ._integrate import integrate_normals
+from ._lights import DistantLights, NearLights, PixelGrid
+from ._solve import METHODS, solve
+
+LAMP_COUNTS = (3, 4, 6, 12, 24, None)  # None: all lamps
+
+
+def run_bench(
+    *,
+    n_lights: int = 96,
+    size_px: int = 1024,
+    robust_rows: int = 64,
+    accuracy_px: int = 128,
+    lamp_counts=LAMP_COUNTS,
+    repeats: int = 3,
+    capture_time_s: Callable[[int], float] | None = None,
+    seed: int = 0,
+) -> list[dict]:
+    """Time the solvers and integrators and measure accuracy against lamp count.
+
+    Parameters
+    ----------
+    n_lights, size_px : int
+        The timed stack is (n_lights, size_px, size_px) float32.
+    robust_rows : int
+        Rows of that stack the slower solvers (robust, near) are timed on;
+        their time is scaled to a megapixel.
+    accuracy_px : int
+        Side of the synthetic surface for the accuracy rows.
+    lamp_counts : sequence of int or None
+        Lamp counts for the accuracy rows (None: all ``n_lights``).
+    repeats : int
+        Best-of repeats for each timing.
+    capture_time_s : callable, optional
+        ``capture_time_s(n_lamps) -> seconds`` to fill the column of that
+        name (e.g. from ``rig plan --estimate``); None leaves it empty.
+    """
+    rng = np.random.default_rng(seed)
+    stack = rng.random((n_lights, size_px, size_px), dtype=np.float32)
+    lights = DistantLights(lamp_layout(n_lights))
+    mpx = size_px * size_px / 1e6
+    read_s = _best(lambda: stack.sum(), repeats)
+    convert_s = _best(lambda: stack.astype(np.float32).sum(), repeats)
+    rows = [
+        {"kind": "read", "name": "stack.sum()", "seconds_per_mpx": read_s / mpx},
+        {"kind": "read", "name": "stack.astype(float32).sum()", "seconds_per_mpx": convert_s / mpx},
+    ]
+    lsq_s = _best(lambda: solve(stack, lights, method="lsq"), repeats) / mpx
+    rows.append(
+        {
+            "kind": "solver",
+            "name": "lsq",
+            "seconds_per_mpx": lsq_s,
+            "ratio_to_sum": lsq_s * mpx / read_s,
+            "ratio_to_astype_sum": lsq_s * mpx / convert_s,
+            "cost_vs_lsq": 1.0,
+        }
+    )
+    part = stack[:, :robust_rows]
+    part_mpx = part.shape[1] * part.shape[2] / 1e6
+    for method in (m for m in METHODS if m != "lsq"):
+        seconds = _best(lambda m=method: solve(part, lights, method=m), repeats) / part_mpx
+        rows.append(
+            {
+                "kind": "solver",
+                "name": method,
+                "seconds_per_mpx": seconds,
+                "cost_vs_lsq": seconds / lsq_s,
+            }
+        )
+    near = NearLights(lights.directions * 500.0)
+    grid = PixelGrid(part.shape[1:], 0.05)
+    seconds = _best(lambda: solve(part, near, pixels=grid, method="lsq"), repeats) / part_mpx
+    rows.append(
+        {
+            "kind": "solver",
+            "name": "near lsq",
+            "seconds_per_mpx": seconds,
+            "cost_vs_lsq": seconds / lsq_s,
+        }
+    )
+    rows.extend(_integrator_rows(size_px, repeats))
+    rows.extend(_accuracy_rows(n_lights, accuracy_px, lamp_counts, capture_time_s, rng))
+    return rows
+
+
+def lamp_layout(n: int) -> np.ndarray:
+    """n lamp directions on three rings (θ = 20°, 40°, 60°), spread in azimuth: (n, 3)."""
+    rings = (20.0, 40.0, 60.0) if n >= 6 else (35.0,) if n < 5 else (30.0, 55.0)
+    counts = np.diff(np.linspace(0, n, len(rings) + 1).round().astype(int))
+    dirs = []
+    for k, (theta, count) in enumerate(zip(rings, counts, strict=True)):
+        phi = np.deg2rad(k * 30.0 + 360.0 * np.arange(count) / count)
+        t = np.deg2rad(theta)
+        dirs.append(
+            np.column_stack(
+                [np.sin(t) * np.cos(phi), np.sin(t) * np.sin(phi), np.full(count, np.cos(t))]
+            )
+        )
+    return np.concatenate(dirs)
+
+
+def _integrator_rows(size_px: int, repeats: int) -> list[dict]:
+    side = min(size_px, 512)
+    y, x = np.mgrid[0:side, 0:side] / side
+    normals = np.stack([0.2 * np.sin(6 * x), 0.1 * np.cos(5 * y), np.ones_like(x)], axis=-1)
+    normals /= np.linalg.norm(normals, axis=-1, keepdims=True)
+    mpx = side * side / 1e6
+    rows = []
+    for method in ("dct", "fc", "lsq"):
+        seconds = _best(
+            lambda m=method: integrate_normals(normals, pitch_mm=0.1, method=m), repeats
+        )
+        rows.append(
+            {
+                "kind": "integrator",
+                "name": method,
+                "seconds_per_mpx": seconds / mpx,
+                "size_px": side,
+            }
+        )
+    return rows
+
+
+def _accuracy_rows(n_lights, side, lamp_counts, capture_time_s, rng) -> list[dict]:
+    y, x = (np.mgrid[0:side, 0:side] - side / 2) / side
+    h = 0.0
+    hx = np.zeros_like(x)
+    hy = np.zeros_like(x)
+    for _ in range(8):  # Gaussian bumps, slopes up to ~30°
+        cx, cy, s, a = rng.uniform(-0.3, 0.3), rng.uniform(-0.3, 0.3), rng.uniform(0.05, 0.1), 0.03
+        g = a * rng.choice([-1, 1]) * np.exp(-((x - cx) ** 2 + (y - cy) ** 2) / (2 * s * s))
+        h = h + g
+        hx -= g * (x - cx) / (s * s)
+        hy -= g * (y - cy) / (s * s)
+    truth = np.stack([-hx, -hy, np.ones_like(hx)], axis=-1)
+    truth /= np.linalg.norm(truth, axis=-1, keepdims=True)
+    albedo = rng.uniform(0.3, 0.8, (side, side))
+    rows = []
+    for count in lamp_counts:
+        n = n_lights if count is None else int(count)
+        dirs = lamp_layout(n)
+        lambert = np.clip(np.einsum("li,hwi->lhw", dirs, truth), 0, None)
+        half = dirs + np.array([0.0, 0.0, 1.0])
+        half /= np.linalg.norm(half, axis=1, keepdims=True)
+        gloss = 0.8 * np.clip(np.einsum("li,hwi->lhw", half, truth), 0, None) ** 60 * (lambert > 0)
+        images = albedo * lambert + gloss
+        images[rng.random(images.shape) < 0.1] *= 0.05  # cast shadows
+        images = np.clip(images + rng.normal(0, 0.005, images.shape), 0, None).astype(np.float32)
+        for method in METHODS:
+            result = solve(images, DistantLights(dirs), method=method)
+            found = result.normals.astype(np.float64)
+            sin = np.linalg.norm(np.cross(found, truth), axis=-1)
+            err = np.degrees(np.arctan2(sin, np.sum(found * truth, axis=-1)))[result.valid]
+            rows.append(
+                {
+                    "kind": "accuracy",
+                    "name": method,
+                    "n_lamps": n,
+                    "mean_angular_error_deg": float(err.mean()) if err.size else None,
+                    "valid_fraction": float(result.valid.mean()),
+                    "capture_time_s": capture_time_s(n) if capture_time_s else None,
+                }
+            )
+    return rows
+
+
+def _best(call: Callable[[], object], repeats: int) -> float:
+    best = np.inf
+    for _ in range(max(1, repeats)):
+        start = time.perf_counter()
+        call()
+        best = min(best, time.perf_counter() - start)
+    return best
