@@ -1,0 +1,164 @@
+"""Space-time peak analysis: when did each pixel see the laser sheet?
+
+Seed ``001_…`` section 3.2, after Curless and Levoy's space-time analysis: for
+each pixel, search its temporal sequence for the brightest frame; if it rises
+above a prescribed threshold the pixel saw a lit mesostructure point at that
+time, otherwise the point was occluded (-1). The time is refined to a fraction
+of a frame with a sub-pixel peak detector.
+
+The tracker streams: it keeps a running maximum, its frame index, a running
+minimum (the background: the contrast max - min is what is thresholded, so
+bright albedo is not mistaken for laser light), a ring of the last ``2r+1``
+frames and, per pixel, the ``2r+1`` samples around its maximum, snapshotted
+from the ring once ``r`` frames have followed it. Memory is ``O((4r+4)·H·W)``
+whatever the sequence length.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable
+from dataclasses import dataclass
+
+import numpy as np
+
+from processing.mdf._errors import MdfError
+from processing.mdf._reason import Reason
+from processing.mdf.line import frame_intensity
+from processing.mdf.peaks import PeakMethod, peak_offset, peak_radius
+
+__all__ = ["PixelPeaks", "SpaceTimeTracker", "space_time_peaks"]
+
+
+@dataclass(frozen=True)
+class PixelPeaks:
+    """Per-pixel result of the space-time analysis of one scan.
+
+    Attributes
+    ----------
+    time : (H, W) float32
+        Frame index of peak intensity with fraction; -1 where not OK.
+    contrast : (H, W) float32
+        Peak minus darkest intensity, frame units.
+    reason : (H, W) uint8
+        :class:`Reason`: OK, UNLIT, AT_SEQUENCE_EDGE or FIT_FAILED.
+    frames : int
+        Frames in the sequence.
+    """
+
+    time: np.ndarray
+    contrast: np.ndarray
+    reason: np.ndarray
+    frames: int
+
+
+class SpaceTimeTracker:
+    """Streaming per-pixel peak tracker; feed frames in order with :meth:`update`.
+
+    Parameters
+    ----------
+    shape : (H, W)
+        Frame size.
+    method : {"centroid", "gaussian", "blais_rioux"}
+        Sub-frame peak detector.
+    min_contrast : float
+        A pixel whose peak does not rise this far above its darkest frame is
+        UNLIT, in frame units.
+    """
+
+    def __init__(self, shape, *, method: PeakMethod = "gaussian", min_contrast: float):
+        if len(shape) != 2 or min(shape) < 1:
+            raise MdfError(f"SpaceTimeTracker: shape must be (H, W), got {shape}")
+        if not min_contrast > 0:
+            raise MdfError(f"min_contrast must be > 0 (frame units), got {min_contrast}")
+        self.shape = (int(shape[0]), int(shape[1]))
+        self.method = method
+        self.min_contrast = float(min_contrast)
+        self._r = peak_radius(method)
+        size = self.shape[0] * self.shape[1]
+        span = 2 * self._r + 1
+        self._ring = np.zeros((span, size), np.float32)
+        self._window = np.zeros((span, size), np.float32)
+        self._best = np.full(size, -np.inf, np.float32)
+        self._low = np.full(size, np.inf, np.float32)
+        self._index = np.full(size, -1, np.int32)
+        self._snapped = np.zeros(size, bool)
+        self._count = 0
+
+    @property
+    def frames(self) -> int:
+        """Frames seen so far."""
+        return self._count
+
+    def update(self, frame) -> None:
+        """Add the next frame, (H, W) or (H, W, C), any numeric dtype."""
+        f = frame_intensity(frame)
+        if f.shape != self.shape:
+            raise MdfError(f"frame {self._count} has shape {f.shape}, the scan has {self.shape}")
+        f = f.ravel()
+        k, r = self._count, self._r
+        span = 2 * r + 1
+        self._ring[k % span] = f
+        better = f > self._best
+        np.maximum(self._best, f, out=self._best)
+        np.minimum(self._low, f, out=self._low)
+        np.copyto(self._index, k, where=better)
+        if k >= 2 * r:
+            # Pixels whose maximum is now r frames old get their window.
+            sel = np.flatnonzero(self._index == k - r)
+            if sel.size:
+                order = [(k - 2 * r + j) % span for j in range(span)]
+                self._window[:, sel] = self._ring[np.ix_(order, sel)]
+                self._snapped[sel] = True
+        self._count += 1
+
+    def result(self) -> PixelPeaks:
+        """The peaks of the frames seen so far."""
+        if self._count == 0:
+            raise MdfError("SpaceTimeTracker.result: no frame was added")
+        contrast = self._best - self._low
+        lit = contrast >= self.min_contrast
+        # A window is complete only if it was snapshotted for the final maximum.
+        complete = self._snapped & (self._index >= self._r)
+        complete &= self._index <= self._count - 1 - self._r
+        window = self._window - self._low
+        offset, ok = peak_offset(window, method=self.method)
+        reason = np.full(contrast.shape, Reason.OK, np.uint8)
+        reason[~ok] = Reason.FIT_FAILED
+        reason[~complete] = Reason.AT_SEQUENCE_EDGE
+        reason[~lit] = Reason.UNLIT
+        good = reason == Reason.OK
+        time = np.where(good, self._index + offset, -1.0).astype(np.float32)
+        h, w = self.shape
+        return PixelPeaks(
+            time=time.reshape(h, w),
+            contrast=contrast.reshape(h, w),
+            reason=reason.reshape(h, w),
+            frames=self._count,
+        )
+
+
+def space_time_peaks(
+    frames: Iterable, *, method: PeakMethod = "gaussian", min_contrast: float
+) -> PixelPeaks:
+    """Space-time peaks of a sequence, streamed (frames may be a generator).
+
+    Parameters
+    ----------
+    frames : iterable of (H, W) or (H, W, C) arrays
+    method, min_contrast
+        As :class:`SpaceTimeTracker`.
+
+    Returns
+    -------
+    PixelPeaks
+    """
+    tracker = None
+    for frame in frames:
+        if tracker is None:
+            tracker = SpaceTimeTracker(
+                frame_intensity(frame).shape, method=method, min_contrast=min_contrast
+            )
+        tracker.update(frame)
+    if tracker is None:
+        raise MdfError("space_time_peaks: the sequence has no frames")
+    return tracker.result()
