@@ -1,0 +1,137 @@
+"""A scene made concrete: its mesh, materials, lamps, laser and cameras.
+
+Shared by the rasterised image path (:mod:`sim.simulator`) and the ray-cast
+ground truth (:mod:`sim.truth`); it holds no GL state.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from functools import cached_property
+
+import numpy as np
+
+from rig.camera import PinholeCamera
+from rig.config import arc_direction
+from rig.kinematics import laser_plane, rotate_z
+from sim.holder import RECESS_GREY, SceneMesh, assemble, plate_albedo
+from sim.materials import eval_albedo
+from sim.raycast import RayCaster
+from sim.samples import SampleGeometry, generator
+from sim.scene import Scene
+from sim.shading import LightSource, SurfaceHits
+from sim.world import WorldSnapshot
+
+__all__ = ["SceneModel"]
+
+
+@dataclass
+class SceneModel:
+    """Geometry and appearance of a scene, sample frame (mm)."""
+
+    scene: Scene
+
+    @cached_property
+    def sample(self) -> SampleGeometry:
+        spec = self.scene.spec.sample
+        return generator(spec.generator).build(
+            self.scene.sample_params, sample_mm=self.sample_mm, depth_mm=spec.depth_mm
+        )
+
+    @property
+    def sample_mm(self) -> float:
+        return self.scene.rig.holder.sample_mm
+
+    @cached_property
+    def mesh(self) -> SceneMesh:
+        return assemble(
+            self.scene.rig.holder, self.sample, depth_mm=self.scene.spec.sample.depth_mm
+        )
+
+    @cached_property
+    def caster(self) -> RayCaster:
+        return RayCaster(self.mesh)
+
+    @cached_property
+    def _plate(self):
+        return plate_albedo(self.scene.rig.holder)
+
+    @cached_property
+    def specular(self) -> dict:
+        """Material index → specular lobe, for the materials that have one."""
+        spec = self.scene.spec
+        lobes = {}
+        for k, name in enumerate(spec.sample.materials):
+            if spec.materials[name].specular is not None:
+                lobes[2 + k] = spec.materials[name].specular
+        return lobes
+
+    def albedo(self, points: np.ndarray, materials: np.ndarray) -> np.ndarray:
+        """Albedo (n, 3) of hits on materials (0 plate, 1 recess, 2 + k sample)."""
+        out = np.empty((len(points), 3))
+        xy = points[:, :2]
+        plate = materials == 0
+        out[plate] = self._plate(xy[plate])
+        out[materials == 1] = RECESS_GREY
+        spec = self.scene.spec
+        for k, name in enumerate(spec.sample.materials):
+            sel = materials == 2 + k
+            if sel.any():
+                out[sel] = eval_albedo(
+                    spec.materials[name].albedo, xy[sel], sample_mm=self.sample_mm
+                )
+        # A weave given one material uses it for warp and weft alike.
+        last = 2 + len(spec.sample.materials) - 1
+        extra = materials > last
+        if extra.any():
+            name = spec.sample.materials[-1]
+            out[extra] = eval_albedo(
+                spec.materials[name].albedo, xy[extra], sample_mm=self.sample_mm
+            )
+        return out
+
+    def hits(self, shape, pixels, origin, dirs, faces) -> SurfaceHits:
+        """Exact surface hits of rays on the faces something found for them."""
+        return SurfaceHits.build(self.mesh, shape, pixels, origin, dirs, faces, self.albedo)
+
+    def camera(self, camera_id: str) -> PinholeCamera:
+        return self.scene.rig.camera_model(camera_id)
+
+    def camera_rays(self, camera: PinholeCamera, turntable_deg: float):
+        """Pinhole rays through every pixel centre in the sample frame.
+
+        Returns the origin (3,) and unit directions (H·W, 3), row-major.
+        """
+        u, v = np.meshgrid(np.arange(camera.width), np.arange(camera.height))
+        x = (u.ravel() - camera.K[0, 2]) / camera.K[0, 0]
+        y = (v.ravel() - camera.K[1, 2]) / camera.K[1, 1]
+        d = np.column_stack([x, y, np.ones_like(x)]) @ camera.R
+        d /= np.linalg.norm(d, axis=1, keepdims=True)
+        return rotate_z(camera.center, -turntable_deg), rotate_z(d, -turntable_deg)
+
+    def lights(self, snapshot: WorldSnapshot) -> dict[str, LightSource]:
+        """The lit lamps of a snapshot, placed in the sample frame."""
+        rig = self.scene.rig
+        out = {}
+        for lamp_id in sorted(snapshot.lamps_on):
+            lamp = rig.lamp(lamp_id)
+            world = rig.light_arc.radius_mm * arc_direction(lamp.theta_deg, snapshot.arc_deg)
+            pos = rotate_z(world, -snapshot.turntable_deg)
+            out[lamp_id] = LightSource.from_lamp(
+                lamp, pos, self.scene.spec.radiometry.intensity_w_sr
+            )
+        return out
+
+    def laser_sheet(self, snapshot: WorldSnapshot) -> tuple[np.ndarray, np.ndarray, float]:
+        """Laser source position (3,), sheet normal (3,) and offset d, sample frame."""
+        rig = self.scene.rig
+        mount = rig.laser.mount_theta_deg[snapshot.laser_mount]
+        source = rig.laser.radius_mm * arc_direction(mount, snapshot.arc_deg)
+        normal, d = laser_plane(
+            rig,
+            arc_deg=snapshot.arc_deg,
+            mount=snapshot.laser_mount,
+            tilt_deg=snapshot.laser_tilt_deg,
+            turntable_deg=snapshot.turntable_deg,
+        )
+        return rotate_z(source, -snapshot.turntable_deg), normal, d

@@ -1,0 +1,24 @@
+"""Sample generators: height fields, the weave, and a registry for more."""
+
+from sim.samples import heightfields, weave
+from sim.samples.base import (
+    Generator,
+    SampleGeometry,
+    generator,
+    generator_names,
+    height_field_geometry,
+    height_normals,
+    register_sample,
+)
+
+__all__ = [
+    "Generator",
+    "SampleGeometry",
+    "generator",
+    "generator_names",
+    "height_field_geometry",
+    "height_normals",
+    "heightfields",
+    "register_sample",
+    "weave",
+]

@@ -1,0 +1,94 @@
+"""The camera's lens and sensor, applied to the rendered optical image.
+
+Pure functions of arrays, one per effect: vignetting, Brown–Conrady lens
+distortion, shot + read noise, saturation, quantisation. Units: the signal is
+in digital numbers (DN) of the camera's bit depth, full scale ``2**bits − 1``.
+"""
+
+from __future__ import annotations
+
+import cv2
+import numpy as np
+
+from rig.camera import PinholeCamera
+
+__all__ = [
+    "add_noise",
+    "distort",
+    "distortion_maps",
+    "full_scale",
+    "quantize",
+    "vignetting_factor",
+]
+
+
+def full_scale(bit_depth: int) -> int:
+    """Largest pixel value of a sensor with ``bit_depth`` bits."""
+    return 2**bit_depth - 1
+
+
+def vignetting_factor(camera: PinholeCamera, exponent: float) -> np.ndarray:
+    """(H, W) float64 relative irradiance ``cos(α)^exponent`` of each pixel.
+
+    α is the angle between the pixel's pinhole ray and the optical axis
+    (exponent 4 is the natural cos⁴ law).
+    """
+    u, v = np.meshgrid(np.arange(camera.width), np.arange(camera.height))
+    x = (u - camera.K[0, 2]) / camera.K[0, 0]
+    y = (v - camera.K[1, 2]) / camera.K[1, 1]
+    cos_a = 1.0 / np.sqrt(1.0 + x * x + y * y)
+    return cos_a**exponent
+
+
+def distortion_maps(camera: PinholeCamera) -> tuple[np.ndarray, np.ndarray]:
+    """cv2.remap maps taking a pinhole image to the distorted camera image.
+
+    Each output pixel's ray (``camera.rays``, which inverts Brown–Conrady)
+    is projected with the same camera without distortion; so a world point
+    lands where ``camera.project`` says.
+    """
+    u, v = np.meshgrid(np.arange(camera.width), np.arange(camera.height))
+    pix = np.column_stack([u.ravel(), v.ravel()]).astype(np.float64)
+    _, dirs = camera.rays(pix)
+    d_cam = dirs @ camera.R.T
+    xn = d_cam[:, :2] / d_cam[:, 2:3]
+    src = xn @ camera.K[:2, :2].T + camera.K[:2, 2]
+    shape = (camera.height, camera.width)
+    return src[:, 0].reshape(shape).astype(np.float32), src[:, 1].reshape(shape).astype(np.float32)
+
+
+def distort(image: np.ndarray, maps: tuple[np.ndarray, np.ndarray]) -> np.ndarray:
+    """Warp a pinhole image (H, W[, C]) float through ``distortion_maps``."""
+    return cv2.remap(
+        image.astype(np.float32), maps[0], maps[1], cv2.INTER_LINEAR,
+        borderMode=cv2.BORDER_CONSTANT, borderValue=0,
+    )  # fmt: skip
+
+
+def add_noise(
+    signal_dn: np.ndarray,
+    *,
+    bit_depth: int,
+    full_well_e: float,
+    read_noise_e: float,
+    rng: np.random.Generator,
+) -> np.ndarray:
+    """Shot and read noise on a signal in DN; returns float64 DN.
+
+    Electrons ``e = signal · full_well / full_scale``; shot noise is Poisson
+    in ``e``, read noise Gaussian with σ = ``read_noise_e``. Hence, before
+    quantisation, ``mean = signal`` and ``var = signal·g + (read_noise_e·g)²``
+    with ``g = full_scale / full_well`` DN per electron.
+    """
+    gain = full_scale(bit_depth) / full_well_e
+    electrons = np.clip(signal_dn, 0, None) / gain
+    noisy = rng.poisson(electrons).astype(np.float64)
+    if read_noise_e > 0:
+        noisy += rng.normal(0.0, read_noise_e, size=noisy.shape)
+    return noisy * gain
+
+
+def quantize(signal_dn: np.ndarray, dtype: np.dtype) -> np.ndarray:
+    """Round to integers and clip to the storage type's range (never wraps)."""
+    info = np.iinfo(dtype)
+    return np.clip(np.rint(signal_dn), info.min, info.max).astype(dtype)
