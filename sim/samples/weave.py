@@ -31,7 +31,7 @@ class WeaveParams(BaseModel):
 
 def _yarn(axis: int, offset: float, sign: float, p: WeaveParams, s_mm: float, z0: float):
     """Vertices, exact normals and faces of one yarn along ``axis`` (0 = x, 1 = y)."""
-    m = max(2, int(round(s_mm / p.pitch_mm * p.steps_per_pitch)) + 1)
+    m = max(2, round(s_mm / p.pitch_mm * p.steps_per_pitch) + 1)
     k = p.segments
     rx, rz = p.width_mm / 2, p.thickness_mm / 2
     first = -s_mm / 2 + p.pitch_mm / 2
