@@ -14,13 +14,17 @@ from . import _robust, _system
 from ._result import CONDITION_CAP, Reason
 
 
-def solve_block(obs: np.ndarray, lights: np.ndarray, shared_condition, options) -> dict:
+def solve_block(
+    obs: np.ndarray, energy: np.ndarray, lights: np.ndarray, shared_condition, options
+) -> dict:
     """Solve pixels of one chunk.
 
     Parameters
     ----------
     obs : (L, n) or (L, n, C) float64
         Normalised observations.
+    energy : (n,) or (n, C) float64
+        Σ_l I² per pixel (and channel).
     lights : (L, 3) or (L, n, 3) float64
         Light vectors (shared for distant lamps, per pixel for near ones).
     shared_condition : float or None
@@ -57,13 +61,9 @@ def solve_block(obs: np.ndarray, lights: np.ndarray, shared_condition, options) 
     weights = _weights(grey, usable, lights, saturated is None, options)
     if weights is None:  # every observation, unit weight
         condition_used = condition_full
-        if lights.ndim == 2:
-            a = np.broadcast_to(lights.T @ lights, (n, 3, 3))
-            g = _shared_moment(lights, obs)
-        else:
-            a = a_full
-            g = _system.moment(lights, np.ones((n_lights, n)), obs)
-        e = np.einsum("ln...,ln...->n...", obs, obs)
+        a = np.broadcast_to(lights.T @ lights, (n, 3, 3)) if lights.ndim == 2 else a_full
+        g = _system.moment(lights, None, obs)
+        e = energy
         weight_sum = np.full(n, float(n_lights))
         used = np.full(n, n_lights)
     else:
@@ -151,14 +151,6 @@ def _weights(grey, usable, lights, all_usable: bool, options) -> np.ndarray | No
         iterations=options.irls_iterations,
         max_condition=options.max_condition,
     )
-
-
-def _shared_moment(lights: np.ndarray, obs: np.ndarray) -> np.ndarray:
-    """Σ_l I s for a shared (L, 3) light matrix as one matrix product."""
-    n_lights, n = obs.shape[:2]
-    if obs.ndim == 2:
-        return (lights.T @ obs).T
-    return (lights.T @ obs.reshape(n_lights, -1)).reshape(3, n, 3).transpose(1, 0, 2)
 
 
 def _coplanar(n: int, colour: bool, condition_full: np.ndarray) -> dict:

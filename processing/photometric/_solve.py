@@ -138,9 +138,10 @@ def solve(
     chunk = chunk_pixels or max(256, _CHUNK_BYTES // (8 * lights.n_lights * stack.channels))
     if points is not None:
         chunk = max(64, chunk // 4)  # per-pixel light vectors take 3× the memory
-    shared_condition = None
+    shared_condition = light_matrix = None
     if isinstance(lights, DistantLights):
-        shared_condition = min(light_set_condition(lights.light_matrix()), CONDITION_CAP)
+        light_matrix = lights.light_matrix()
+        shared_condition = min(light_set_condition(light_matrix), CONDITION_CAP)
     for start in range(0, n_pixels, chunk):
         if selected is None:
             index = slice(start, min(start + chunk, n_pixels))
@@ -148,11 +149,12 @@ def solve(
             index = start + np.flatnonzero(selected[start : start + chunk])
             if index.size == 0:
                 continue
-        obs = _read_chunk(stack, index)
+        obs, energy = _read_chunk(stack, index)
         if points is None:
-            block = solve_block(obs, lights.light_matrix(), shared_condition, options)
+            block = solve_block(obs, energy, light_matrix, shared_condition, options)
         else:
-            block = solve_block(obs, lights.light_vectors(points[index]), None, options)
+            light_vectors = lights.light_vectors(points[index])
+            block = solve_block(obs, energy, light_vectors, None, options)
         for name, values in block.items():
             out[name][index] = values
     h, w = stack.shape
@@ -250,16 +252,24 @@ def _allocate(n_pixels: int, channels: int) -> dict[str, np.ndarray]:
     }
 
 
-def _read_chunk(stack: Stack, index) -> np.ndarray:
+def _read_chunk(stack: Stack, index) -> tuple[np.ndarray, np.ndarray]:
+    """Normalised float64 observations of some pixels and their Σ I² per pixel."""
     obs = stack.values[:, index].astype(np.float64)
     if stack.scale != 1.0:
         obs *= stack.scale
-    elif not np.all(np.isfinite(obs)):
-        light, column = (int(i) for i in np.argwhere(~np.isfinite(obs))[0][:2])
+    energy = np.einsum("ln...,ln...->n...", obs, obs)
+    # A NaN or ±inf anywhere makes Σ I² non-finite: one check, no extra pass.
+    if not np.all(np.isfinite(energy)):
+        bad = ~np.isfinite(obs)
+        if not bad.any():
+            raise PhotometricError(
+                "images: values above 1e154 overflow the least-squares sums; rescale the images"
+            )
+        light, column = (int(i) for i in np.argwhere(bad)[0][:2])
         pixel = index.start + column if isinstance(index, slice) else int(index[column])
         row, col = divmod(pixel, stack.shape[1])
         raise PhotometricError(
             f"images[{light}] has a non-finite value at pixel (row {row}, column {col}); "
             "float images must be finite (exclude bad pixels with the mask instead)"
         )
-    return obs
+    return obs, energy

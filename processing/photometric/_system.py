@@ -23,7 +23,7 @@ def normal_matrix(lights: np.ndarray, weights: np.ndarray) -> np.ndarray:
     """Σ_l w s sᵀ per pixel: (n, 3, 3) float64."""
     if lights.ndim == 2:
         outer = np.stack([lights[:, i] * lights[:, j] for i, j in _PAIRS], axis=1)
-        upper = weights.T @ outer
+        upper = np.einsum("ln,lk->nk", weights, outer)
     else:
         weighted = lights * weights[..., None]
         upper = np.stack(
@@ -32,13 +32,13 @@ def normal_matrix(lights: np.ndarray, weights: np.ndarray) -> np.ndarray:
     return upper[:, _FULL_FROM_PAIRS].reshape(-1, 3, 3)
 
 
-def moment(lights: np.ndarray, weights: np.ndarray, obs: np.ndarray) -> np.ndarray:
-    """Σ_l w I s per pixel: (n, 3) for grey obs, (n, 3, C) for colour."""
-    wobs = obs * (weights[..., None] if obs.ndim == 3 else weights)
+def moment(lights: np.ndarray, weights: np.ndarray | None, obs: np.ndarray) -> np.ndarray:
+    """Σ_l w I s per pixel: (n, 3) for grey obs, (n, 3, C) for colour (None: w = 1)."""
+    wobs = obs if weights is None else obs * (weights[..., None] if obs.ndim == 3 else weights)
     if lights.ndim == 2:
         if obs.ndim == 2:
-            return (lights.T @ wobs).T
-        return np.einsum("li,lnc->nic", lights, wobs)
+            return np.einsum("il,ln->ni", np.ascontiguousarray(lights.T), wobs)
+        return np.einsum("il,lnc->nic", np.ascontiguousarray(lights.T), wobs)
     if obs.ndim == 2:
         return np.einsum("lni,ln->ni", lights, wobs)
     return np.einsum("lni,lnc->nic", lights, wobs)
@@ -47,7 +47,7 @@ def moment(lights: np.ndarray, weights: np.ndarray, obs: np.ndarray) -> np.ndarr
 def predict(lights: np.ndarray, scaled_normals: np.ndarray) -> np.ndarray:
     """s·b for every light and pixel: (L, n) from b (n, 3)."""
     if lights.ndim == 2:
-        return lights @ scaled_normals.T
+        return np.einsum("li,ni->ln", lights, scaled_normals)
     return np.einsum("lni,ni->ln", lights, scaled_normals)
 
 

@@ -23,6 +23,7 @@ def test_run_bench_rows_on_a_small_stack():
     assert solvers["lsq"]["ratio_to_astype_sum"] > 0
     accuracy = [r for r in rows if r["kind"] == "accuracy"]
     assert sorted({r["n_lamps"] for r in accuracy}) == [3, 6, 12]
+    assert len(accuracy) == 3 * 2 * 3  # lamp counts × scenarios × methods
     assert all(r["capture_time_s"] == 2.5 * r["n_lamps"] for r in accuracy)
     assert all(np.isfinite(r["seconds_per_mpx"]) for r in rows if "seconds_per_mpx" in r)
 
