@@ -1,0 +1,116 @@
+"""One frame in, one normtexture (or a flag) out: detect → fit → rectify."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from processing.registration._errors import Reason
+from processing.registration._homography import PlaneHomography, fit_plane_homography
+from processing.registration._markers import MarkerDetection, detect_markers
+from processing.registration._rectify import Normtexture, Region, rectify
+from rig.camera import PinholeCamera
+from rig.config import Holder
+
+__all__ = ["Registration", "register_frame"]
+
+
+@dataclass(frozen=True)
+class Registration:
+    """The result of registering one frame.
+
+    Attributes
+    ----------
+    normtexture : Normtexture
+        The rectified texture; all zeros and all invalid when the frame is
+        flagged (it is never warped with a bad homography).
+    homography : PlaneHomography
+        The fit, its reprojection errors and the reason.
+    detection : MarkerDetection
+        The markers found.
+    """
+
+    normtexture: Normtexture
+    homography: PlaneHomography
+    detection: MarkerDetection
+
+    @property
+    def valid(self) -> bool:
+        return self.homography.valid
+
+    @property
+    def reason(self) -> Reason:
+        return self.homography.reason
+
+
+def register_frame(
+    frame: np.ndarray,
+    holder: Holder,
+    *,
+    size: int,
+    camera: PinholeCamera | None = None,
+    region: Region | None = None,
+    extend_texels: int = 0,
+    order: int = 1,
+    min_markers: int = 3,
+    max_reprojection_px: float = 1.0,
+    max_noise_gain: float = 2.0,
+) -> Registration:
+    """Register a raw BTF frame onto the N×N texel grid of the holder's sample square.
+
+    Parameters
+    ----------
+    frame : (H, W) or (H, W, C) array
+        Raw camera frame, C ∈ {1, 3}, integer or float.
+    holder : rig.config.Holder
+        The plate: marker dictionary, layout and sample square.
+    size : int
+        N, texels per side of the normtexture.
+    camera : PinholeCamera, optional
+        Its ``K`` and ``dist`` undistort the marker corners and the sampling
+        (the pose is not used: the markers give it).
+    region, extend_texels, order :
+        Passed to :func:`rectify`.
+    min_markers, max_reprojection_px, max_noise_gain :
+        Passed to :func:`fit_plane_homography`.
+
+    Returns
+    -------
+    Registration
+        Check ``valid``; ``homography.mean_reprojection_px`` is the per-frame
+        marker reprojection error in pixels.
+
+    Examples
+    --------
+    >>> from rig.config import default_rig_config
+    >>> import numpy as np
+    >>> blank = np.zeros((64, 64), np.uint8)
+    >>> register_frame(blank, default_rig_config().holder, size=16).reason.name
+    'TOO_FEW_MARKERS'
+    """
+    detection = detect_markers(frame, holder)
+    homography = fit_plane_homography(
+        detection,
+        holder,
+        camera=camera,
+        min_markers=min_markers,
+        max_reprojection_px=max_reprojection_px,
+        max_noise_gain=max_noise_gain,
+    )
+    n = size + extend_texels
+    if not homography.valid:
+        channels = 1 if np.ndim(frame) == 2 else np.shape(frame)[2]
+        blank = Normtexture(np.zeros((n, n, channels), np.float32), np.zeros((n, n), bool), (0, 0))
+        return Registration(blank, homography, detection)
+    texture = rectify(
+        frame,
+        homography,
+        sample_mm=holder.sample_mm,
+        size=size,
+        camera=camera,
+        region=region,
+        extend_texels=extend_texels,
+        order=order,
+    )
+    return Registration(texture, homography, detection)
