@@ -140,30 +140,34 @@ def detect_laser_line(
         raise MdfError(f"profile_axis must be 0 (columns) or 1 (rows), got {profile_axis}")
     if sigma_px > 0:
         intensity = cv2.GaussianBlur(intensity, (0, 0), sigma_px, borderType=cv2.BORDER_REFLECT)
-    mask = region.mask
-    if profile_axis == 1:
-        intensity, mask = intensity.T, mask.T
     r = peak_radius(method)
     # A candidate's whole window must lie in the region, and so must what the
     # pre-filter mixed into it (the recess and the floor beyond the plate).
     blur = int(np.ceil(2.5 * sigma_px))
-    kernel = np.ones((2 * (r + blur) + 1, 2 * blur + 1), np.uint8)
-    centres = cv2.erode(mask.astype(np.uint8), kernel, borderType=cv2.BORDER_CONSTANT) > 0
-    masked = np.where(centres, intensity, -np.inf)
-    row = np.argmax(masked, axis=0)
-    cols = np.flatnonzero(masked[row, np.arange(masked.shape[1])] >= threshold)
-    if cols.size < min_inliers:
-        return _no_line(LineReason.NO_CANDIDATES, cols.size)
-    rows = row[cols]
-    window = intensity[rows[None, :] + np.arange(-r, r + 1)[:, None], cols[None, :]]
+    shape = (2 * (r + blur) + 1, 2 * blur + 1)  # (rows, cols) of the kernel
+    kernel = np.ones(shape if profile_axis == 0 else shape[::-1], np.uint8)
+    centres = cv2.erode(region.mask.astype(np.uint8), kernel, borderType=cv2.BORDER_CONSTANT)
+    masked = np.where(centres > 0, intensity, -np.inf).astype(np.float32)
+    best = cv2.reduceArgMax(masked, profile_axis).ravel().astype(np.intp)
+    lines = np.arange(best.size)  # the profile index: a column (axis 0) or a row
+    peak = masked[best, lines] if profile_axis == 0 else masked[lines, best]
+    keep = np.flatnonzero(peak >= threshold)
+    if keep.size < min_inliers:
+        return _no_line(LineReason.NO_CANDIDATES, keep.size)
+    along = best[keep]
+    steps = np.arange(-r, r + 1)[:, None]
+    if profile_axis == 0:
+        window = intensity[along[None, :] + steps, keep[None, :]]
+    else:
+        window = intensity[keep[None, :], along[None, :] + steps]
     # A maximum pressed against the region's edge is a slope, not the strip.
     local_max = (window[r] >= window[r - 1]) & (window[r] >= window[r + 1])
     window = window - window.min(axis=0)
     offset, ok = peak_offset(window, method=method)
     ok &= local_max
-    along = rows[ok] + offset[ok]
-    across = cols[ok].astype(np.float64)
-    pixels = np.column_stack([across, along] if profile_axis == 0 else [along, across])
+    pos = along[ok] + offset[ok]
+    across = keep[ok].astype(np.float64)
+    pixels = np.column_stack([across, pos] if profile_axis == 0 else [pos, across])
     points, front = plate_points(region.camera, pixels)
     points = points[front]
     if len(points) < min_inliers:

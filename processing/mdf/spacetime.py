@@ -23,7 +23,6 @@ import numpy as np
 
 from processing.mdf._errors import MdfError
 from processing.mdf._reason import Reason
-from processing.mdf.line import frame_intensity
 from processing.mdf.peaks import PeakMethod, peak_offset, peak_radius
 
 __all__ = ["PixelPeaks", "SpaceTimeTracker", "space_time_peaks"]
@@ -74,37 +73,57 @@ class SpaceTimeTracker:
         self.method = method
         self.min_contrast = float(min_contrast)
         self._r = peak_radius(method)
-        size = self.shape[0] * self.shape[1]
-        span = 2 * self._r + 1
-        self._ring = np.zeros((span, size), np.float32)
-        self._window = np.zeros((span, size), np.float32)
-        self._best = np.full(size, -np.inf, np.float32)
-        self._low = np.full(size, np.inf, np.float32)
-        self._index = np.full(size, -1, np.int32)
-        self._snapped = np.zeros(size, bool)
+        self._dtype: np.dtype | None = None  # fixed by the first frame
         self._count = 0
+        # Pixels whose maximum moved, per frame of the last r + 1.
+        self._moved: list[np.ndarray] = []
 
     @property
     def frames(self) -> int:
         """Frames seen so far."""
         return self._count
 
+    def _allocate(self, dtype: np.dtype) -> None:
+        size = self.shape[0] * self.shape[1]
+        span = 2 * self._r + 1
+        self._dtype = dtype
+        self._ring = np.zeros((span, size), dtype)
+        self._window = np.zeros((span, size), dtype)
+        self._best = np.zeros(size, dtype)
+        self._low = np.zeros(size, dtype)
+        self._index = np.zeros(size, np.int32)
+        self._snapped = np.zeros(size, bool)
+
     def update(self, frame) -> None:
-        """Add the next frame, (H, W) or (H, W, C), any numeric dtype."""
-        f = frame_intensity(frame)
+        """Add the next frame, (H, W) or (H, W, C), any numeric dtype.
+
+        Integer frames up to 16 bits are tracked in their own dtype (a quarter
+        or half of the memory traffic of float32); others in float32.
+        """
+        f = _native_intensity(frame)
         if f.shape != self.shape:
             raise MdfError(f"frame {self._count} has shape {f.shape}, the scan has {self.shape}")
         f = f.ravel()
         k, r = self._count, self._r
         span = 2 * r + 1
+        if self._dtype is None:
+            self._allocate(f.dtype)
+            self._best[:] = f
+            self._low[:] = f
+        elif f.dtype != self._dtype:
+            f = f.astype(self._dtype)
         self._ring[k % span] = f
-        better = f > self._best
-        np.maximum(self._best, f, out=self._best)
+        moved = np.flatnonzero(f > self._best)
+        self._best[moved] = f[moved]
+        self._index[moved] = k
         np.minimum(self._low, f, out=self._low)
-        np.copyto(self._index, k, where=better)
+        self._moved.append(moved)
+        if len(self._moved) > r + 1:
+            self._moved.pop(0)
         if k >= 2 * r:
             # Pixels whose maximum is now r frames old get their window.
-            sel = np.flatnonzero(self._index == k - r)
+            sel = self._moved[0]
+            sel = sel[self._index[sel] == k - r]
             if sel.size:
                 order = [(k - 2 * r + j) % span for j in range(span)]
                 self._window[:, sel] = self._ring[np.ix_(order, sel)]
@@ -115,12 +134,14 @@ class SpaceTimeTracker:
         """The peaks of the frames seen so far."""
         if self._count == 0:
             raise MdfError("SpaceTimeTracker.result: no frame was added")
-        contrast = self._best - self._low
+        best = self._best.astype(np.float32)
+        low = self._low.astype(np.float32)
+        contrast = best - low
         lit = contrast >= self.min_contrast
         # A window is complete only if it was snapshotted for the final maximum.
         complete = self._snapped & (self._index >= self._r)
         complete &= self._index <= self._count - 1 - self._r
-        window = self._window - self._low
+        window = self._window.astype(np.float32) - low
         offset, ok = peak_offset(window, method=self.method)
         reason = np.full(contrast.shape, Reason.OK, np.uint8)
         reason[~ok] = Reason.FIT_FAILED
@@ -135,6 +156,18 @@ class SpaceTimeTracker:
             reason=reason.reshape(h, w),
             frames=self._count,
         )
+
+
+def _native_intensity(frame) -> np.ndarray:
+    f = np.asarray(frame)
+    if f.ndim == 3:
+        f = f.max(axis=2)
+    if f.ndim != 2:
+        raise MdfError(f"frame must be (H, W) or (H, W, C), got shape {np.shape(frame)}")
+    if f.dtype in (np.uint8, np.uint16):
+        return f
+    # Non-finite samples (a broken float frame) count as dark.
+    return np.nan_to_num(f.astype(np.float32), nan=0.0, posinf=0.0, neginf=0.0)
 
 
 def space_time_peaks(
@@ -156,7 +189,7 @@ def space_time_peaks(
     for frame in frames:
         if tracker is None:
             tracker = SpaceTimeTracker(
-                frame_intensity(frame).shape, method=method, min_contrast=min_contrast
+                np.shape(frame)[:2], method=method, min_contrast=min_contrast
             )
         tracker.update(frame)
     if tracker is None:
