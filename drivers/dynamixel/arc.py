@@ -84,6 +84,7 @@ class DynamixelArc:
         self._bus = DynamixelBus(arc.servos, device=name, clock=clock)
         self._tick_range: dict[int, tuple[int, int]] = {}
         self._goal_ticks: int | None = None
+        self._target_deg = 0.0
 
     @classmethod
     def from_config(cls, config: RigConfig, *, clock: Clock, **options) -> DynamixelArc:
@@ -167,6 +168,7 @@ class DynamixelArc:
                     f"servos {missed} did not take goal tick {goal} (read back {goals})",
                 )
         self._goal_ticks = goal
+        self._target_deg = deg
 
     def position(self) -> float:
         """The arc angle (deg): mean of the servos' present positions."""
@@ -189,7 +191,7 @@ class DynamixelArc:
         if self._goal_ticks is None:
             return self.position()
         goal = self._goal_ticks
-        target_deg = self.arc.ticks_to_arc_deg(goal)
+        target_deg = self._target_deg
         op = f"move_to {target_deg:.2f}°"
         if timeout_s is None:
             timeout_s = 2.0 * float(self.arc.axis.move_time_s(target_deg - self.position())) + 1.0
@@ -215,7 +217,9 @@ class DynamixelArc:
                 return where
             idle_polls = 0 if moving else idle_polls + 1
             if idle_polls >= 2:
-                short = {i: self.arc.ticks_to_arc_deg(p) for i, (_, _, p) in state.items()}
+                short = {
+                    i: round(self.arc.ticks_to_arc_deg(p), 2) for i, (_, _, p) in state.items()
+                }
                 raise MotionStalled(
                     self.name,
                     op,

@@ -9,7 +9,8 @@ inputs report which lamps really glow.
 
 Faults, at run time or from a scene's fault table: ``no_reply``, ``garbled``
 (and their ``_rate`` forms, with ``seed``) for any peer; ``stall_fraction``
-and ``drive_fault`` for the drive; ``dead_lamps`` for the lamp bank.
+and ``drive_fault`` for the drive; ``dead_lamps`` and ``stuck_lamps`` for the
+lamp bank.
 """
 
 from __future__ import annotations
@@ -258,11 +259,12 @@ class LampBankPeer(_ModbusPeer):
     Coils switch lamps (``World.set_lamp``); a discrete input per lamp reads 1
     while that lamp is on and not dead (``World.dead_lamps``); with dimming,
     holding registers store levels in ``0..dim_full_scale`` (larger values are
-    refused with ILLEGAL_VALUE).
+    refused with ILLEGAL_VALUE). Faults: ``dead_lamps`` (stay dark) and
+    ``stuck_lamps`` (a welded relay: the light sensor sees light whatever the coil).
     """
 
     name = "lamp bank"
-    FAULT_KEYS = ReplyFaults.KEYS | {"dead_lamps"}
+    FAULT_KEYS = ReplyFaults.KEYS | {"dead_lamps", "stuck_lamps"}
 
     def __init__(
         self,
@@ -288,8 +290,11 @@ class LampBankPeer(_ModbusPeer):
             baudrate=baudrate,
             faults=faults,
         )
+        self._stuck: set[str] = set()
         for lamp in self._device_faults.get("dead_lamps", ()):
             self.kill_lamp(lamp)
+        for lamp in self._device_faults.get("stuck_lamps", ()):
+            self.stick_lamp(lamp)
 
     @classmethod
     def from_config(cls, world: World, **options) -> LampBankPeer:
@@ -300,13 +305,22 @@ class LampBankPeer(_ModbusPeer):
     # -- fault injection -------------------------------------------------------
     def kill_lamp(self, lamp_id: str) -> None:
         """Make ``lamp_id`` stay dark when switched on."""
-        if lamp_id not in self.lamp_ids:
-            raise ConfigError(f"{self.name}: unknown lamp {lamp_id!r}; valid are {self.lamp_ids}")
+        self._check(lamp_id)
         self.world.dead_lamps.add(lamp_id)
 
+    def stick_lamp(self, lamp_id: str) -> None:
+        """Weld ``lamp_id``'s relay shut: it glows whatever its coil says."""
+        self._check(lamp_id)
+        self._stuck.add(lamp_id)
+
     def revive_lamp(self, lamp_id: str) -> None:
-        """Replace the bulb of ``lamp_id``."""
+        """Replace the bulb and relay of ``lamp_id``."""
         self.world.dead_lamps.discard(lamp_id)
+        self._stuck.discard(lamp_id)
+
+    def _check(self, lamp_id: str) -> None:
+        if lamp_id not in self.lamp_ids:
+            raise ConfigError(f"{self.name}: unknown lamp {lamp_id!r}; valid are {self.lamp_ids}")
 
     # -- the register map ------------------------------------------------------
     def _simdata(self) -> tuple[list[SimData], list[SimData], list[SimData], list[SimData]]:
@@ -335,7 +349,7 @@ class LampBankPeer(_ModbusPeer):
         r = self.registers
         if function_code in (1, 2):  # coils / light sensors: bits from the world
             first = r.coils if function_code == 1 else r.light_sensors
-            lit = self.world.snapshot().lamps_on
+            lit = self.world.snapshot().lamps_on | self._stuck
             on = lit if function_code == 2 else set(self.world.lamps_on)
             self._pack_bits(registers, start_address, first, [lamp in on for lamp in self.lamp_ids])
         elif function_code in (5, 15):
