@@ -121,7 +121,7 @@ def test_hardware_error_names_the_servo_and_reboot_recovers(arc, bus, world):
     bus.set_hardware_error(2, 0x20)  # overload
     with pytest.raises(DeviceFault, match=r"servo 2 reports hardware error 0x20 \(overload\)"):
         arc.wait_until_settled()
-    with pytest.raises(DeviceFault, match="servo 2.*overload"):
+    with pytest.raises(DeviceFault, match=r"servo 2.*overload"):
         arc.enable()
     arc.reboot()
     arc.enable()

@@ -90,7 +90,7 @@ def test_stall_raises_naming_axis_target_and_stop(turntable, drive, world):
 def test_drive_fault_raises_device_fault(turntable, drive):
     drive.set_drive_fault(True)
     turntable.move_to(30.0)
-    with pytest.raises(DeviceFault, match="turntable.*fault"):
+    with pytest.raises(DeviceFault, match=r"turntable.*fault"):
         turntable.wait_until_settled()
 
 
@@ -141,7 +141,7 @@ def test_a_silent_drive_fails_after_the_retries(turntable, drive, clock):
 
 def test_a_garbling_drive_fails_after_the_retries(turntable, drive):
     drive.faults.garble_next(100)
-    with pytest.raises(DeviceError, match="turntable: position failed.*gave up after 3 tries"):
+    with pytest.raises(DeviceError, match=r"turntable: position failed.*gave up after 3 tries"):
         turntable.position()
 
 
