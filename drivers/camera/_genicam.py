@@ -44,6 +44,7 @@ class GenicamCamera:
 
     def __init__(self, spec: CameraSpec, *, clock: Clock):
         try:
+            from genicam.genapi import GenericException as FeatureException
             from genicam.gentl import GenericException, TimeoutException
             from harvesters.core import Harvester
         except ImportError as err:
@@ -51,7 +52,7 @@ class GenicamCamera:
                 f"camera {spec.id}", "open", "GenICam needs: pip install 'btfrig[genicam]'"
             ) from err
         self._timeout_exception = TimeoutException
-        self._generic_exception = GenericException
+        self._feature_exception = FeatureException
         self.spec = spec
         self.camera_id = spec.id
         self.clock = clock
@@ -89,6 +90,11 @@ class GenicamCamera:
             self.close()
             raise
 
+    @property
+    def nodes(self):
+        """The camera's GenApi node map, for vendor features this interface leaves out."""
+        return self._nodes
+
     def _pixel_format(self, bit_depth: int) -> str:
         name = _PIXEL_FORMATS.get((self.spec.channels, bit_depth))
         valid = tuple(self._nodes.PixelFormat.symbolics)
@@ -106,7 +112,7 @@ class GenicamCamera:
             raise DeviceError(self.device, "configure", f"the camera has no {name} feature")
         try:
             self._nodes.get_node(name).value = value
-        except self._generic_exception as err:
+        except self._feature_exception as err:
             raise DeviceError(
                 self.device, "configure", f"{name}={value!r} was refused: {err}"
             ) from err
