@@ -112,3 +112,10 @@ def test_replay_bit_depth_is_the_recordings(tmp_path):
             camera.configure(bit_depth=12)
     finally:
         camera.close()
+
+
+def test_a_live_device_index_that_does_not_exist_is_named():
+    with pytest.raises(
+        DeviceError, match=r"camera replay \(opencv 97\): open failed: no such video"
+    ):
+        OpenCvCamera(_spec("97"), clock=VirtualClock())

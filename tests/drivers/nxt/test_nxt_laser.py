@@ -152,3 +152,17 @@ def test_a_move_to_a_deaf_brick_fails_naming_the_target(laser, brick):
     brick.faults.deaf = True
     with pytest.raises(DeviceTimeout, match=r"tilt to 2.0° failed"):
         laser.move_tilt(2.0)
+
+
+def test_real_usb_path_is_the_same_code_without_a_fake_backend(world):
+    # No NXT is plugged into CI: libusb (or its absence) says so, by name.
+    config = world.config.laser.model_copy(update={"brick": NxtConnection(retry=RETRY)})
+    with pytest.raises(DeviceError, match=r"laser brick|usb 0694:0002: open failed"):
+        NxtLaser.open(config, clock=world.clock)
+
+
+def test_real_serial_path_names_the_missing_port(world):
+    connection = NxtConnection(transport="serial", serial_port="/dev/rfcomm-none", retry=RETRY)
+    config = world.config.laser.model_copy(update={"brick": connection})
+    with pytest.raises(DeviceError, match=r"serial /dev/rfcomm-none: open failed: cannot open"):
+        NxtLaser.open(config, clock=world.clock)
