@@ -162,8 +162,9 @@ def detect_laser_line(
         window = intensity[keep[None, :], along[None, :] + steps]
     # A maximum pressed against the region's edge is a slope, not the strip.
     local_max = (window[r] >= window[r - 1]) & (window[r] >= window[r + 1])
-    window = window - window.min(axis=0)
-    offset, ok = peak_offset(window, method=method)
+    # Background: the region's median (a 3-sample window has no room for its own).
+    background = np.median(intensity[region.mask][::7])
+    offset, ok = peak_offset(window - background, method=method)
     ok &= local_max
     pos = along[ok] + offset[ok]
     across = keep[ok].astype(np.float64)
