@@ -1,0 +1,234 @@
+"""Talking to a running daemon: requests with Lazy-Pirate retries, and following its events.
+
+``DaemonClient.request`` sends one JSON request on a REQ socket and waits
+``timeout_s`` for the reply; with no reply it closes the socket, opens a new
+one and sends the same request again (same id: the daemon answers a repeat
+from its reply cache without doing it twice), up to ``retries`` times, then
+raises ``DaemonUnreachable``. An error reply raises ``DaemonRequestError``
+with the daemon's code, field and message.
+
+The module-level functions are what the ``rig`` commands call.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+import uuid
+from collections.abc import Callable, Iterator
+from pathlib import Path
+
+import zmq
+
+from rig.daemon.endpoints import Endpoints
+from rig.daemon.protocol import MAX_CONTROL_BYTES, decode_json
+from rig.errors import RigError
+
+__all__ = [
+    "DaemonClient",
+    "DaemonRequestError",
+    "DaemonUnreachable",
+    "abort",
+    "follow",
+    "pause",
+    "resume",
+    "shutdown",
+    "status",
+    "submit",
+]
+
+TERMINAL_STATES = ("done", "aborted", "failed")
+
+
+class DaemonUnreachable(RigError):
+    """No reply from the daemon after every retry."""
+
+
+class DaemonRequestError(RigError):
+    """The daemon answered with an error: ``code``, ``field``, ``message``."""
+
+    def __init__(self, command: str, error: dict):
+        self.code = error.get("code")
+        self.field = error.get("field")
+        self.message = error.get("message")
+        where = f" ({self.field})" if self.field else ""
+        super().__init__(f"{command}: {self.code}{where}: {self.message}")
+
+
+class DaemonClient:
+    """A control connection to the daemon at ``endpoints`` (close it, or use ``with``)."""
+
+    def __init__(
+        self,
+        endpoints: Endpoints | str,
+        *,
+        timeout_s: float = 2.5,
+        retries: int = 3,
+        context: zmq.Context | None = None,
+    ):
+        self.endpoints = Endpoints.from_base(endpoints) if isinstance(endpoints, str) else endpoints
+        self.timeout_s = timeout_s
+        self.retries = retries
+        self._own_context = context is None
+        self._ctx = context or zmq.Context()
+        self._sock: zmq.Socket | None = None
+
+    def _connect(self) -> zmq.Socket:
+        sock = self._ctx.socket(zmq.REQ)
+        sock.linger = 0
+        sock.connect(self.endpoints.control)
+        return sock
+
+    def request(self, command: str, **args) -> dict:
+        """Send ``command`` with ``args``; the reply's result, or raise."""
+        rid = uuid.uuid4().hex
+        body = json.dumps({"id": rid, "command": command, "args": args}).encode()
+        reply = self.request_raw([body], expect_id=rid)
+        if not reply.get("ok"):
+            raise DaemonRequestError(command, reply.get("error") or {})
+        return reply.get("result") or {}
+
+    def request_raw(self, parts: list[bytes], *, expect_id: str | None = None) -> dict:
+        """Send raw body parts (tests send malformed ones); the decoded reply."""
+        for _ in range(self.retries + 1):
+            if self._sock is None:
+                self._sock = self._connect()
+            self._sock.send_multipart(parts)
+            if self._sock.poll(int(self.timeout_s * 1000), zmq.POLLIN):
+                reply = decode_json(
+                    self._sock.recv(), limit=MAX_CONTROL_BYTES, what="the daemon's reply"
+                )
+                if expect_id is None or reply.get("id") == expect_id:
+                    return reply
+            # Lazy Pirate: a REQ socket that lost its reply is stuck; start afresh.
+            self._sock.close(linger=0)
+            self._sock = None
+        raise DaemonUnreachable(
+            f"no reply from the daemon at {self.endpoints.control} after "
+            f"{self.retries + 1} tries of {self.timeout_s} s; is `rig daemon` running?"
+        )
+
+    def close(self) -> None:
+        if self._sock is not None:
+            self._sock.close(linger=0)
+            self._sock = None
+        if self._own_context:
+            self._ctx.term()
+
+    def __enter__(self) -> DaemonClient:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()
+
+
+def _one(connect: Endpoints | str, command: str, **args) -> dict:
+    with DaemonClient(connect) as client:
+        return client.request(command, **args)
+
+
+def submit(
+    plan: str | Path, *, archive: str | Path | None = None, connect="tcp://127.0.0.1"
+) -> dict:
+    """Send the plan file's text; the archive path defaults to the plan's, from here."""
+    from rig.plan import load_plan
+
+    plan = Path(plan)
+    parsed = load_plan(plan)  # bad plans are reported here, before the daemon sees them
+    target = Path(archive) if archive is not None else parsed.archive_path()
+    return _one(
+        connect,
+        "submit",
+        plan_toml=plan.read_text(),
+        source=str(plan),
+        archive=str(target.resolve()),
+    )
+
+
+def status(*, connect="tcp://127.0.0.1") -> dict:
+    return _one(connect, "status")
+
+
+def pause(*, connect="tcp://127.0.0.1") -> dict:
+    return _one(connect, "pause")
+
+
+def resume(archive: str | Path | None = None, *, connect="tcp://127.0.0.1") -> dict:
+    """Resume the paused session, or (with ``archive``) continue a crashed one."""
+    path = None if archive is None else str(Path(archive).resolve())
+    return _one(connect, "resume", archive=path)
+
+
+def abort(*, connect="tcp://127.0.0.1") -> dict:
+    return _one(connect, "abort")
+
+
+def shutdown(*, connect="tcp://127.0.0.1") -> dict:
+    return _one(connect, "shutdown")
+
+
+def follow(
+    connect: Endpoints | str = "tcp://127.0.0.1",
+    *,
+    until: Callable[[dict], bool] | None = None,
+    timeout_s: float | None = None,
+    context: zmq.Context | None = None,
+) -> Iterator[dict]:
+    """Yield the daemon's events (dicts with ``topic`` and ``seq``) as they come.
+
+    Starts with a ``status`` reply so a late joiner knows where things stand;
+    stops after an event for which ``until(event)`` is true, or after
+    ``timeout_s`` without any event (``DaemonUnreachable``). A gap in ``seq``
+    (slow subscriber) is reported as an event with topic ``gap``.
+    """
+    endpoints = Endpoints.from_base(connect) if isinstance(connect, str) else connect
+    ctx = context or zmq.Context()
+    sub = ctx.socket(zmq.SUB)
+    sub.linger = 0
+    try:
+        sub.subscribe(b"")
+        sub.connect(endpoints.events)
+        with DaemonClient(endpoints, context=ctx) as client:
+            first = {"topic": "status", "seq": None, **client.request("status")}
+        yield first
+        if until is not None and until(first):
+            return
+        last_seq = None
+        while True:
+            wait = None if timeout_s is None else int(timeout_s * 1000)
+            if not sub.poll(wait):
+                raise DaemonUnreachable(f"no event from {endpoints.events} for {timeout_s} s")
+            _topic, body = sub.recv_multipart()
+            event = json.loads(body)
+            if last_seq is not None and event["seq"] != last_seq + 1:
+                yield {"topic": "gap", "seq": event["seq"], "missed": event["seq"] - last_seq - 1}
+            last_seq = event["seq"]
+            yield event
+            if until is not None and until(event):
+                return
+    finally:
+        sub.close(linger=0)
+        if context is None:
+            ctx.term()
+
+
+def session_ended(event: dict) -> bool:
+    """For ``follow(until=...)``: the session reached done, aborted or failed."""
+    if event.get("topic") == "state":
+        return event.get("to") in TERMINAL_STATES
+    return False
+
+
+def wait_for_state(connect, states: tuple[str, ...], *, timeout_s: float = 30.0) -> dict:
+    """Poll ``status`` until the daemon's state is one of ``states``; the status."""
+    deadline = time.monotonic() + timeout_s
+    with DaemonClient(connect) as client:
+        while True:
+            current = client.request("status")
+            if current["state"] in states:
+                return current
+            if time.monotonic() > deadline:
+                raise DaemonUnreachable(
+                    f"the daemon stayed {current['state']} for {timeout_s} s, not {states}"
+                )
+            time.sleep(0.02)

@@ -1,0 +1,44 @@
+"""The orchestrator daemon: sessions over ZeroMQ, the state machine, devices, workers.
+
+``Daemon`` (sockets and loop), ``Session`` (one plan against the devices and the
+archive), ``RigDevices`` (the device facade) and the message ``protocol``;
+``run_daemon`` and ``run_local`` are what ``rig daemon`` and ``rig run`` call.
+See ``docs/daemon.md``.
+"""
+
+from rig.daemon.devices import Captured, DeviceSet, RigDevices, ThreadedCamera, build_devices
+from rig.daemon.endpoints import DEFAULT_PORT, DaemonSettings, Endpoints, is_loopback
+from rig.daemon.protocol import MessageError
+from rig.daemon.server import Daemon
+from rig.daemon.session import Session, SessionError, frame_formats
+from rig.daemon.state import (
+    TRANSITIONS,
+    IllegalTransition,
+    SessionEvent,
+    SessionState,
+    StateMachine,
+    allowed_events,
+)
+
+__all__ = [
+    "DEFAULT_PORT",
+    "TRANSITIONS",
+    "Captured",
+    "Daemon",
+    "DaemonSettings",
+    "DeviceSet",
+    "Endpoints",
+    "IllegalTransition",
+    "MessageError",
+    "RigDevices",
+    "Session",
+    "SessionError",
+    "SessionEvent",
+    "SessionState",
+    "StateMachine",
+    "ThreadedCamera",
+    "allowed_events",
+    "build_devices",
+    "frame_formats",
+    "is_loopback",
+]

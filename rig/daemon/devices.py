@@ -1,0 +1,345 @@
+"""The device facade: the one object a session drives.
+
+``RigDevices`` composes the drivers of one rig (turntable, light arc, lamp
+bank, laser unit, cameras) behind the step vocabulary of a session: move both
+axes in parallel and wait until they have settled, switch a lamp or the
+laser, trigger every camera of a step together and read them, sweep the laser
+sheet while the cameras record. Drivers are synchronous and retry on their
+own; a ``DeviceError`` reaching the facade has survived those retries.
+
+``build_devices(config, clock=..., scale=...)`` opens the real drivers named
+by a rig config (imported lazily, so the daemon imports without them). Tests
+build ``RigDevices`` from in-process soft devices with the same interfaces.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping, Sequence
+from concurrent.futures import Future, ThreadPoolExecutor
+from dataclasses import dataclass
+from typing import Protocol, runtime_checkable
+
+import numpy as np
+
+from drivers.errors import DeviceError
+from drivers.interfaces import Arc, LampBank, Turntable
+from rig.clock import Clock
+from rig.config import RigConfig
+
+__all__ = [
+    "Camera",
+    "Captured",
+    "DeviceSet",
+    "LaserUnit",
+    "RigDevices",
+    "ThreadedCamera",
+    "build_devices",
+]
+
+log = logging.getLogger(__name__)
+
+
+class CameraFrame(Protocol):
+    image: np.ndarray
+    timestamp: float
+    exposure_s: float
+
+
+@runtime_checkable
+class Camera(Protocol):
+    """A camera the facade can trigger with the others, then read."""
+
+    def trigger(self, exposure_s: float) -> None:
+        """Start an exposure of ``exposure_s``; returns at once."""
+
+    def read(self) -> CameraFrame:
+        """Wait for the triggered frame and return it (``DeviceTimeout`` if none came)."""
+
+    def close(self) -> None: ...
+
+
+@runtime_checkable
+class LaserUnit(Protocol):
+    """The laser sheet's tilt motor and diode (``drivers.nxt.NxtLaser``)."""
+
+    def check_battery(self) -> int: ...
+    def set_laser(self, on: bool) -> None: ...
+    def start_tilt(self, target_deg: float) -> None: ...
+    def wait_tilt(self, target_deg: float) -> float: ...
+    def move_tilt(self, target_deg: float) -> float: ...
+    def tilt_deg(self) -> float: ...
+    def stop(self) -> None: ...
+    def close(self) -> None: ...
+
+
+class CaptureCamera(Protocol):
+    def capture(self, exposure_s: float) -> CameraFrame: ...
+    def close(self) -> None: ...
+
+
+class ThreadedCamera:
+    """Adapts a camera driver with a blocking ``capture`` to trigger/read.
+
+    The capture runs on the adapter's own thread so that several cameras
+    expose together.
+    """
+
+    def __init__(self, camera: CaptureCamera, name: str):
+        self._camera = camera
+        self._pool = ThreadPoolExecutor(1, thread_name_prefix=f"camera-{name}")
+        self._pending: Future | None = None
+
+    def trigger(self, exposure_s: float) -> None:
+        self._pending = self._pool.submit(self._camera.capture, exposure_s)
+
+    def read(self) -> CameraFrame:
+        pending, self._pending = self._pending, None
+        if pending is None:
+            raise RuntimeError("read() without a trigger()")
+        return pending.result()
+
+    def close(self) -> None:
+        self._pool.shutdown(wait=True)
+        self._camera.close()
+
+
+@dataclass(frozen=True)
+class Captured:
+    """One frame as the session stores it."""
+
+    image: np.ndarray
+    sub: int
+    exposure_s: float
+    timestamp: float
+
+
+class DeviceSet(Protocol):
+    """What a session needs from the rig (``RigDevices``, or replay devices)."""
+
+    def home(self, *, laser: bool) -> None: ...
+    def move(self, *, turntable_deg: float, arc_deg: float) -> dict[str, float]: ...
+    def lamp(self, lamp_id: str, on: bool) -> None: ...
+    def laser(self, mount: int, on: bool) -> None: ...
+    def capture(
+        self, cameras: Sequence[str], exposures_s: Sequence[float]
+    ) -> dict[str, list[Captured]]: ...
+    def scan(
+        self,
+        cameras: Sequence[str],
+        *,
+        tilt_deg: tuple[float, float],
+        frames: int,
+        exposure_s: float,
+    ) -> tuple[dict[str, list[Captured]], list[float]]: ...
+    def all_off(self) -> None: ...
+    def telemetry(self) -> dict: ...
+    def close(self) -> None: ...
+
+
+class RigDevices:
+    """The drivers of one rig behind the session's step vocabulary."""
+
+    def __init__(
+        self,
+        config: RigConfig,
+        *,
+        clock: Clock,
+        turntable: Turntable,
+        arc: Arc,
+        lamps: LampBank,
+        laser: LaserUnit | None,
+        cameras: Mapping[str, Camera],
+    ):
+        self.config = config
+        self.clock = clock
+        self.turntable = turntable
+        self.arc = arc
+        self.lamps = lamps
+        self.laser_unit = laser
+        self.cameras = dict(cameras)
+        self._position: dict[str, float | None] = {"turntable_deg": None, "arc_deg": None}
+        self._tilt_deg = 0.0
+
+    def home(self, *, laser: bool) -> None:
+        """Home the turntable, enable the arc, lamps off; check and level the laser unit."""
+        self.lamps.switch(frozenset())
+        self.turntable.home()
+        self.arc.enable()
+        self._position = {"turntable_deg": 0.0, "arc_deg": None}
+        if laser:
+            unit = self._laser_unit()
+            unit.check_battery()
+            unit.set_laser(False)
+            self._tilt_deg = unit.move_tilt(0.0)
+
+    def move(self, *, turntable_deg: float, arc_deg: float) -> dict[str, float]:
+        """Move both axes at once, wait until both stop, then wait the longer settle time."""
+        moving_tt = self._position["turntable_deg"] != turntable_deg
+        moving_arc = self._position["arc_deg"] != arc_deg
+        if moving_tt:
+            self.turntable.move_to(turntable_deg)
+        if moving_arc:
+            self.arc.move_to(arc_deg)
+        # Forget the position first: a failed wait leaves it unknown.
+        self._position = {"turntable_deg": None, "arc_deg": None}
+        tt = self.turntable.wait_until_settled() if moving_tt else turntable_deg
+        arc = self.arc.wait_until_settled() if moving_arc else arc_deg
+        settle = max(
+            self.config.turntable.axis.settle_s if moving_tt else 0.0,
+            self.config.light_arc.axis.settle_s if moving_arc else 0.0,
+        )
+        self.clock.sleep(settle)
+        self._position = {"turntable_deg": turntable_deg, "arc_deg": arc_deg}
+        return {"turntable_deg": float(tt), "arc_deg": float(arc)}
+
+    def lamp(self, lamp_id: str, on: bool) -> None:
+        """Light exactly ``lamp_id`` (the bank waits for its warm-up), or switch all off."""
+        self.lamps.switch(frozenset({lamp_id}) if on else frozenset())
+
+    def laser(self, mount: int, on: bool) -> None:
+        """Switch the laser diode of mount ``mount`` (one unit: mount 0)."""
+        mounts = len(self.config.laser.mount_theta_deg)
+        if not 0 <= mount < mounts:
+            raise DeviceError(
+                "laser brick", f"laser {'on' if on else 'off'}",
+                f"mount {mount} does not exist; laser.mount_theta_deg has {mounts}",
+            )  # fmt: skip
+        self._laser_unit().set_laser(on)
+
+    def capture(
+        self, cameras: Sequence[str], exposures_s: Sequence[float]
+    ) -> dict[str, list[Captured]]:
+        """For each exposure, trigger all ``cameras`` together, then read each."""
+        frames: dict[str, list[Captured]] = {c: [] for c in cameras}
+        for sub, exposure in enumerate(exposures_s):
+            self._shoot(cameras, exposure, sub, frames)
+        return frames
+
+    def scan(
+        self,
+        cameras: Sequence[str],
+        *,
+        tilt_deg: tuple[float, float],
+        frames: int,
+        exposure_s: float,
+    ) -> tuple[dict[str, list[Captured]], list[float]]:
+        """Sweep the sheet from ``tilt_deg[0]`` to ``[1]`` recording ``frames`` frames.
+
+        Frames are triggered at the laser frame rate while the sheet tilts; the
+        sheet returns to the start afterwards. Returns the frames per camera and
+        the tilt (deg) read back at each frame.
+        """
+        unit = self._laser_unit()
+        start, end = tilt_deg
+        if self._tilt_deg != start:
+            self._tilt_deg = unit.move_tilt(start)
+        period = 1.0 / self.config.laser.frame_rate_hz
+        captured: dict[str, list[Captured]] = {c: [] for c in cameras}
+        tilts = []
+        unit.start_tilt(end)
+        t0 = self.clock.now()
+        for sub in range(frames):
+            self.clock.sleep(max(0.0, t0 + sub * period - self.clock.now()))
+            tilts.append(float(unit.tilt_deg()))
+            self._shoot(cameras, exposure_s, sub, captured)
+        unit.wait_tilt(end)
+        self._tilt_deg = unit.move_tilt(start)
+        return captured, tilts
+
+    def _shoot(self, cameras, exposure_s, sub, frames) -> None:
+        for camera in cameras:
+            self._camera(camera).trigger(exposure_s)
+        for camera in cameras:
+            frame = self._camera(camera).read()
+            frames[camera].append(
+                Captured(frame.image, sub, float(frame.exposure_s), float(frame.timestamp))
+            )
+
+    def all_off(self) -> None:
+        """Lamps and laser off, axes stopped; every device tried, the first error raised."""
+        errors = []
+        actions = [lambda: self.lamps.switch(frozenset()), self.turntable.stop]
+        if self.laser_unit is not None:
+            actions += [lambda: self.laser_unit.set_laser(False), self.laser_unit.stop]
+        for action in actions:
+            try:
+                action()
+            except DeviceError as err:
+                log.warning("switching off: %s", err)
+                errors.append(err)
+        if errors:
+            raise errors[0]
+
+    def telemetry(self) -> dict:
+        """Positions and lamps as the devices report them (for the events stream)."""
+        return {
+            "turntable_deg": float(self.turntable.position()),
+            "arc_deg": float(self.arc.position()),
+            "lamps_on": sorted(self.lamps.lamps_on()),
+        }
+
+    def close(self) -> None:
+        """Close every device, even if some fail; idempotent."""
+        devices = [self.turntable, self.arc, self.lamps, *self.cameras.values()]
+        if self.laser_unit is not None:
+            devices.append(self.laser_unit)
+        for device in devices:
+            try:
+                device.close()
+            except DeviceError as err:
+                log.warning("closing: %s", err)
+
+    def _camera(self, camera: str) -> Camera:
+        try:
+            return self.cameras[camera]
+        except KeyError:
+            raise DeviceError(
+                camera, "capture", f"no such camera; this rig has {sorted(self.cameras)}"
+            ) from None
+
+    def _laser_unit(self) -> LaserUnit:
+        if self.laser_unit is None:
+            raise DeviceError("laser brick", "scan", "this rig was opened without a laser unit")
+        return self.laser_unit
+
+
+def build_devices(
+    config: RigConfig, *, clock: Clock, scale: float = 1.0, laser: bool = True
+) -> RigDevices:
+    """Open the real drivers of ``config`` (the simulator's peers answer the same way).
+
+    ``scale`` is the plan's resolution factor handed to the cameras; with
+    ``laser=False`` the laser brick is not opened (plans without scans).
+    """
+    # Imported here so the daemon (and its tests) import without every driver.
+    from drivers.camera import open_camera
+    from drivers.dynamixel import DynamixelArc
+    from drivers.modbus import ModbusLampBank, ModbusTurntable
+    from drivers.nxt import NxtLaser
+
+    opened: list = []
+    try:
+        turntable = ModbusTurntable.from_config(config, clock=clock)
+        opened.append(turntable)
+        arc = DynamixelArc.from_config(config, clock=clock)
+        opened.append(arc)
+        lamps = ModbusLampBank.from_config(config, clock=clock)
+        opened.append(lamps)
+        unit = NxtLaser.open(config.laser, clock=clock) if laser else None
+        if unit is not None:
+            opened.append(unit)
+        cameras = {}
+        for spec in config.camera_arc.cameras:
+            camera = open_camera(spec, clock=clock, scale=scale)
+            opened.append(camera)
+            cameras[spec.id] = (
+                camera if isinstance(camera, Camera) else ThreadedCamera(camera, spec.id)
+            )
+    except BaseException:
+        for device in reversed(opened):
+            device.close()
+        raise
+    return RigDevices(
+        config, clock=clock, turntable=turntable, arc=arc, lamps=lamps, laser=unit, cameras=cameras
+    )

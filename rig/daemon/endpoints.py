@@ -1,0 +1,108 @@
+"""Where the daemon listens, and the rule that remote use needs CURVE keys.
+
+The four sockets sit on consecutive ports from a base port: control (base),
+events (base + 1), frames (base + 2), results (base + 3). ``Endpoints``
+holds their URLs; ``DaemonSettings`` is the daemon's own (closed) settings.
+"""
+
+from __future__ import annotations
+
+import ipaddress
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Literal
+from urllib.parse import urlsplit
+
+from pydantic import BaseModel, ConfigDict, Field
+
+from rig.errors import ConfigError
+
+__all__ = ["DEFAULT_PORT", "DaemonSettings", "Endpoints", "is_loopback"]
+
+DEFAULT_PORT = 5570
+_ROLES = ("control", "events", "frames", "results")
+
+
+@dataclass(frozen=True)
+class Endpoints:
+    """The URLs of the daemon's control, events, frames and results sockets."""
+
+    control: str
+    events: str
+    frames: str
+    results: str
+
+    @classmethod
+    def from_base(cls, url: str = f"tcp://127.0.0.1:{DEFAULT_PORT}") -> Endpoints:
+        """``tcp://HOST[:BASE]`` → the four sockets on ports BASE … BASE + 3."""
+        parts = urlsplit(url)
+        try:
+            port = parts.port
+        except ValueError:
+            port = -1
+        if parts.scheme != "tcp" or not parts.hostname or port == -1:
+            raise ConfigError(
+                f"daemon address {url!r}: use tcp://HOST or tcp://HOST:PORT "
+                f"(PORT = the control port, default {DEFAULT_PORT})"
+            )
+        base = DEFAULT_PORT if port is None else port
+        if not 1 <= base <= 65532:
+            raise ConfigError(f"daemon address {url!r}: port {base} must be in 1..65532")
+        host = parts.hostname
+        host = f"[{host}]" if ":" in host else host
+        return cls(*(f"tcp://{host}:{base + i}" for i in range(4)))
+
+
+def is_loopback(host: str) -> bool:
+    """True for localhost and loopback addresses (127.0.0.0/8, ::1)."""
+    if host == "localhost":
+        return True
+    try:
+        return ipaddress.ip_address(host.strip("[]")).is_loopback
+    except ValueError:
+        return False
+
+
+class DaemonSettings(BaseModel):
+    """How the daemon listens and streams. Port 0: every socket on a free port."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True)
+
+    host: str = "127.0.0.1"
+    port: int = Field(DEFAULT_PORT, ge=0, le=65532, description="control port; 0 = any free")
+    curve_secret_key: Path | None = Field(
+        None, description="the server's secret certificate (zmq.auth.create_certificates)"
+    )
+    curve_clients_dir: Path | None = Field(
+        None, description="folder of the public certificates of allowed clients"
+    )
+    on_fault: Literal["pause", "fail"] = "pause"
+    status_interval_s: float = Field(1.0, gt=0, description="status snapshot period")
+    resend_after_s: float = Field(10.0, gt=0, description="re-send a frame without result")
+    worker_timeout_s: float = Field(3.0, gt=0, description="a silent worker counts as gone")
+    max_in_flight: int = Field(256, ge=1, description="frames sent and not yet processed")
+    drain_timeout_s: float = Field(60.0, ge=0, description="wait for workers at the end")
+
+    def bind_urls(self) -> dict[str, str]:
+        """The URL each socket binds (``tcp://host:*`` for any free port)."""
+        host = f"[{self.host}]" if ":" in self.host else self.host
+        return {
+            role: f"tcp://{host}:{'*' if self.port == 0 else self.port + i}"
+            for i, role in enumerate(_ROLES)
+        }
+
+    def check_exposure(self) -> None:
+        """Refuse to listen beyond loopback without CURVE keys."""
+        if is_loopback(self.host):
+            return
+        if self.curve_secret_key is None or self.curve_clients_dir is None:
+            raise ConfigError(
+                f"daemon host {self.host!r} is not a loopback address: listening beyond this "
+                "machine needs CURVE encryption; set curve_secret_key (the server's "
+                "certificate, made by zmq.auth.create_certificates) and curve_clients_dir "
+                "(allowed clients' public certificates), or use host = '127.0.0.1'"
+            )
+        for name in ("curve_secret_key", "curve_clients_dir"):
+            path = getattr(self, name)
+            if not path.exists():
+                raise ConfigError(f"daemon {name} = {str(path)!r}: no such file or folder")

@@ -1,0 +1,465 @@
+"""The daemon: ZeroMQ sockets around one session at a time.
+
+One loop thread owns every socket: it answers the control ROUTER, publishes
+events on PUB (with a sequence number each, and a ``status`` snapshot every
+``status_interval_s`` for late joiners), pushes frames to the workers and
+pulls their results. The session runs on its own thread and talks to the loop
+through ``_Outbox`` (thread-safe queues); the loop never blocks on a socket, so
+the daemon answers control requests while frames wait at the workers' HWM.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+import queue
+import threading
+import time
+from collections import OrderedDict
+from pathlib import Path
+
+import numpy as np
+import zmq
+
+from rig.clock import Clock, RealClock
+from rig.config import RigConfig
+from rig.daemon.devices import build_devices
+from rig.daemon.endpoints import DaemonSettings, Endpoints
+from rig.daemon.protocol import (
+    MAX_CONTROL_BYTES,
+    MAX_FRAME_BYTES,
+    FrameHeader,
+    MessageError,
+    Request,
+    decode_result,
+    encode_error,
+    encode_event,
+    encode_frame,
+    encode_reply,
+    parse_request,
+    request_id,
+)
+from rig.daemon.session import DeviceFactory, Session
+from rig.daemon.state import IllegalTransition, SessionEvent, StateMachine, allowed_events
+from rig.daemon.stream import FrameLedger, InFlight
+from rig.errors import PlanError, RigError
+
+__all__ = ["Daemon"]
+
+log = logging.getLogger(__name__)
+
+_REPLY_CACHE = 256
+_BATCH = 64  # messages handled per socket per loop turn, so no socket starves the others
+
+
+class _Outbox:
+    """The session thread's side of the loop: events, frames (bounded) and drain requests."""
+
+    def __init__(self, max_frames: int):
+        self.events: queue.SimpleQueue = queue.SimpleQueue()
+        self.frames: queue.Queue = queue.Queue(maxsize=max_frames)
+        self.drains: queue.SimpleQueue = queue.SimpleQueue()
+
+    def publish(self, topic: str, payload: dict) -> None:
+        self.events.put((topic, payload))
+
+    def stream(self, header: FrameHeader, image: np.ndarray) -> None:
+        self.frames.put((header, encode_frame(header, image)))  # blocks while the loop is behind
+
+    def drain(self, session: str, timeout_s: float) -> list[tuple[dict, dict]]:
+        done = threading.Event()
+        request = {"session": session, "deadline": time.monotonic() + timeout_s, "done": done}
+        self.drains.put(request)
+        done.wait()
+        return request["results"]
+
+
+class Daemon:
+    """Owns the devices' factory, the sockets and one session at a time.
+
+    ``bind()`` opens the sockets and returns their ``Endpoints``; ``serve()``
+    runs the loop until a ``shutdown`` request or ``stop()``, then closes all.
+    """
+
+    def __init__(
+        self,
+        config: RigConfig,
+        *,
+        settings: DaemonSettings | None = None,
+        devices: DeviceFactory = build_devices,
+        clock: Clock | None = None,
+    ):
+        self.config = config
+        self.settings = settings or DaemonSettings()
+        self.settings.check_exposure()
+        self._devices = devices
+        self.clock = clock or RealClock()
+        self.machine = StateMachine(on_change=self._state_changed)
+        self._outbox = _Outbox(self.settings.max_in_flight)
+        self._ledger = FrameLedger(resend_after_s=self.settings.resend_after_s)
+        self._session: Session | None = None
+        self._thread: threading.Thread | None = None
+        self._results: dict[str, list] = {}
+        self._workers: dict[str, float] = {}
+        self._not_streamed = 0
+        self._replies: OrderedDict[str, bytes] = OrderedDict()
+        self._drains: list[dict] = []
+        self._seq = 0
+        self._stop = threading.Event()
+        self._ctx: zmq.Context | None = None
+        self._auth = None
+        self.endpoints: Endpoints | None = None
+
+    # -- sockets ----------------------------------------------------------------------------
+
+    def bind(self) -> Endpoints:
+        """Create and bind the four sockets; returns where they listen."""
+        self._ctx = zmq.Context()
+        try:
+            self._control = self._socket(zmq.ROUTER, maxmsgsize=4 * MAX_CONTROL_BYTES)
+            self._events = self._socket(zmq.PUB)
+            self._frames = self._socket(zmq.PUSH)
+            self._results_sock = self._socket(zmq.PULL, maxmsgsize=MAX_FRAME_BYTES)
+            urls = self.settings.bind_urls()
+            sockets = {
+                "control": self._control,
+                "events": self._events,
+                "frames": self._frames,
+                "results": self._results_sock,
+            }
+            for role, sock in sockets.items():
+                sock.bind(urls[role])
+            bound = {r: s.getsockopt_string(zmq.LAST_ENDPOINT) for r, s in sockets.items()}
+        except BaseException:
+            self._close_sockets()
+            raise
+        self.endpoints = Endpoints(**bound)
+        log.info("daemon listening: %s", self.endpoints)
+        return self.endpoints
+
+    def _socket(self, kind: int, *, maxmsgsize: int = -1) -> zmq.Socket:
+        sock = self._ctx.socket(kind)
+        sock.linger = 0
+        sock.maxmsgsize = maxmsgsize
+        if self.settings.curve_secret_key is not None:
+            self._curve_server(sock)
+        return sock
+
+    def _curve_server(self, sock: zmq.Socket) -> None:
+        import zmq.auth
+        from zmq.auth.thread import ThreadAuthenticator
+
+        if self._auth is None:
+            self._auth = ThreadAuthenticator(self._ctx)
+            self._auth.start()
+            self._auth.configure_curve(domain="*", location=str(self.settings.curve_clients_dir))
+        public, secret = zmq.auth.load_certificate(str(self.settings.curve_secret_key))
+        if secret is None:
+            raise RigError(f"{self.settings.curve_secret_key}: not a secret certificate")
+        sock.curve_secretkey = secret
+        sock.curve_publickey = public
+        sock.curve_server = True
+
+    def _close_sockets(self) -> None:
+        for name in ("_control", "_events", "_frames", "_results_sock"):
+            sock = getattr(self, name, None)
+            if sock is not None:
+                sock.close(linger=0)
+        if self._auth is not None:
+            self._auth.stop()
+            self._auth = None
+        if self._ctx is not None:
+            self._ctx.term()
+            self._ctx = None
+
+    # -- the loop ---------------------------------------------------------------------------
+
+    def stop(self) -> None:
+        """Ask the loop to end (thread-safe); an active session is aborted first."""
+        self._stop.set()
+
+    def serve(self) -> None:
+        """Run until shutdown; aborts an active session and closes every socket on the way out."""
+        if self._ctx is None:
+            self.bind()
+        poller = zmq.Poller()
+        poller.register(self._control, zmq.POLLIN)
+        poller.register(self._results_sock, zmq.POLLIN)
+        next_status = 0.0
+        try:
+            while not self._stop.is_set():
+                want_out = self._ledger.next_to_send() is not None and self._workers_alive()
+                poller.register(self._frames, zmq.POLLOUT if want_out else 0)
+                active = self._thread is not None
+                ready = dict(poller.poll(10 if active or want_out else 100))
+                if ready.get(self._control):
+                    self._serve_control()
+                if ready.get(self._results_sock):
+                    self._take_results()
+                self._take_frames()
+                self._send_frames()
+                self._publish_queued()
+                self._check_drains()
+                self._reap_session()
+                now = time.monotonic()
+                self._ledger.requeue_overdue(now)
+                if now >= next_status:
+                    self._publish("status", self.status())
+                    next_status = now + self.settings.status_interval_s
+        finally:
+            self._shutdown_session()
+            self._publish_queued()
+            self._close_sockets()
+
+    # -- control ----------------------------------------------------------------------------
+
+    def _serve_control(self) -> None:
+        for _ in range(_BATCH):
+            try:
+                parts = self._control.recv_multipart(zmq.NOBLOCK)
+            except zmq.Again:
+                return
+            envelope, body = _split_envelope(parts)
+            reply = self._answer(body)
+            self._control.send_multipart([*envelope, reply])
+
+    def _answer(self, body: list[bytes]) -> bytes:
+        if len(body) != 1:
+            error = MessageError(
+                "malformed", f"a request has exactly one body part, got {len(body)}"
+            )
+            return encode_error(request_id(body[0]) if body else None, error)
+        rid = request_id(body[0])
+        if rid is not None and rid in self._replies:
+            return self._replies[rid]  # a Lazy-Pirate retry: same answer, done once
+        try:
+            request = parse_request(body[0])
+            reply = encode_reply(request.id, self._dispatch(request))
+        except MessageError as err:
+            reply = encode_error(rid, err)
+        except IllegalTransition as err:
+            error = MessageError("illegal_state", str(err), "command")
+            reply = encode_error(rid, error)
+        except PlanError as err:
+            reply = encode_error(rid, MessageError("plan_invalid", str(err), "args.plan_toml"))
+        except RigError as err:
+            reply = encode_error(rid, MessageError("rejected", str(err)))
+        if rid is not None:
+            self._replies[rid] = reply
+            while len(self._replies) > _REPLY_CACHE:
+                self._replies.popitem(last=False)
+        return reply
+
+    def _dispatch(self, request: Request) -> dict:
+        args = request.args
+        match request.command:
+            case "status":
+                return self.status()
+            case "submit":
+                self._check_free("submit")
+                path = args.archive
+                if path is None:
+                    from rig.plan import parse_plan
+
+                    path = str(parse_plan(args.plan_toml, source=args.source).archive_path())
+                session = Session.start_new(
+                    args.plan_toml,
+                    source=args.source,
+                    archive_path=Path(path),
+                    config=self.config,
+                    **self._session_options(),
+                )
+                return self._start(session)
+            case "resume" if args.archive is not None:
+                self._check_free("resume")
+                session = Session.resume_from(Path(args.archive), **self._session_options())
+                return self._start(session)
+            case "resume" | "pause" | "abort":
+                self.machine.fire(SessionEvent(request.command))
+                return self.status()
+            case "calibrate":
+                raise MessageError(
+                    "not_built",
+                    f"calibrating {args.target} from the daemon is not built yet (issue 9); "
+                    "nothing was done",
+                    "command",
+                )
+            case "shutdown":
+                self._stop.set()
+                return {"stopping": True, "state": self.machine.state.value}
+        raise AssertionError(request.command)
+
+    def _check_free(self, command: str) -> None:
+        if self._thread is not None:
+            raise MessageError(
+                "busy",
+                f"a session is {self.machine.state.value} (session {self._session.id}); "
+                f"{command} again after it ends, or abort it",
+                "command",
+            )
+        if not self.machine.can(SessionEvent.SUBMIT):
+            raise IllegalTransition(self.machine.state, SessionEvent.SUBMIT)
+
+    def _session_options(self) -> dict:
+        return {
+            "devices": self._devices,
+            "clock": self.clock,
+            "machine": self.machine,
+            "outbox": self._outbox,
+            "on_fault": self.settings.on_fault,
+            "drain_timeout_s": self.settings.drain_timeout_s,
+        }
+
+    def _start(self, session: Session) -> dict:
+        try:
+            self.machine.fire(SessionEvent.SUBMIT, session=session.id)
+        except IllegalTransition:
+            session.archive.close()
+            raise
+        self._session = session
+        self._results[session.id] = []
+        self._thread = threading.Thread(target=session.run, name=f"session-{session.id}")
+        self._thread.start()
+        return self.status()
+
+    def status(self) -> dict:
+        """The daemon's state, the session's progress, workers and stream counts."""
+        state = self.machine.state
+        return {
+            "state": state.value,
+            "allowed": list(allowed_events(state)),
+            "session": None if self._session is None else self._session.status(),
+            "workers": sum(self._alive(t) for t in self._workers.values()),
+            "stream": {
+                "in_flight": self._ledger.in_flight,
+                "processed": self._ledger.acked,
+                "resent": self._ledger.resent,
+                "duplicates": self._ledger.duplicates,
+                "not_streamed": self._not_streamed,
+            },
+            "pid": os.getpid(),
+        }
+
+    def _state_changed(self, old, new, event, detail) -> None:
+        # Any thread: queue the event for the loop, wake the session.
+        change = {"from": old.value, "to": new.value, "event": event.value}
+        change.update((k, v) for k, v in detail.items() if k != "session")
+        self._outbox.publish("state", change)
+        if self._session is not None:
+            self._session.notify()
+
+    # -- frames and results -----------------------------------------------------------------
+
+    def _alive(self, last_seen: float) -> bool:
+        return time.monotonic() - last_seen < self.settings.worker_timeout_s
+
+    def _workers_alive(self) -> bool:
+        return any(self._alive(t) for t in self._workers.values())
+
+    def _take_frames(self) -> None:
+        alive = self._workers_alive() and not self._stop.is_set()
+        while not alive or self._ledger.in_flight < self.settings.max_in_flight:
+            try:
+                header, parts = self._outbox.frames.get_nowait()
+            except queue.Empty:
+                return
+            if alive:
+                self._ledger.add(InFlight(header.frame_id, header.session, parts))
+            else:
+                self._not_streamed += 1  # in the archive; `rig process` covers it
+
+    def _send_frames(self) -> None:
+        if not self._workers_alive():
+            return
+        while (entry := self._ledger.next_to_send()) is not None:
+            try:
+                self._frames.send_multipart(entry.parts, zmq.NOBLOCK, copy=False)
+            except zmq.Again:
+                return  # every worker's queue is full: try again when POLLOUT
+            self._ledger.mark_sent(entry, time.monotonic())
+
+    def _take_results(self) -> None:
+        for _ in range(_BATCH):
+            try:
+                parts = self._results_sock.recv_multipart(zmq.NOBLOCK, copy=False)
+            except zmq.Again:
+                return
+            try:
+                header, arrays = decode_result(parts)
+            except MessageError as err:
+                log.warning("bad message from a worker: %s", err)
+                self._publish("log", {"kind": "worker_message", "error": err.to_json()})
+                continue
+            self._workers[header.worker] = time.monotonic()
+            if header.kind == "error":
+                problem = {"worker": header.worker, "frame_id": header.frame_id}
+                self._publish("log", {"kind": "worker_error", "message": header.message, **problem})
+            if header.kind != "result":
+                continue
+            if self._ledger.ack(header.frame_id) is None:
+                continue
+            results = self._results.get(header.session)
+            if results is not None:
+                copied = {name: np.array(a) for name, a in arrays.items()}
+                results.append((header.model_dump(), copied))
+
+    def _check_drains(self) -> None:
+        while True:
+            try:
+                self._drains.append(self._outbox.drains.get_nowait())
+            except queue.Empty:
+                break
+        for request in list(self._drains):
+            session = request["session"]
+            outstanding = self._ledger.outstanding(session)
+            gave_up = time.monotonic() > request["deadline"] or not self._workers_alive()
+            if outstanding and not gave_up:
+                continue
+            if outstanding:
+                dropped = self._ledger.forget(session)
+                self._publish("log", {"kind": "unprocessed", "session": session, "frames": dropped})
+            request["results"] = self._results.pop(session, [])
+            self._drains.remove(request)
+            request["done"].set()
+
+    def _reap_session(self) -> None:
+        if self._thread is not None and not self._thread.is_alive():
+            self._thread.join()
+            self._thread = None
+            self._publish("status", self.status())
+
+    def _shutdown_session(self) -> None:
+        if self._thread is None:
+            return
+        if self.machine.can(SessionEvent.ABORT):
+            self.machine.fire(SessionEvent.ABORT, reason="daemon shutting down")
+        while self._thread.is_alive():
+            # Keep taking frames and answering drains (at once) so the session can end.
+            for request in self._drains:
+                request["deadline"] = 0.0
+            self._take_frames()
+            self._check_drains()
+            self._thread.join(0.01)
+        self._reap_session()
+
+    # -- events -----------------------------------------------------------------------------
+
+    def _publish(self, topic: str, payload: dict) -> None:
+        self._seq += 1
+        self._events.send_multipart(encode_event(topic, self._seq, time.time(), payload))
+
+    def _publish_queued(self) -> None:
+        while True:
+            try:
+                topic, payload = self._outbox.events.get_nowait()
+            except queue.Empty:
+                return
+            self._publish(topic, payload)
+
+
+def _split_envelope(parts: list[bytes]) -> tuple[list[bytes], list[bytes]]:
+    """ROUTER parts → (routing envelope incl. the empty delimiter, body parts)."""
+    for i, part in enumerate(parts[1:], 1):
+        if part == b"":
+            return parts[: i + 1], parts[i + 1 :]
+    return parts[:1], parts[1:]

@@ -1,0 +1,444 @@
+"""One measurement session: the compiled steps run against the devices, committed to the archive.
+
+A step is idempotent: move (both axes) → settle → lamp or laser → trigger the
+cameras → read → commit (one atomic archive append) → lamp off → stream the
+frames to the workers. Lamps and cameras act only after ``move`` returned,
+i.e. after the axes settled. Steps already in the archive are skipped, which
+is how a crashed session resumes: ``Session.resume_from(archive)`` recompiles
+the stored plan on the stored rig config and goes on after the last commit.
+
+Control (pause, resume, abort) arrives from other threads through the shared
+``StateMachine``; the session acts on it between steps. A ``DeviceError``
+that survived the driver's retries pauses the session with the device and
+step named (``on_fault="pause"``), and ``resume`` retries that step; with
+``on_fault="fail"`` the session fails with the same reason.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import itertools
+import logging
+import threading
+import time
+import uuid
+from collections.abc import Callable
+from dataclasses import dataclass
+from typing import Literal, Protocol
+
+import numpy as np
+
+from drivers.errors import DeviceError
+from rig.archive import Archive, FrameFormat, FrameRecord, StepRecord
+from rig.clock import Clock
+from rig.config import RigConfig
+from rig.daemon.devices import Captured, DeviceSet
+from rig.daemon.protocol import ArraySpec, FrameHeader
+from rig.daemon.state import IllegalTransition, SessionEvent, SessionState, StateMachine
+from rig.errors import RigError
+from rig.kinematics import forward
+from rig.plan import Plan, parse_plan
+from rig.schedule import Schedule, Step, compile_plan
+
+__all__ = ["DeviceFactory", "Session", "SessionError", "SessionOutbox", "frame_formats"]
+
+log = logging.getLogger(__name__)
+
+#: ``factory(config, clock=, scale=, laser=)`` → an open device set.
+DeviceFactory = Callable[..., DeviceSet]
+
+
+class SessionError(RigError):
+    """A session cannot start or go on (bad archive, mismatching plan…)."""
+
+
+class SessionOutbox(Protocol):
+    """Where a session's events and frames go (the daemon's sockets, or a list in tests)."""
+
+    def publish(self, topic: str, payload: dict) -> None: ...
+    def stream(self, header: FrameHeader, image: np.ndarray) -> None: ...
+    def drain(self, session: str, timeout_s: float) -> list[tuple[dict, dict]]: ...
+
+
+def frame_formats(config: RigConfig, *, scale: float) -> dict[str, FrameFormat]:
+    """The archive's frame format of every camera at a resolution ``scale`` (the plan's)."""
+    formats = {}
+    for cam in config.camera_arc.cameras:
+        h, w = max(1, round(cam.height * scale)), max(1, round(cam.width * scale))
+        dtype = "uint8" if cam.bit_depth == 8 else "uint16"
+        formats[cam.id] = FrameFormat(h, w, cam.channels, dtype)
+    return formats
+
+
+@dataclass
+class _Progress:
+    committed: int = 0
+    frames: int = 0
+    step_index: int | None = None
+    fault: dict | None = None
+    reason: str | None = None
+
+
+class Session:
+    """Runs one plan; ``run()`` is the session thread's body.
+
+    Create with ``Session.start_new`` (new archive) or ``Session.resume_from``.
+    """
+
+    def __init__(
+        self,
+        *,
+        plan: Plan,
+        config: RigConfig,
+        archive: Archive,
+        devices: DeviceFactory,
+        clock: Clock,
+        machine: StateMachine,
+        outbox: SessionOutbox,
+        on_fault: Literal["pause", "fail"] = "pause",
+        drain_timeout_s: float = 30.0,
+    ):
+        self.id = uuid.uuid4().hex[:12]
+        self.plan = plan
+        self.config = config
+        self.archive = archive
+        self.schedule: Schedule = compile_plan(plan, config)
+        self._check_archive_matches()
+        self._devices_factory = devices
+        self.clock = clock
+        self.machine = machine
+        self.outbox = outbox
+        self.on_fault = on_fault
+        self.drain_timeout_s = drain_timeout_s
+        self._changed = threading.Condition()
+        self._progress = _Progress(committed=len(archive.committed_steps()))
+        self._lock = threading.Lock()
+        self._per_kind_s = _per_step_estimate(self.schedule)
+        # Estimated time of the steps after each step, for the ETA.
+        per_step = [self._per_kind_s[s.kind] for s in self.schedule.steps]
+        self._remaining_after = np.cumsum(per_step[::-1])[::-1] - np.array(per_step)
+
+    # -- creating ---------------------------------------------------------------------------
+
+    @classmethod
+    def start_new(cls, plan_toml: str, *, source: str, archive_path, config: RigConfig, **kw):
+        """A session of a new plan writing a new archive (which must not exist)."""
+        plan = parse_plan(plan_toml, source=source)
+        archive = Archive.create(
+            archive_path,
+            plan=plan.model_dump(mode="json"),
+            plan_toml=plan_toml,
+            rig_config=config.model_dump(mode="json"),
+            cameras=frame_formats(config, scale=plan.resolution.scale),
+        )
+        try:
+            return cls(plan=plan, config=config, archive=archive, **kw)
+        except BaseException:
+            archive.close()
+            raise
+
+    @classmethod
+    def resume_from(cls, archive_path, **kw):
+        """Continue the session stored in ``archive_path`` after its last committed step."""
+        archive = Archive.open(archive_path, mode="a")
+        try:
+            if archive.plan_toml is None:
+                raise SessionError(f"{archive_path}: the archive keeps no plan text to resume")
+            plan = parse_plan(archive.plan_toml, source=f"{archive_path} (stored plan)")
+            config = RigConfig.model_validate(archive.rig_config)
+            return cls(plan=plan, config=config, archive=archive, **kw)
+        except BaseException:
+            archive.close()
+            raise
+
+    def _check_archive_matches(self) -> None:
+        steps = {s.index: s for s in self.schedule.steps}
+        for record in self.archive.step_table():
+            step = steps.get(record.index)
+            if step is None or (step.kind, step.cameras) != (record.kind, record.cameras):
+                raise SessionError(
+                    f"{self.archive.path}: committed step {record.index} ({record.kind}) does not "
+                    "match the recompiled plan; this archive cannot be resumed by this version"
+                )
+
+    # -- control from other threads ---------------------------------------------------------
+
+    def notify(self) -> None:
+        """Wake the session thread (the daemon calls it after every state change)."""
+        with self._changed:
+            self._changed.notify_all()
+
+    def status(self) -> dict:
+        """A snapshot of the progress (thread-safe)."""
+        with self._lock:
+            p = self._progress
+            return {
+                "session": self.id,
+                "sample": self.plan.sample.name,
+                "archive": str(self.archive.path),
+                "steps": len(self.schedule.steps),
+                "committed": p.committed,
+                "step_index": p.step_index,
+                "frames": p.frames,
+                "fault": p.fault,
+                "reason": p.reason,
+                "estimate_s": self.schedule.estimate.total_s,
+            }
+
+    # -- the session thread -----------------------------------------------------------------
+
+    def run(self) -> None:
+        """Home, run every uncommitted step, finish; ends in done, aborted or failed."""
+        devices = None
+        try:
+            committed = set(self.archive.committed_steps())
+            self._log("session", action="start", session=self.id, committed=len(committed))
+            has_laser = any(s.kind == "mdf" for s in self.schedule.steps)
+            devices = self._devices_factory(
+                self.config, clock=self.clock, scale=self.plan.resolution.scale, laser=has_laser
+            )
+            devices.home(laser=has_laser)
+            self._fire_or_abort(SessionEvent.HOMED)
+            self._t0 = (self.clock.now(), time.perf_counter())
+            self._done_estimate_s = 0.0
+            for step in self.schedule.steps:
+                if step.index in committed:
+                    continue
+                self._run_with_faults(step, devices)
+            self._fire_when_running(SessionEvent.STEPS_DONE)
+            self._finish(devices)
+            self._fire_or_abort(SessionEvent.FINISHED)
+        except _Aborted:
+            log.info("session %s aborted", self.id)
+        except Exception as err:  # the session fails with the reason; the daemon goes on
+            log.exception("session %s failed", self.id)
+            self._fail(f"{type(err).__name__}: {err}")
+        finally:
+            self._close(devices)
+
+    def _run_with_faults(self, step: Step, devices: DeviceSet) -> None:
+        while True:
+            self._wait_runnable()
+            try:
+                self._run_step(step, devices)
+                return
+            except DeviceError as err:
+                fault = {
+                    "device": err.device,
+                    "operation": err.operation,
+                    "detail": err.detail,
+                    "step": step.index,
+                    "kind": step.kind,
+                }
+                self._switch_off(devices)
+                if self.on_fault == "fail":
+                    raise
+                with self._lock:
+                    self._progress.fault = fault
+                self._log("fault", **fault)
+                # Already paused or aborted by the user: the fault is recorded all the same.
+                with contextlib.suppress(IllegalTransition):
+                    self.machine.fire(SessionEvent.FAULT, **fault)
+
+    def _wait_runnable(self) -> None:
+        """Return when running; raise ``_Aborted`` when the session was aborted."""
+        with self._changed:
+            while True:
+                state = self.machine.state
+                if state == SessionState.RUNNING:
+                    break
+                if state != SessionState.PAUSED:
+                    raise _Aborted
+                self._changed.wait()
+        with self._lock:
+            self._progress.fault = None
+
+    def _fire_when_running(self, event: SessionEvent) -> None:
+        while True:
+            self._wait_runnable()
+            try:
+                self._fire(event)
+                return
+            except IllegalTransition:
+                continue  # paused in between: wait again
+
+    def _run_step(self, step: Step, devices: DeviceSet) -> None:
+        with self._lock:
+            self._progress.step_index = step.index
+        started_at = time.time()
+        actuators = devices.move(turntable_deg=step.turntable_deg, arc_deg=step.arc_deg)
+        extra = {}
+        if step.kind == "mdf":
+            mount = int(step.source.removeprefix("laser"))
+            devices.laser(mount, True)
+            frames, tilts = devices.scan(
+                step.cameras,
+                tilt_deg=step.tilt_deg,
+                frames=step.scan_frames,
+                exposure_s=step.exposures_s[0],
+            )
+            # Logged before the commit: a crash in between repeats the scan and its
+            # event; readers take the last "scan" event of a step.
+            self.archive.log_event("scan", step=step.index, tilts_deg=tilts)
+            extra = {"laser": mount}
+        else:
+            devices.lamp(step.source, True)
+            frames = devices.capture(step.cameras, step.exposures_s)
+            extra = {"lamp": step.source}
+        record = self._record(step, actuators, started_at, **extra)
+        records = {c: [_as_frame_record(f) for f in fr] for c, fr in frames.items()}
+        self.archive.append_step(record, records)
+        if step.kind == "mdf":
+            devices.laser(extra["laser"], False)
+        else:
+            devices.lamp(step.source, False)
+        self._stream(step, frames)
+        self._progressed(step, sum(len(f) for f in frames.values()))
+
+    def _record(self, step: Step, actuators: dict, started_at: float, **source) -> StepRecord:
+        views, light = {}, None
+        for shot in step.shots:
+            view, light = forward(
+                self.config,
+                turntable_deg=step.turntable_deg,
+                arc_deg=step.arc_deg,
+                camera=shot.camera,
+                lamp=step.source,
+            )
+            views[shot.camera] = (float(view[0]), float(view[1]))
+        return StepRecord(
+            index=step.index,
+            kind=step.kind,
+            cameras=step.cameras,
+            views_deg=views,
+            light_deg=(float(light[0]), float(light[1])),
+            actuators=actuators,
+            exposures_s=step.exposures_s,
+            started_at=started_at,
+            **source,
+        )
+
+    def _stream(self, step: Step, frames: dict[str, list[Captured]]) -> None:
+        for camera, captured in frames.items():
+            for frame in captured:
+                header = FrameHeader(
+                    frame_id=next(_FRAME_IDS),
+                    session=self.id,
+                    step=step.index,
+                    kind=step.kind,
+                    camera=camera,
+                    sub=frame.sub,
+                    exposure_s=frame.exposure_s,
+                    timestamp=frame.timestamp,
+                    array=ArraySpec(dtype=frame.image.dtype.name, shape=frame.image.shape),
+                )
+                self.outbox.stream(header, frame.image)
+
+    def _progressed(self, step: Step, n_frames: int) -> None:
+        with self._lock:
+            self._progress.committed += 1
+            self._progress.frames += n_frames
+            committed = self._progress.committed
+        self._done_estimate_s += self._per_kind_s[step.kind]
+        clock_elapsed = self.clock.now() - self._t0[0]
+        remaining = float(self._remaining_after[step.index])
+        # Scale the estimate by how fast the rig has really been so far.
+        pace = clock_elapsed / self._done_estimate_s if self._done_estimate_s > 0 else 1.0
+        self.outbox.publish(
+            "progress",
+            {
+                "session": self.id,
+                "step": committed,
+                "steps": len(self.schedule.steps),
+                "step_index": step.index,
+                "kind": step.kind,
+                "eta_s": remaining * pace,
+                "elapsed_s": clock_elapsed,
+                "wall_s": time.perf_counter() - self._t0[1],
+                "frames": self._progress.frames,
+                "frames_per_s": self._progress.frames / clock_elapsed if clock_elapsed > 0 else 0.0,
+            },
+        )
+
+    def _finish(self, devices: DeviceSet) -> None:
+        devices.all_off()
+        results = self.outbox.drain(self.id, self.drain_timeout_s)
+        if results:
+            _write_stats(self.archive, results)
+        self._log("session", action="finished", session=self.id, processed=len(results))
+
+    # -- endings ----------------------------------------------------------------------------
+
+    def _fire(self, event: SessionEvent, **detail) -> None:
+        self.machine.fire(event, session=self.id, **detail)
+
+    def _fire_or_abort(self, event: SessionEvent) -> None:
+        try:
+            self._fire(event)
+        except IllegalTransition:
+            if self.machine.state == SessionState.ABORTED:
+                raise _Aborted from None
+            raise
+
+    def _fail(self, reason: str) -> None:
+        with self._lock:
+            self._progress.reason = reason
+        try:
+            self._fire(SessionEvent.FAIL, reason=reason)
+        except IllegalTransition:
+            log.warning("session %s: %s (state %s)", self.id, reason, self.machine.state)
+        self._log("session", action="failed", session=self.id, reason=reason)
+
+    def _switch_off(self, devices: DeviceSet) -> None:
+        try:
+            devices.all_off()
+        except DeviceError as err:
+            log.warning("session %s: switching off after a fault: %s", self.id, err)
+
+    def _log(self, kind: str, **payload) -> None:
+        if self.archive.mode == "a":
+            self.archive.log_event(kind, **payload)
+        self.outbox.publish("log", {"kind": kind, **payload})
+
+    def _close(self, devices: DeviceSet | None) -> None:
+        try:
+            if devices is not None:
+                self._switch_off(devices)
+                devices.close()
+        finally:
+            self.archive.close()
+
+
+#: Frame ids, unique over the daemon's life (``next`` on a count is atomic).
+_FRAME_IDS = itertools.count(1)
+
+
+class _Aborted(Exception):
+    """The state machine left the running/paused states from outside."""
+
+
+def _as_frame_record(frame: Captured) -> FrameRecord:
+    return FrameRecord(frame.image, frame.sub, frame.exposure_s, frame.timestamp)
+
+
+def _per_step_estimate(schedule: Schedule) -> dict[str, float]:
+    counts: dict[str, int] = {}
+    for step in schedule.steps:
+        counts[step.kind] = counts.get(step.kind, 0) + 1
+    return {k: schedule.estimate.by_kind_s.get(k, 0.0) / n for k, n in counts.items()}
+
+
+def _write_stats(archive: Archive, results: list[tuple[dict, dict]]) -> None:
+    """Per-camera tables of the workers' per-frame statistics in ``material/stats``."""
+    by_camera: dict[str, list[tuple[dict, dict]]] = {}
+    for header, arrays in results:
+        by_camera.setdefault(header["camera"], []).append((header, arrays))
+    with archive.replace_material("stats") as group:
+        for camera, rows in by_camera.items():
+            rows.sort(key=lambda r: (r[0]["step"], r[0]["sub"]))
+            sub = group.create_group(camera)
+            sub.create_array("step", data=np.array([r[0]["step"] for r in rows], dtype=np.int64))
+            sub.create_array("sub", data=np.array([r[0]["sub"] for r in rows], dtype=np.int64))
+            for name in rows[0][1]:
+                data = np.stack([np.asarray(r[1][name], dtype=np.float32) for r in rows])
+                sub.create_array(name, data=data)

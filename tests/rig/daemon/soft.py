@@ -1,0 +1,254 @@
+"""Soft devices: in-process turntable, arc, lamps, laser and cameras on one clock.
+
+They implement the driver interfaces the facade uses (``drivers.interfaces``
+and ``rig.daemon.devices``), model motion and exposure time on the injected
+clock (parallel axes overlap: each wait sleeps only up to its own end), make
+deterministic frames from the rig's state, record any exposure taken while an
+axis moved, and inject faults on request (stall, timeout, dropped frame, a dark
+lamp). Used by the daemon tests, in process and in ``soft_daemon.py``.
+"""
+
+from __future__ import annotations
+
+import threading
+import time
+import zlib
+from collections import Counter
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from drivers.errors import DeviceFault, DeviceTimeout, MotionStalled
+from rig.archive import FrameFormat
+from rig.clock import Clock
+from rig.config import Axis, RigConfig
+from rig.daemon import RigDevices, frame_formats
+
+
+@dataclass
+class Faults:
+    """Faults to inject: ``arm("turntable.wait", "stall", times=1)``."""
+
+    armed: dict[str, list[str]] = field(default_factory=dict)
+    fired: Counter = field(default_factory=Counter)
+    lock: threading.Lock = field(default_factory=threading.Lock)
+
+    def arm(self, where: str, kind: str, *, times: int = 1) -> None:
+        with self.lock:
+            self.armed.setdefault(where, []).extend([kind] * times)
+
+    def take(self, where: str) -> str | None:
+        with self.lock:
+            kinds = self.armed.get(where)
+            if not kinds:
+                return None
+            self.fired[where] += 1
+            return kinds.pop(0)
+
+
+@dataclass
+class SoftRig:
+    """The shared state of the soft devices."""
+
+    config: RigConfig
+    clock: Clock
+    faults: Faults = field(default_factory=Faults)
+    real_delay_s: float = 0.0  # real seconds per camera read (to kill a daemon mid-session)
+    turntable_deg: float = 0.0
+    arc_deg: float = 0.0
+    moving_until: dict = field(default_factory=lambda: {"turntable": 0.0, "arc": 0.0})
+    lamps_on: frozenset = frozenset()
+    laser_on: bool = False
+    violations: list = field(default_factory=list)
+    captures: list = field(default_factory=list)
+    opened: int = 0
+    closed: int = 0
+
+    def moving(self) -> list[str]:
+        now = self.clock.now()
+        return [a for a, t in self.moving_until.items() if t > now + 1e-12]
+
+
+class SoftAxis:
+    def __init__(self, rig: SoftRig, name: str, axis: Axis):
+        self.rig, self.name, self.axis = rig, name, axis
+        self._target = None
+
+    def home(self) -> None:
+        self._check("home")
+        self.rig.clock.sleep(float(self.axis.move_time_s(getattr(self.rig, self._attr))))
+        setattr(self.rig, self._attr, 0.0)
+
+    def enable(self) -> None:
+        self._check("enable")
+
+    def disable(self) -> None:
+        pass
+
+    @property
+    def _attr(self) -> str:
+        return f"{self.name}_deg"
+
+    def move_to(self, deg: float) -> None:
+        self._check("move")
+        start = getattr(self.rig, self._attr)
+        self.rig.moving_until[self.name] = self.rig.clock.now() + float(
+            self.axis.move_time_s(deg - start)
+        )
+        self._target = deg
+        setattr(self.rig, self._attr, float("nan"))  # unknown while moving
+
+    def position(self) -> float:
+        value = getattr(self.rig, self._attr)
+        return self._target if np.isnan(value) else value
+
+    def wait_until_settled(self, timeout_s: float | None = None) -> float:
+        clock = self.rig.clock
+        clock.sleep(max(0.0, self.rig.moving_until[self.name] - clock.now()))
+        kind = self.rig.faults.take(f"{self.name}.wait")
+        if kind == "stall":
+            raise MotionStalled(self.name, "move_to", f"stopped short of {self._target}°")
+        if kind == "timeout":
+            raise DeviceTimeout(self.name, "move_to", "no reply (gave up after 4 tries)")
+        setattr(self.rig, self._attr, self._target)
+        return self._target
+
+    def stop(self) -> None:
+        pass
+
+    def close(self) -> None:
+        self.rig.closed += 1
+
+    def _check(self, operation: str) -> None:
+        if self.rig.faults.take(f"{self.name}.{operation}") == "timeout":
+            raise DeviceTimeout(self.name, operation, "no reply (gave up after 4 tries)")
+
+
+class SoftLamps:
+    def __init__(self, rig: SoftRig):
+        self.rig = rig
+
+    @property
+    def lamp_ids(self) -> tuple[str, ...]:
+        return tuple(lamp.id for lamp in self.rig.config.light_arc.lamps)
+
+    def switch(self, lamps_on) -> None:
+        if lamps_on and self.rig.faults.take("lamps.switch") == "dark":
+            raise DeviceFault("lamp bank", "switch", f"lamp {sorted(lamps_on)} stays dark")
+        self.rig.lamps_on = frozenset(lamps_on)
+        if lamps_on:
+            self.rig.clock.sleep(self.rig.config.lamp_bank.warmup_s)
+
+    def lamps_on(self) -> frozenset:
+        return self.rig.lamps_on
+
+    def set_level(self, lamp_id: str, level: float) -> None:
+        pass
+
+    def close(self) -> None:
+        self.rig.closed += 1
+
+
+class SoftLaser:
+    def __init__(self, rig: SoftRig):
+        self.rig = rig
+        self._tilt = 0.0
+        self._start = (0.0, 0.0, 0.0)  # (t, from, to)
+
+    def check_battery(self) -> int:
+        return 8000
+
+    def set_laser(self, on: bool) -> None:
+        self.rig.laser_on = on
+
+    def start_tilt(self, target_deg: float) -> None:
+        self._start = (self.rig.clock.now(), self.tilt_deg(), target_deg)
+
+    def tilt_deg(self) -> float:
+        t0, a, b = self._start
+        speed = self.rig.config.laser.sweep_speed_deg_s
+        done = min(1.0, (self.rig.clock.now() - t0) * speed / abs(b - a)) if b != a else 1.0
+        return a + (b - a) * done
+
+    def wait_tilt(self, target_deg: float) -> float:
+        t0, a, b = self._start
+        end = t0 + abs(b - a) / self.rig.config.laser.sweep_speed_deg_s
+        self.rig.clock.sleep(max(0.0, end - self.rig.clock.now()))
+        return b
+
+    def move_tilt(self, target_deg: float) -> float:
+        self.start_tilt(target_deg)
+        return self.wait_tilt(target_deg)
+
+    def stop(self) -> None:
+        pass
+
+    def close(self) -> None:
+        self.rig.closed += 1
+
+
+@dataclass
+class _SoftFrame:
+    image: np.ndarray
+    timestamp: float
+    exposure_s: float
+
+
+class SoftCamera:
+    def __init__(self, rig: SoftRig, camera: str, fmt: FrameFormat):
+        self.rig, self.camera, self.fmt = rig, camera, fmt
+        self._pending = None
+
+    def trigger(self, exposure_s: float) -> None:
+        rig = self.rig
+        if rig.moving():
+            rig.violations.append(("exposed while moving", self.camera, rig.moving()))
+        if not (rig.lamps_on or rig.laser_on):
+            rig.violations.append(("exposed in the dark", self.camera))
+        readout = rig.config.camera(self.camera).readout_s * (self.fmt.height / 768)
+        state = (rig.turntable_deg, rig.arc_deg, tuple(sorted(rig.lamps_on)), rig.laser_on)
+        self._pending = (rig.clock.now(), exposure_s, rig.clock.now() + exposure_s + readout, state)
+
+    def read(self) -> _SoftFrame:
+        t, exposure, ready, state = self._pending
+        self.rig.clock.sleep(max(0.0, ready - self.rig.clock.now()))
+        if self.rig.real_delay_s:
+            time.sleep(self.rig.real_delay_s)
+        if self.rig.faults.take(f"{self.camera}.read") == "drop":
+            raise DeviceTimeout(self.camera, "read", "frame dropped (gave up after 4 tries)")
+        tt, arc, lamps, laser = state
+        image = soft_image(self.fmt, self.camera, tt, arc, lamps, laser, exposure)
+        self.rig.captures.append((self.camera, tt, arc, lamps, laser, exposure))
+        return _SoftFrame(image, t, exposure)
+
+    def close(self) -> None:
+        self.rig.closed += 1
+
+
+def soft_image(fmt: FrameFormat, camera, tt, arc, lamps, laser, exposure) -> np.ndarray:
+    """The frame a soft camera makes for a rig state: a level fixed by the state + a ramp."""
+    key = f"{camera}|{tt:.6f}|{arc:.6f}|{','.join(lamps)}|{laser}|{exposure:.6g}"
+    level = 16 + zlib.crc32(key.encode()) % 200
+    ramp = (np.arange(fmt.width) % 32).astype(np.int64)
+    image = np.empty(fmt.shape, dtype=fmt.dtype)
+    image[...] = (level + ramp)[None, :, None]
+    return image
+
+
+def soft_devices(rig: SoftRig):
+    """A device factory (``factory(config, clock=, scale=, laser=)``) over ``rig``."""
+
+    def factory(config: RigConfig, *, clock: Clock, scale: float, laser: bool) -> RigDevices:
+        rig.opened += 1
+        formats = frame_formats(config, scale=scale)
+        return RigDevices(
+            config,
+            clock=rig.clock,
+            turntable=SoftAxis(rig, "turntable", config.turntable.axis),
+            arc=SoftAxis(rig, "arc", config.light_arc.axis),
+            lamps=SoftLamps(rig),
+            laser=SoftLaser(rig) if laser else None,
+            cameras={c: SoftCamera(rig, c, fmt) for c, fmt in formats.items()},
+        )
+
+    return factory
