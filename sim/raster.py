@@ -13,8 +13,10 @@ buffers instead.
 
 from __future__ import annotations
 
+import ctypes
 import os
 import threading
+from typing import ClassVar
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
@@ -68,6 +70,40 @@ class _SingleSampleRenderer(pyrender.Renderer):
         self._main_fb_dims = dims
 
 
+class _SharedDisplayEGL(egl.EGLPlatform):
+    """pyrender's EGL platform, minus the eglTerminate of the process-wide display.
+
+    All contexts on a device share one EGLDisplay; pyrender terminates it when
+    any one context is deleted, which breaks every other live Simulator. Here
+    the display is terminated only when its last context goes.
+    """
+
+    _live: ClassVar[dict[int, int]] = {}
+    _live_lock: ClassVar[threading.Lock] = threading.Lock()
+
+    def init_context(self):
+        super().init_context()
+        with self._live_lock:
+            key = ctypes.cast(self._egl_display, ctypes.c_void_p).value
+            self._live[key] = self._live.get(key, 0) + 1
+
+    def delete_context(self):
+        from OpenGL.EGL import eglDestroyContext, eglTerminate
+
+        if self._egl_display is None:
+            return
+        if self._egl_context is not None:
+            eglDestroyContext(self._egl_display, self._egl_context)
+            self._egl_context = None
+        with self._live_lock:
+            key = ctypes.cast(self._egl_display, ctypes.c_void_p).value
+            self._live[key] -= 1
+            if self._live[key] == 0:
+                del self._live[key]
+                eglTerminate(self._egl_display)
+        self._egl_display = None
+
+
 def camera_pose_gl(camera: PinholeCamera, turntable_deg: float) -> np.ndarray:
     """4×4 camera-to-sample pose in OpenGL axes for a turntable angle.
 
@@ -116,7 +152,7 @@ class IdRasterizer:
         self._scene.add(pyrender.Mesh([prim]))
         self._cam_node = None
         self._lock = threading.Lock()
-        self._platform = egl.EGLPlatform(64, 64, device=egl.get_device_by_index(0))
+        self._platform = _SharedDisplayEGL(64, 64, device=egl.get_device_by_index(0))
         self._platform.init_context()
         self._platform.make_current()
         self._renderer = _SingleSampleRenderer(64, 64)

@@ -31,7 +31,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from rig.config import RigConfig, default_rig_config, format_validation_error
 from rig.errors import ConfigError
@@ -171,22 +171,20 @@ class SceneSpec(_Closed):
     lens_distortion: LensDistortionParams | None = None
     interreflection: InterreflectionParams | None = None
 
-    @model_validator(mode="after")
-    def _consistent(self) -> SceneSpec:
+    def problems(self) -> list[str]:
+        """Cross-field problems pydantic's field checks cannot see."""
         problems = []
         if len(set(self.effects)) != len(self.effects):
             problems.append(f"effects: each effect once, got {list(self.effects)}")
         for name in _PARAMS:
             if getattr(self, name) is not None and name not in self.effects:
-                problems.append(f"[{name}] parameters given but {name!r} is not in effects")
+                problems.append(f"{name}: parameters given but {name!r} is not in effects")
         missing = [m for m in self.sample.materials if m not in self.materials]
         if missing:
             problems.append(
                 f"sample.materials: {missing} not defined; defined are {sorted(self.materials)}"
             )
-        if problems:
-            raise ValueError("; ".join(problems))
-        return self
+        return problems
 
     def params(self, effect: str) -> BaseModel:
         """The parameters of a listed effect (defaults when its table is absent)."""
@@ -239,7 +237,7 @@ def scene_from_dict(data: dict, *, source: str = "scene", base_dir: Path = Path(
         spec = SceneSpec.model_validate(data)
     except ValidationError as err:
         raise ConfigError(_report(source, _lines((), err, SceneSpec))) from err
-    problems: list[str] = []
+    problems = spec.problems()
     try:
         gen = generator(spec.sample.generator)
     except ConfigError as err:
