@@ -38,7 +38,8 @@ def with_retries(
         except retry_on as err:
             if tries > retry.retries:
                 kind = type(err) if isinstance(err, DeviceError) else DeviceTimeout
-                raise kind(device, operation, f"{err} (gave up after {tries} tries)") from err
+                detail = err.detail if isinstance(err, DeviceError) else str(err)
+                raise kind(device, operation, f"{detail} (gave up after {tries} tries)") from err
             log.warning("%s: %s: %s; retry %d/%d", device, operation, err, tries, retry.retries)
             clock.sleep(delay)
             delay *= 2
