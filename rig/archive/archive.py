@@ -22,6 +22,7 @@ import contextlib
 import fcntl
 import logging
 import os
+import shutil
 import time
 from collections.abc import Iterable, Iterator, Mapping, Sequence
 from concurrent.futures import ThreadPoolExecutor
@@ -65,7 +66,8 @@ class Archive:
     """A session archive opened for reading (``mode="r"``) or appending (``"a"``).
 
     Use ``Archive.create`` or ``Archive.open``; close it (or use ``with``).
-    Only one process may append at a time (an advisory lock enforces it).
+    Only one process may append at a time (an advisory lock enforces it); an
+    ``Archive`` object is used from one thread at a time.
     """
 
     def __init__(self, path: Path, *, mode: str, fsync: bool, workers: int | None):
@@ -83,7 +85,7 @@ class Archive:
         try:
             self._load()
         except BaseException:
-            self.close()
+            self._release()
             raise
 
     # -- creating and opening -------------------------------------------------------------
@@ -117,7 +119,8 @@ class Archive:
         for name, fmt in cameras.items():
             if not isinstance(fmt, FrameFormat):
                 raise ArchiveError(f"{path}: cameras[{name!r}] is not a FrameFormat: {fmt!r}")
-            check_result_name(name)
+            if len(check_result_name(name)) > 64:
+                raise ArchiveError(f"{path}: camera name {name!r} is longer than 64 characters")
         if not (isinstance(zstd_level, int) and -7 <= zstd_level <= 22):
             raise ArchiveError(f"{path}: zstd_level = {zstd_level!r}, expected an int in -7..22")
         attributes = {
@@ -131,6 +134,7 @@ class Archive:
         }
         calibration = json_safe(dict(calibration or {}), where="calibration")
         tmp = path.with_name(f".{path.name}.creating")
+        shutil.rmtree(tmp, ignore_errors=True)  # left by a crash during an earlier create
         tmp.mkdir(parents=True)
         (tmp / "frames").mkdir()
         for name, fmt in cameras.items():
@@ -176,7 +180,13 @@ class Archive:
         return cls(path, mode=mode, fsync=fsync, workers=workers)
 
     def _lock(self) -> None:
-        self._lock_fd = os.open(self.path / _LOCK, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            self._lock_fd = os.open(self.path / _LOCK, os.O_RDWR | os.O_CREAT, 0o644)
+        except FileNotFoundError as err:
+            raise ArchiveError(
+                f"{self.path}: missing folder log/ (journal and writer lock); "
+                "not a btfrig archive, or a damaged one"
+            ) from err
         try:
             fcntl.flock(self._lock_fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except BlockingIOError as err:
@@ -375,11 +385,18 @@ class Archive:
 
     def close(self) -> None:
         """Record the clean close, trim array shapes to the committed frames, release all."""
+        try:
+            if self._journal is not None:
+                for camera in self.cameras:
+                    if self._capacity[camera] != self._index.next_position[camera]:
+                        self._write_shape(camera, self._index.next_position[camera])
+                self._append_event("closed", {"committed_steps": len(self._index.steps)})
+        finally:
+            self._release()
+
+    def _release(self) -> None:
+        """Close the journal, stop the pool and drop the lock, writing nothing."""
         if self._journal is not None:
-            for camera in self.cameras:
-                if self._capacity[camera] != self._index.next_position[camera]:
-                    self._write_shape(camera, self._index.next_position[camera])
-            self._append_event("closed", {"committed_steps": len(self._index.steps)})
             self._journal.close()
             self._journal = None
         if self._pool is not None:

@@ -167,3 +167,21 @@ def test_reading_what_is_not_there_names_what_is(archive_path):
             archive.read_frame(0, "ir")
         with pytest.raises(ArchiveError, match=r"camera 'rgb' has no sub 5; it has \[0, 1\]"):
             archive.read_frame(0, "rgb", 5)
+
+
+def test_missing_log_folder_when_appending(archive_path):
+    shutil.rmtree(archive_path / "log")
+    with pytest.raises(ArchiveError, match=r"missing folder log/"):
+        Archive.open(archive_path, mode="a")
+    _open_fails(archive_path, r"s\.zarr/log: missing array metadata zarr\.json")
+
+
+def test_a_failed_open_for_appending_writes_nothing(archive_path):
+    (archive_path / "frames" / "rgb" / "c.0.0.0.0").unlink()
+    journal = archive_path / "log" / "journal.jsonl"
+    before = journal.read_bytes()
+    with pytest.raises(ArchiveError, match="is missing"):
+        Archive.open(archive_path, mode="a")
+    assert journal.read_bytes() == before
+    with pytest.raises(ArchiveError, match="is missing"):  # not "another process": unlocked
+        Archive.open(archive_path, mode="a")
