@@ -33,7 +33,6 @@ __all__ = ["LampBankPeer", "TurntableDrivePeer"]
 
 log = logging.getLogger(__name__)
 _INT32 = ModbusClientMixin.DATATYPE.INT32
-_WRITE_CODES = {5, 6, 15, 16, 22, 23}
 
 
 class _ModbusPeer:
@@ -190,7 +189,7 @@ class TurntableDrivePeer(_ModbusPeer):
         set_values: list[int] | list[bool] | None,
     ) -> ExcCodes | None:
         r = self.registers
-        if function_code not in _WRITE_CODES:
+        if set_values is None:  # a read (pymodbus also reads back after a write)
             self._refresh(registers, start_address)
             return None
         pending = list(registers)
@@ -352,15 +351,13 @@ class LampBankPeer(_ModbusPeer):
             lit = self.world.snapshot().lamps_on | self._stuck
             on = lit if function_code == 2 else set(self.world.lamps_on)
             self._pack_bits(registers, start_address, first, [lamp in on for lamp in self.lamp_ids])
-        elif function_code in (5, 15):
+        elif function_code in (5, 15) and set_values is not None:
             # For bit blocks pymodbus passes ``count`` in registers, not bits.
             for offset, value in enumerate(set_values or []):
                 channel = address + offset - r.coils
                 if 0 <= channel < len(self.lamp_ids):
                     self.world.set_lamp(self.lamp_ids[channel], bool(value))
-        elif function_code in _WRITE_CODES and any(
-            int(v) > r.dim_full_scale for v in set_values or []
-        ):
+        elif set_values is not None and any(int(v) > r.dim_full_scale for v in set_values):
             return ExcCodes.ILLEGAL_VALUE
         return None
 
