@@ -1,0 +1,115 @@
+"""Streaming space-time peaks against a batch computation and known peak times."""
+
+import numpy as np
+import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+
+from processing.mdf import (
+    PEAK_METHODS,
+    MdfError,
+    Reason,
+    SpaceTimeTracker,
+    peak_offset,
+    peak_radius,
+    space_time_peaks,
+)
+
+
+def sweep(centres, n_frames, *, sigma=1.2, peak=180.0, ambient=12.0, noise=0.0, seed=0):
+    """Frames where pixel p peaks at frame centres[p] (a Gaussian in time)."""
+    rng = np.random.default_rng(seed)
+    t = np.arange(n_frames, dtype=np.float64)[:, None, None]
+    value = ambient + peak * np.exp(-((t - centres[None]) ** 2) / (2 * sigma**2))
+    value = value + rng.normal(0, noise, value.shape) if noise else value
+    return np.clip(np.rint(value), 0, 255).astype(np.uint8)
+
+
+@pytest.mark.parametrize("method", PEAK_METHODS)
+def test_sub_frame_peak_times(method):
+    centres = np.random.default_rng(3).uniform(5, 34, (12, 16))
+    stack = sweep(centres, 40, noise=0.5)
+    peaks = space_time_peaks(iter(stack), method=method, min_contrast=20.0)
+    assert peaks.time.dtype == np.float32 and peaks.reason.dtype == np.uint8
+    assert np.all(peaks.reason == Reason.OK)
+    tol = {"gaussian": 0.03, "blais_rioux": 0.05, "centroid": 0.08}[method]
+    assert np.median(np.abs(peaks.time - centres)) < tol
+
+
+@settings(max_examples=30)
+@given(
+    seed=st.integers(0, 2**31),
+    n_frames=st.integers(1, 30),
+    method=st.sampled_from(PEAK_METHODS),
+    dtype=st.sampled_from([np.uint8, np.uint16, np.float32]),
+)
+def test_streaming_equals_batch(seed, n_frames, method, dtype):
+    rng = np.random.default_rng(seed)
+    stack = (rng.random((n_frames, 5, 7)) * 200).astype(dtype)
+    stack[rng.random(stack.shape) < 0.5] = 0  # ties and flat runs
+    tracker = SpaceTimeTracker((5, 7), method=method, min_contrast=15.0)
+    for frame in stack:
+        tracker.update(frame)
+    got = tracker.result()
+    # Batch: first maximum, window from the stack, background = minimum.
+    f = stack.astype(np.float64)
+    k = f.argmax(axis=0)
+    r = peak_radius(method)
+    low = f.min(axis=0)
+    contrast = f.max(axis=0) - low
+    complete = (k >= r) & (k <= n_frames - 1 - r)
+    idx = np.clip(k[None] + np.arange(-r, r + 1)[:, None, None], 0, n_frames - 1)
+    window = np.take_along_axis(f, idx, axis=0) - low
+    off, ok = peak_offset(window, method=method)
+    expect = np.where(contrast < 15.0, Reason.UNLIT, Reason.OK)
+    expect = np.where((contrast >= 15.0) & ~complete, Reason.AT_SEQUENCE_EDGE, expect)
+    expect = np.where((contrast >= 15.0) & complete & ~ok, Reason.FIT_FAILED, expect)
+    np.testing.assert_array_equal(got.reason, expect)
+    good = expect == Reason.OK
+    np.testing.assert_allclose(got.time[good], (k + off)[good], atol=1e-4)
+    assert np.all(got.time[~good] == -1)
+    np.testing.assert_allclose(got.contrast, contrast, atol=1e-3)
+
+
+def test_unlit_and_sequence_edge_pixels_are_flagged():
+    centres = np.array([[10.0, 0.2, 19.0, 1e6]])  # middle, first frame, last frame, never
+    stack = sweep(centres, 20)
+    peaks = space_time_peaks(stack, min_contrast=20.0)
+    assert peaks.reason.tolist() == [
+        [Reason.OK, Reason.AT_SEQUENCE_EDGE, Reason.AT_SEQUENCE_EDGE, Reason.UNLIT]
+    ]
+    assert peaks.time[0, 1:].tolist() == [-1, -1, -1]
+    assert peaks.frames == 20
+
+
+def test_bright_albedo_without_laser_is_not_lit():
+    stack = np.full((15, 2, 2), 240, np.uint8)
+    stack[:, 0, 0] += np.arange(15, dtype=np.uint8) % 3  # flicker, no peak
+    peaks = space_time_peaks(stack, min_contrast=20.0)
+    assert np.all(peaks.reason == Reason.UNLIT)
+
+
+def test_colour_and_non_finite_frames():
+    centres = np.full((3, 4), 8.0)
+    grey = sweep(centres, 16)
+    colour = np.stack([grey // 4, grey, grey // 2], axis=-1)
+    a = space_time_peaks(grey, min_contrast=20.0)
+    b = space_time_peaks(colour, min_contrast=20.0)
+    np.testing.assert_array_equal(a.time, b.time)
+    broken = grey.astype(np.float32)
+    broken[3, 0, 0] = np.nan
+    broken[4, 1, 1] = np.inf
+    c = space_time_peaks(broken, min_contrast=20.0)
+    assert np.all(np.isfinite(c.time)) and np.all(np.isfinite(c.contrast))
+
+
+def test_bad_inputs():
+    with pytest.raises(MdfError, match="min_contrast"):
+        SpaceTimeTracker((4, 4), min_contrast=0)
+    tracker = SpaceTimeTracker((4, 4), min_contrast=1)
+    with pytest.raises(MdfError, match="no frame"):
+        tracker.result()
+    with pytest.raises(MdfError, match="shape"):
+        tracker.update(np.zeros((5, 4)))
+    with pytest.raises(MdfError, match="no frames"):
+        space_time_peaks([], min_contrast=1)
