@@ -63,3 +63,14 @@ def test_a_rig_toml_section_sets_the_map():
 def test_lamp_bank_layout_defaults():
     r = LampBankRegisters()
     assert (r.coils, r.light_sensors, r.dimming, r.dim_full_scale) == (0, 0, False, 1000)
+
+
+def test_the_real_hardware_example_in_the_docs_is_a_valid_rig_config():
+    import re
+    from pathlib import Path
+
+    doc = Path(__file__).parents[3] / "docs" / "devices.md"
+    block = re.search(r"```toml\n(.*?)```", doc.read_text(), re.S).group(1)
+    config = RigConfig.model_validate(tomllib.loads(block))
+    assert config.turntable.drive.protocol == "rtu"
+    assert config.light_arc.servo_ids == (1, 2)
