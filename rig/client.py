@@ -219,13 +219,18 @@ def session_ended(event: dict) -> bool:
     return False
 
 
-def wait_for_state(connect, states: tuple[str, ...], *, timeout_s: float = 30.0) -> dict:
-    """Poll ``status`` until the daemon's state is one of ``states``; the status."""
+def wait_for_state(
+    connect, states: tuple[str, ...], *, timeout_s: float = 30.0, settled: bool = False
+) -> dict:
+    """Poll ``status`` until the daemon's state is one of ``states``; the status.
+
+    With ``settled``, also until no session thread holds the devices any more.
+    """
     deadline = time.monotonic() + timeout_s
     with DaemonClient(connect) as client:
         while True:
             current = client.request("status")
-            if current["state"] in states:
+            if current["state"] in states and not (settled and current["busy"]):
                 return current
             if time.monotonic() > deadline:
                 raise DaemonUnreachable(

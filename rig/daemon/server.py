@@ -328,6 +328,7 @@ class Daemon:
         return {
             "state": state.value,
             "allowed": list(allowed_events(state)),
+            "busy": self._thread is not None,  # a session thread still holds the devices
             "session": None if self._session is None else self._session.status(),
             "workers": sum(self._alive(t) for t in self._workers.values()),
             "stream": {

@@ -29,7 +29,7 @@ from typing import Literal, Protocol
 import numpy as np
 
 from drivers.errors import DeviceError
-from rig.archive import Archive, FrameFormat, FrameRecord, StepRecord
+from rig.archive import Archive, ArchiveError, FrameFormat, FrameRecord, StepRecord
 from rig.clock import Clock
 from rig.config import RigConfig
 from rig.daemon.devices import Captured, DeviceSet
@@ -188,8 +188,13 @@ class Session:
     # -- the session thread -----------------------------------------------------------------
 
     def run(self) -> None:
-        """Home, run every uncommitted step, finish; ends in done, aborted or failed."""
+        """Home, run every uncommitted step, finish; ends in done, aborted or failed.
+
+        The final transition comes after devices and archive are closed, so a
+        client that sees ``done`` or ``failed`` can open the archive at once.
+        """
         devices = None
+        reason = None
         try:
             committed = set(self.archive.committed_steps())
             self._log("session", action="start", session=self.id, committed=len(committed))
@@ -207,14 +212,21 @@ class Session:
                 self._run_with_faults(step, devices)
             self._fire_when_running(SessionEvent.STEPS_DONE)
             self._finish(devices)
-            self._fire_or_abort(SessionEvent.FINISHED)
         except _Aborted:
             log.info("session %s aborted", self.id)
         except Exception as err:  # the session fails with the reason; the daemon goes on
             log.exception("session %s failed", self.id)
-            self._fail(f"{type(err).__name__}: {err}")
-        finally:
+            reason = f"{type(err).__name__}: {err}"
+            self._log("session", action="failed", session=self.id, reason=reason)
+        try:
             self._close(devices)
+        except Exception as err:  # closing failed: the session fails, the daemon goes on
+            log.exception("session %s: closing failed", self.id)
+            reason = reason or f"closing: {type(err).__name__}: {err}"
+        if reason is not None:
+            self._fail(reason)
+        elif self.machine.state == SessionState.FINISHING:
+            self._fire(SessionEvent.FINISHED)
 
     def _run_with_faults(self, step: Step, devices: DeviceSet) -> None:
         while True:
@@ -228,7 +240,7 @@ class Session:
                     "operation": err.operation,
                     "detail": err.detail,
                     "step": step.index,
-                    "kind": step.kind,
+                    "step_kind": step.kind,
                 }
                 self._switch_off(devices)
                 if self.on_fault == "fail":
@@ -387,7 +399,6 @@ class Session:
             self._fire(SessionEvent.FAIL, reason=reason)
         except IllegalTransition:
             log.warning("session %s: %s (state %s)", self.id, reason, self.machine.state)
-        self._log("session", action="failed", session=self.id, reason=reason)
 
     def _switch_off(self, devices: DeviceSet) -> None:
         try:
@@ -396,8 +407,10 @@ class Session:
             log.warning("session %s: switching off after a fault: %s", self.id, err)
 
     def _log(self, kind: str, **payload) -> None:
-        if self.archive.mode == "a":
+        try:
             self.archive.log_event(kind, **payload)
+        except ArchiveError as err:  # a broken or closed archive must not hide the event
+            log.warning("session %s: could not log %s: %s", self.id, kind, err)
         self.outbox.publish("log", {"kind": kind, **payload})
 
     def _close(self, devices: DeviceSet | None) -> None:

@@ -70,7 +70,7 @@ def running_daemon(config, rig: SoftRig, **settings):
     thread = threading.Thread(target=daemon.serve, name="daemon-loop")
     thread.start()
     try:
-        yield daemon, endpoints
+        yield endpoints
     finally:
         daemon.stop()
         thread.join(30)
