@@ -1,6 +1,8 @@
 """The turntable and lamp-bank register maps in the rig config: validation and TOML."""
 
+import re
 import tomllib
+from pathlib import Path
 
 import pytest
 from pydantic import ValidationError
@@ -66,9 +68,6 @@ def test_lamp_bank_layout_defaults():
 
 
 def test_the_real_hardware_example_in_the_docs_is_a_valid_rig_config():
-    import re
-    from pathlib import Path
-
     doc = Path(__file__).parents[3] / "docs" / "devices.md"
     block = re.search(r"```toml\n(.*?)```", doc.read_text(), re.S).group(1)
     config = RigConfig.model_validate(tomllib.loads(block))
