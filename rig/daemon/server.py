@@ -10,6 +10,7 @@ the daemon answers control requests while frames wait at the workers' HWM.
 
 from __future__ import annotations
 
+import hashlib
 import logging
 import os
 import queue
@@ -102,7 +103,7 @@ class Daemon:
         self._results: dict[str, list] = {}
         self._workers: dict[str, float] = {}
         self._not_streamed = 0
-        self._replies: OrderedDict[str, bytes] = OrderedDict()
+        self._replies: OrderedDict[tuple, bytes] = OrderedDict()
         self._drains: list[dict] = []
         self._seq = 0
         self._stop = threading.Event()
@@ -230,8 +231,10 @@ class Daemon:
             )
             return encode_error(request_id(body[0]) if body else None, error)
         rid = request_id(body[0])
-        if rid is not None and rid in self._replies:
-            return self._replies[rid]  # a Lazy-Pirate retry: same answer, done once
+        # A Lazy-Pirate retry (same id, same body) gets the same answer, done once.
+        key = None if rid is None else (rid, hashlib.blake2b(body[0], digest_size=16).digest())
+        if key in self._replies:
+            return self._replies[key]
         try:
             request = parse_request(body[0])
             reply = encode_reply(request.id, self._dispatch(request))
@@ -244,8 +247,8 @@ class Daemon:
             reply = encode_error(rid, MessageError("plan_invalid", str(err), "args.plan_toml"))
         except RigError as err:
             reply = encode_error(rid, MessageError("rejected", str(err)))
-        if rid is not None:
-            self._replies[rid] = reply
+        if key is not None:
+            self._replies[key] = reply
             while len(self._replies) > _REPLY_CACHE:
                 self._replies.popitem(last=False)
         return reply
