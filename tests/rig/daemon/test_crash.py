@@ -1,0 +1,101 @@
+"""Processes that die: a worker killed mid-stream loses no frame; a daemon killed with
+SIGKILL mid-session resumes from its archive with every step exactly once."""
+
+import json
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+from rig.archive import Archive
+from rig.client import DaemonClient, follow, wait_for_state
+from rig.daemon import Endpoints
+from rig.plan import parse_plan
+from rig.schedule import compile_plan
+from tests.rig.daemon.conftest import LAMP_PLAN, TINY_PLAN, running_daemon
+from tests.rig.daemon.test_session import _check_archive
+
+ROOT = Path(__file__).resolve().parents[3]
+
+
+def _spawn(module: str, *args: str) -> subprocess.Popen:
+    return subprocess.Popen(
+        [sys.executable, "-m", module, *args],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        text=True,
+    )
+
+
+def _stop(proc: subprocess.Popen) -> None:
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGTERM)
+    proc.wait(10)
+    proc.stdout.close()
+
+
+def test_a_worker_killed_mid_stream_loses_no_frame(config, rig, tmp_path):
+    path = tmp_path / "w.zarr"
+    settings = {"resend_after_s": 0.3, "worker_timeout_s": 1.0}
+    with running_daemon(config, rig, **settings) as endpoints:
+        spec = json.dumps(endpoints.__dict__)
+        dying = _spawn("tests.rig.daemon.worker_proc", spec, "dying", "--die-after", "3")
+        steady = _spawn("tests.rig.daemon.worker_proc", spec, "steady")
+        try:
+            with DaemonClient(endpoints) as client:
+                deadline = time.monotonic() + 20
+                while client.request("status")["workers"] < 2:
+                    assert time.monotonic() < deadline, "the workers never said hello"
+                    time.sleep(0.05)
+                client.request("submit", plan_toml=TINY_PLAN, archive=str(path))
+                final = wait_for_state(endpoints, ("done",), settled=True)
+            assert dying.wait(10) == -signal.SIGKILL
+        finally:
+            _stop(dying)
+            _stop(steady)
+    stream = final["stream"]
+    assert stream["resent"] >= 1 and stream["not_streamed"] == 0
+    table, _ = _check_archive(path, config, TINY_PLAN)
+    with Archive.open(path) as archive:
+        stats = archive.material["stats"]
+        for camera in set(table["camera"]):
+            rows = table[table["camera"] == camera]
+            got = sorted(zip(stats[camera]["step"][:], stats[camera]["sub"][:], strict=True))
+            assert got == sorted(zip(rows["step"], rows["sub"], strict=True))  # each exactly once
+
+
+def test_daemon_killed_mid_session_resumes_without_loss_or_repeat(config, tmp_path):
+    path = tmp_path / "k.zarr"
+    daemon = _spawn("tests.rig.daemon.soft_daemon", "--delay", "0.01")
+    try:
+        endpoints = Endpoints(**json.loads(daemon.stdout.readline()))
+        with DaemonClient(endpoints) as client:
+            client.request("submit", plan_toml=LAMP_PLAN, archive=str(path))
+            for event in follow(endpoints, timeout_s=10):
+                if event["topic"] == "progress" and event["step"] >= 4:
+                    break
+            daemon.send_signal(signal.SIGKILL)
+            assert daemon.wait(10) == -signal.SIGKILL
+    finally:
+        _stop(daemon)
+    with Archive.open(path) as archive:
+        before = archive.committed_steps()
+    steps = len(compile_plan(parse_plan(LAMP_PLAN), config).steps)
+    assert 4 <= len(before) < steps
+    again = _spawn("tests.rig.daemon.soft_daemon")
+    try:
+        endpoints = Endpoints(**json.loads(again.stdout.readline()))
+        with DaemonClient(endpoints) as client:
+            resumed = client.request("resume", archive=str(path))
+            assert resumed["session"]["committed"] == len(before)
+            done = wait_for_state(endpoints, ("done",), settled=True)
+            client.request("shutdown")
+        assert again.wait(10) == 0
+    finally:
+        _stop(again)
+    _check_archive(path, config, LAMP_PLAN)  # every step exactly once, frames as made
+    with Archive.open(path) as archive:
+        starts = [e.payload for e in archive.events("session") if e.payload["action"] == "start"]
+        assert [s["committed"] for s in starts] == [0, len(before)]
+    assert done["session"]["committed"] == done["session"]["steps"]
