@@ -10,6 +10,7 @@ session in virtual time does not wait in real time.
 from __future__ import annotations
 
 import logging
+from dataclasses import dataclass
 from typing import Literal
 
 from drivers.errors import DeviceFault, DeviceTimeout, MotionStalled
@@ -24,17 +25,28 @@ __all__ = ["DriveStatus", "ModbusTurntable"]
 log = logging.getLogger(__name__)
 
 
+@dataclass(frozen=True)
 class DriveStatus:
-    """The drive's status word, decoded through the register map."""
+    """The drive's status word and its flags, decoded through the register map."""
 
-    def __init__(self, word: int, registers: TurntableRegisters):
-        self.word = word
-        self.moving = bool(word >> registers.moving_bit & 1)
-        self.in_position = bool(word >> registers.in_position_bit & 1)
-        self.fault = bool(word >> registers.fault_bit & 1)
-        self.homed = bool(word >> registers.homed_bit & 1)
+    word: int
+    moving: bool
+    in_position: bool
+    fault: bool
+    homed: bool
 
-    def __repr__(self) -> str:
+    @classmethod
+    def decode(cls, word: int, registers: TurntableRegisters) -> DriveStatus:
+        """Read the flags out of a status ``word`` at the map's bit positions."""
+        return cls(
+            word=word,
+            moving=bool(word >> registers.moving_bit & 1),
+            in_position=bool(word >> registers.in_position_bit & 1),
+            fault=bool(word >> registers.fault_bit & 1),
+            homed=bool(word >> registers.homed_bit & 1),
+        )
+
+    def __str__(self) -> str:
         flags = [n for n in ("moving", "in_position", "fault", "homed") if getattr(self, n)]
         return f"0x{self.word:04x} ({', '.join(flags) or 'idle'})"
 
@@ -133,7 +145,7 @@ class ModbusTurntable:
     def status(self, operation: str = "status") -> DriveStatus:
         """The drive's decoded status word."""
         word = self._link.read_holding(self.registers.status, 1, operation=operation)[0]
-        return DriveStatus(word, self.registers)
+        return DriveStatus.decode(word, self.registers)
 
     def wait_until_settled(
         self, timeout_s: float | None = None, *, operation: str = "move_to"
@@ -170,7 +182,7 @@ class ModbusTurntable:
                     + ("" if target is None else f" moving to {target:.2f}°"),
                 )
             if status.in_position or (target is None and not status.moving):
-                log.debug("%s: settled at %.3f° (%r)", self.name, where, status)
+                log.debug("%s: settled at %.3f° (%s)", self.name, where, status)
                 return where
             idle_polls = 0 if status.moving else idle_polls + 1
             if idle_polls >= 2:
