@@ -216,6 +216,8 @@ def session_ended(event: dict) -> bool:
     """For ``follow(until=...)``: the session reached done, aborted or failed."""
     if event.get("topic") == "state":
         return event.get("to") in TERMINAL_STATES
+    if event.get("topic") == "status":  # a late joiner's first look
+        return event.get("state") in TERMINAL_STATES and not event.get("busy")
     return False
 
 

@@ -1,0 +1,119 @@
+"""Entry points of ``rig daemon``, ``rig worker`` and ``rig run`` (daemon + submit + follow)."""
+
+from __future__ import annotations
+
+import logging
+import signal
+import threading
+from collections.abc import Callable
+from contextlib import contextmanager
+from pathlib import Path
+
+from rig.clock import Clock
+from rig.config import RigConfig, load_rig_config
+from rig.daemon.devices import build_devices
+from rig.daemon.endpoints import DaemonSettings, Endpoints
+from rig.daemon.server import Daemon
+from rig.daemon.session import DeviceFactory
+
+__all__ = ["daemon_thread", "run_daemon", "run_local"]
+
+log = logging.getLogger(__name__)
+
+
+def run_daemon(
+    config_path: str | Path | None,
+    *,
+    settings: DaemonSettings | None = None,
+    on_ready: Callable[[Endpoints], None] | None = None,
+) -> None:
+    """Serve until ``shutdown`` or SIGINT/SIGTERM (``rig daemon --config RIG``).
+
+    Must run on the main thread (it installs the signal handlers).
+    """
+    from rig.config import default_rig_config
+
+    config = default_rig_config() if config_path is None else load_rig_config(config_path)
+    daemon = Daemon(config, settings=settings)
+    endpoints = daemon.bind()
+    previous = {
+        sig: signal.signal(sig, lambda *_: daemon.stop()) for sig in (signal.SIGINT, signal.SIGTERM)
+    }
+    try:
+        if on_ready is not None:
+            on_ready(endpoints)
+        daemon.serve()
+    finally:
+        for sig, handler in previous.items():
+            signal.signal(sig, handler)
+
+
+@contextmanager
+def daemon_thread(
+    config: RigConfig,
+    *,
+    settings: DaemonSettings | None = None,
+    devices: DeviceFactory = build_devices,
+    clock: Clock | None = None,
+):
+    """A daemon serving on a thread of this process; yields its ``Endpoints``."""
+    daemon = Daemon(config, settings=settings, devices=devices, clock=clock)
+    endpoints = daemon.bind()
+    thread = threading.Thread(target=daemon.serve, name="daemon-loop")
+    thread.start()
+    try:
+        yield endpoints
+    finally:
+        daemon.stop()
+        thread.join()
+
+
+@contextmanager
+def worker_threads(endpoints: Endpoints, stage: str, n: int):
+    """``n`` workers of ``stage`` on threads of this process."""
+    from rig.worker import run_worker
+
+    stop = threading.Event()
+    threads = [
+        threading.Thread(
+            target=run_worker, args=(stage, endpoints), kwargs={"stop": stop}, name=f"worker-{i}"
+        )
+        for i in range(n)
+    ]
+    for t in threads:
+        t.start()
+    try:
+        yield
+    finally:
+        stop.set()
+        for t in threads:
+            t.join()
+
+
+def run_local(
+    plan_path: str | Path,
+    config_path: str | Path | None,
+    *,
+    archive: str | Path | None = None,
+    workers: int = 1,
+    on_event: Callable[[dict], None] | None = None,
+    devices: DeviceFactory = build_devices,
+    clock: Clock | None = None,
+) -> dict:
+    """Daemon + workers + submit + follow in one process; the final status (``rig run``).
+
+    Every socket is on free loopback ports; ``on_event`` sees each event
+    (e.g. to draw a progress bar).
+    """
+    from rig import client
+    from rig.config import default_rig_config
+
+    config = default_rig_config() if config_path is None else load_rig_config(config_path)
+    settings = DaemonSettings(port=0)
+    daemon = daemon_thread(config, settings=settings, devices=devices, clock=clock)
+    with daemon as endpoints, worker_threads(endpoints, "stats", workers):
+        client.submit(plan_path, archive=archive, connect=endpoints)
+        for event in client.follow(endpoints, until=client.session_ended):
+            if on_event is not None:
+                on_event(event)
+        return client.wait_for_state(endpoints, client.TERMINAL_STATES, settled=True, timeout_s=600)
