@@ -279,6 +279,7 @@ class Session:
             self._progress.step_index = step.index
         started_at = time.time()
         actuators = devices.move(turntable_deg=step.turntable_deg, arc_deg=step.arc_deg)
+        self.outbox.publish("telemetry", {"session": self.id, "step": step.index, **actuators})
         extra = {}
         if step.kind == "mdf":
             mount = int(step.source.removeprefix("laser"))

@@ -64,6 +64,8 @@ def test_full_session_with_workers(config, rig, tmp_path):
     assert rig.violations == []
     table, kinds = _check_archive(path, config, TINY_PLAN)
     assert {"session", "scan"} <= kinds
+    telemetry = [e for e in events if e["topic"] == "telemetry"]
+    assert telemetry and {"turntable_deg", "arc_deg", "step"} <= set(telemetry[-1])
     progress = [e for e in events if e["topic"] == "progress"]
     assert progress and progress[-1]["step"] == progress[-1]["steps"]
     assert all(e["eta_s"] >= 0 for e in progress)
