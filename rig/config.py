@@ -160,6 +160,7 @@ class LampBank(_Closed):
     """The lamps' power switches: Modbus coils (and optional dimming registers)."""
 
     connection: ModbusConnection = ModbusConnection(port=5021)
+    registers: LampBankRegisters = LampBankRegisters()
     warmup_s: float = Field(0.05, ge=0, description="from switching on to stable light")
 
 

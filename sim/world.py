@@ -132,6 +132,11 @@ class World:
         with self._lock:
             (self.lamps_on.add if on else self.lamps_on.discard)(lamp_id)
 
+    def lamps_switched_on(self) -> frozenset[str]:
+        """The lamps whose switch is on (a dead lamp included: it is on, but dark)."""
+        with self._lock:
+            return frozenset(self.lamps_on)
+
     def set_laser(self, on: bool, *, mount: int | None = None) -> None:
         with self._lock:
             self.laser_on = on

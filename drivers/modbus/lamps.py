@@ -65,14 +65,13 @@ class ModbusLampBank:
         config: RigConfig,
         *,
         clock: Clock,
-        registers: LampBankRegisters | None = None,
         **options,
     ) -> ModbusLampBank:
         """The lamp bank of a rig config (lamps in the light arc's order)."""
         return cls(
             config.lamp_bank.connection,
             lamp_ids=[lamp.id for lamp in config.light_arc.lamps],
-            registers=registers or LampBankRegisters(),
+            registers=config.lamp_bank.registers,
             clock=clock,
             warmup_s=config.lamp_bank.warmup_s,
             **options,

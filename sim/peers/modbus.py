@@ -298,8 +298,11 @@ class LampBankPeer(_ModbusPeer):
     @classmethod
     def from_config(cls, world: World, **options) -> LampBankPeer:
         """A bank with the light arc's lamps and the lamp-bank connection's unit id."""
-        conn = world.config.lamp_bank.connection
-        return cls(world, unit_id=conn.unit_id, baudrate=conn.baudrate, **options)
+        bank = world.config.lamp_bank
+        conn = bank.connection
+        return cls(
+            world, registers=bank.registers, unit_id=conn.unit_id, baudrate=conn.baudrate, **options
+        )
 
     # -- fault injection -------------------------------------------------------
     def kill_lamp(self, lamp_id: str) -> None:
@@ -349,7 +352,7 @@ class LampBankPeer(_ModbusPeer):
         if function_code in (1, 2):  # coils / light sensors: bits from the world
             first = r.coils if function_code == 1 else r.light_sensors
             lit = self.world.snapshot().lamps_on | self._stuck
-            on = lit if function_code == 2 else set(self.world.lamps_on)
+            on = lit if function_code == 2 else set(self.world.lamps_switched_on())
             self._pack_bits(registers, start_address, first, [lamp in on for lamp in self.lamp_ids])
         elif function_code in (5, 15) and set_values is not None:
             # For bit blocks pymodbus passes ``count`` in registers, not bits.

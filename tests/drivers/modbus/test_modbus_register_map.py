@@ -67,9 +67,12 @@ def test_lamp_bank_layout_defaults():
     assert (r.coils, r.light_sensors, r.dimming, r.dim_full_scale) == (0, 0, False, 1000)
 
 
-def test_the_real_hardware_example_in_the_docs_is_a_valid_rig_config():
-    doc = Path(__file__).parents[3] / "docs" / "devices.md"
-    block = re.search(r"```toml\n(.*?)```", doc.read_text(), re.S).group(1)
+def test_the_real_hardware_example_in_the_readme_is_a_valid_rig_config():
+    readme = (Path(__file__).parents[3] / "README.md").read_text()
+    section = readme.split("## Pointing rig at real hardware", 1)[1]
+    block = re.search(r"```toml\n(.*?)```", section, re.S).group(1)
     config = RigConfig.model_validate(tomllib.loads(block))
     assert config.turntable.drive.protocol == "rtu"
     assert config.light_arc.servo_ids == (1, 2)
+    assert config.laser.brick.transport == "usb"
+    assert config.camera("cam0").connection.kind == "genicam"
