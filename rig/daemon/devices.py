@@ -74,24 +74,41 @@ class LaserUnit(Protocol):
 
 
 class CaptureCamera(Protocol):
-    def capture(self, exposure_s: float) -> CameraFrame: ...
+    """A ``drivers.camera.Camera``: configure, then a blocking software-triggered capture."""
+
+    def configure(self, *, exposure_s: float | None = None) -> object: ...
+    def capture(self) -> CameraFrame: ...
     def close(self) -> None: ...
 
 
 class ThreadedCamera:
-    """Adapts a camera driver with a blocking ``capture`` to trigger/read.
+    """Adapts a ``drivers.camera.Camera`` (blocking ``capture``) to trigger/read.
 
-    The capture runs on the adapter's own thread so that several cameras
-    expose together.
+    The capture runs on the adapter's own thread so that several cameras expose
+    together. With ``scale`` < 1 each frame is binned in software (area
+    averaging, ``cv2.INTER_AREA``) to the plan's resolution.
     """
 
-    def __init__(self, camera: CaptureCamera, name: str):
+    def __init__(self, camera: CaptureCamera, name: str, *, scale: float = 1.0):
         self._camera = camera
+        self._scale = scale
         self._pool = ThreadPoolExecutor(1, thread_name_prefix=f"camera-{name}")
         self._pending: Future | None = None
 
     def trigger(self, exposure_s: float) -> None:
-        self._pending = self._pool.submit(self._camera.capture, exposure_s)
+        self._pending = self._pool.submit(self._expose, exposure_s)
+
+    def _expose(self, exposure_s: float) -> CameraFrame:
+        self._camera.configure(exposure_s=exposure_s)
+        frame = self._camera.capture()
+        if self._scale == 1.0:
+            return frame
+        import cv2
+
+        h, w = frame.image.shape[:2]
+        size = (max(1, round(w * self._scale)), max(1, round(h * self._scale)))
+        image = cv2.resize(frame.image, size, interpolation=cv2.INTER_AREA)
+        return Captured(image, 0, float(frame.exposure_s), float(frame.timestamp))
 
     def read(self) -> CameraFrame:
         pending, self._pending = self._pending, None
@@ -309,7 +326,7 @@ def build_devices(
 ) -> RigDevices:
     """Open the real drivers of ``config`` (the simulator's peers answer the same way).
 
-    ``scale`` is the plan's resolution factor handed to the cameras; with
+    ``scale`` is the plan's resolution factor (binned in software); with
     ``laser=False`` the laser brick is not opened (plans without scans).
     """
     # Imported here so the daemon (and its tests) import without every driver.
