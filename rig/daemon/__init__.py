@@ -8,6 +8,7 @@ See ``docs/daemon.md``.
 
 from rig.daemon.devices import Captured, DeviceSet, RigDevices, ThreadedCamera, build_devices
 from rig.daemon.endpoints import DEFAULT_PORT, DaemonSettings, Endpoints, is_loopback
+from rig.daemon.local import daemon_thread, run_daemon, run_local
 from rig.daemon.protocol import MessageError
 from rig.daemon.server import Daemon
 from rig.daemon.session import Session, SessionError, frame_formats
@@ -39,6 +40,9 @@ __all__ = [
     "ThreadedCamera",
     "allowed_events",
     "build_devices",
+    "daemon_thread",
     "frame_formats",
     "is_loopback",
+    "run_daemon",
+    "run_local",
 ]
