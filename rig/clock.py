@@ -7,7 +7,7 @@ import threading
 import time
 from typing import Protocol
 
-__all__ = ["Clock", "RealClock", "VirtualClock"]
+__all__ = ["Clock", "RealClock", "ScaledClock", "VirtualClock"]
 
 
 class Clock(Protocol):
@@ -27,6 +27,24 @@ class RealClock:
     def sleep(self, seconds: float) -> None:
         if seconds > 0:
             time.sleep(seconds)
+
+
+class ScaledClock:
+    """Real time sped up ``speed`` times: a simulated rig in another process
+    (``rig sim --speed N``) finishes a modelled 10 s move in 10/N s of wall time."""
+
+    def __init__(self, speed: float = 1.0):
+        if not speed > 0:
+            raise ValueError(f"ScaledClock: speed={speed} must be > 0")
+        self.speed = float(speed)
+        self._start = time.monotonic()
+
+    def now(self) -> float:
+        return (time.monotonic() - self._start) * self.speed
+
+    def sleep(self, seconds: float) -> None:
+        if seconds > 0:
+            time.sleep(seconds / self.speed)
 
 
 class VirtualClock:

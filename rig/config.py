@@ -343,11 +343,18 @@ class RigConfig(_Closed):
         valid = [lamp.id for lamp in self.light_arc.lamps]
         raise ConfigError(f"unknown lamp {lamp_id!r}; this rig has {valid}")
 
-    def camera_model(self, camera_id: str) -> PinholeCamera:
-        """The nominal (uncalibrated) pinhole model of a camera, world frame."""
+    def camera_model(self, camera_id: str, *, turntable_deg: float = 0.0) -> PinholeCamera:
+        """The nominal (uncalibrated) pinhole model of a camera.
+
+        In the world frame at ``turntable_deg = 0``; otherwise in the sample
+        frame of a sample turned by ``turntable_deg`` (x_cam = R·Rz(α)·x_sample + t).
+        """
         cam = self.camera(camera_id)
         eye = self.camera_arc.radius_mm * arc_direction(cam.theta_deg, self.camera_arc.azimuth_deg)
         R, t = look_at(eye, np.zeros(3), up=_arc_up(cam.theta_deg, self.camera_arc.azimuth_deg))
+        a = np.deg2rad(turntable_deg)
+        Rz = np.array([[np.cos(a), -np.sin(a), 0.0], [np.sin(a), np.cos(a), 0.0], [0.0, 0.0, 1.0]])
+        R = R @ Rz
         cx = (cam.width - 1) / 2 if cam.cx_px is None else cam.cx_px
         cy = (cam.height - 1) / 2 if cam.cy_px is None else cam.cy_px
         K = np.array([[cam.fx_px, 0, cx], [0, cam.fy_px, cy], [0, 0, 1.0]])

@@ -55,3 +55,14 @@ def test_default_rig_sees_whole_plate():
         pix, ok = cam.project(corners)
         assert ok.all()
         assert (pix >= 0).all() and (pix[:, 0] < cam.width).all() and (pix[:, 1] < cam.height).all()
+
+
+def test_camera_in_the_turned_sample_frame():
+    config = default_rig_config()
+    world = config.camera_model("cam3")
+    turned = config.camera_model("cam3", turntable_deg=40.0)
+    a = np.deg2rad(40.0)
+    p_sample = np.array([[20.0, -10.0, -2.0]])
+    rz = np.array([[np.cos(a), -np.sin(a), 0], [np.sin(a), np.cos(a), 0], [0, 0, 1]])
+    p_world = p_sample @ rz.T
+    assert_allclose(turned.project(p_sample)[0], world.project(p_world)[0], atol=1e-9)

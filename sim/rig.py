@@ -1,0 +1,145 @@
+"""The whole simulated rig: every device peer on one world, and the camera server.
+
+``SimulatedRig`` is what ``rig sim SCENE`` serves. It starts the turntable
+drive and lamp bank (Modbus), the light-arc bus (Dynamixel 2.0 on a pty), the
+laser brick (NXT direct commands on a pty, as Bluetooth SPP) and the camera
+server (frames rendered by the ``Simulator`` from the world's state), and it
+writes the rig config whose connections reach them, so an unchanged daemon and
+unchanged drivers run against it.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any, Literal
+
+from rig.clock import Clock, RealClock
+from rig.config import RigConfig
+from rig.connections import CameraConnection, NxtConnection
+from rig.errors import ConfigError
+from sim.peers import (
+    MOTION_PEERS,
+    CameraFaults,
+    CameraServer,
+    FakeNxtBrick,
+    MotionPeers,
+    NxtFaults,
+    NxtSerialPeer,
+    start_motion_peers,
+)
+from sim.scene import Scene, load_scene
+from sim.simulator import Simulator
+from sim.world import World
+
+__all__ = ["FAULT_PEERS", "SimulatedRig"]
+
+log = logging.getLogger(__name__)
+FAULT_PEERS = (*MOTION_PEERS, "laser", "cameras")
+
+
+class SimulatedRig:
+    """Start with :meth:`start` (or ``with``), stop with :meth:`stop`.
+
+    Parameters
+    ----------
+    scene : Scene or the path of a scene TOML
+    clock : the world's clock; a ``ScaledClock`` speeds the rig up for a
+        daemon in another process, a ``VirtualClock`` serves in-process tests
+    transport : Modbus over loopback ``"tcp"`` or ``"rtu"`` on ptys
+    faults : per peer (``turntable``, ``lamp_bank``, ``light_arc``, ``laser``,
+        ``cameras``) its fault table, e.g. ``{"cameras": {"dropped_frames": 1}}``
+    """
+
+    def __init__(
+        self,
+        scene: Scene | str | Path,
+        *,
+        clock: Clock | None = None,
+        transport: Literal["tcp", "rtu"] = "tcp",
+        faults: Mapping[str, Mapping[str, Any]] | None = None,
+    ):
+        self.scene = scene if isinstance(scene, Scene) else load_scene(scene)
+        faults = dict(faults or {})
+        unknown = sorted(set(faults) - set(FAULT_PEERS))
+        if unknown:
+            raise ConfigError(
+                f"faults for unknown peer(s) {unknown}; valid are {list(FAULT_PEERS)}"
+            )
+        self._faults = faults
+        self._transport = transport
+        self.world = World(self.scene.rig, clock or RealClock())
+        self.simulator: Simulator | None = None
+        self.motion: MotionPeers | None = None
+        self.brick: FakeNxtBrick | None = None
+        self.laser: NxtSerialPeer | None = None
+        self.cameras: CameraServer | None = None
+
+    def start(self) -> SimulatedRig:
+        try:
+            self.simulator = Simulator(self.scene)
+            motion_faults = {k: v for k, v in self._faults.items() if k in MOTION_PEERS}
+            self.motion = start_motion_peers(
+                self.world, transport=self._transport, faults=motion_faults
+            )
+            self.brick = FakeNxtBrick(self.world, faults=NxtFaults(**self._faults.get("laser", {})))
+            self.laser = NxtSerialPeer(self.brick)
+            simulator = self.simulator
+            self.cameras = CameraServer(
+                self.world,
+                lambda camera, snapshot, exposure: (
+                    simulator.render(camera, snapshot, exposure).image
+                ),
+                faults=CameraFaults(**self._faults.get("cameras", {})),
+            ).start()
+        except BaseException:
+            self.stop()
+            raise
+        log.info("simulated rig %r is up; cameras at %s", self.scene.rig.name, self.cameras.url)
+        return self
+
+    def rig_config(self) -> RigConfig:
+        """The scene's rig config with every connection pointing at these peers."""
+        if self.motion is None or self.laser is None or self.cameras is None:
+            raise RuntimeError("SimulatedRig.rig_config: start() the rig first")
+        config = self.motion.rig_config(self.scene.rig)
+        brick = NxtConnection(
+            transport="serial", serial_port=self.laser.port, retry=config.laser.brick.retry
+        )
+        cameras = tuple(
+            cam.model_copy(
+                update={
+                    "connection": CameraConnection(
+                        kind="sim", url=self.cameras.url, retry=cam.connection.retry
+                    )
+                }
+            )
+            for cam in config.camera_arc.cameras
+        )
+        return config.model_copy(
+            update={
+                "laser": config.laser.model_copy(update={"brick": brick}),
+                "camera_arc": config.camera_arc.model_copy(update={"cameras": cameras}),
+            }
+        )
+
+    def stop(self) -> None:
+        """Stop every peer that runs and release the GL context (idempotent)."""
+        for name in ("cameras", "laser"):
+            peer = getattr(self, name)
+            if peer is not None:
+                peer.close()
+                setattr(self, name, None)
+        if self.motion is not None:
+            self.motion.stop()
+            self.motion = None
+        if self.simulator is not None:
+            self.simulator.close()
+            self.simulator = None
+
+    def __enter__(self) -> SimulatedRig:
+        return self.start()
+
+    def __exit__(self, *exc) -> None:
+        self.stop()
