@@ -47,6 +47,7 @@ def _ps(module, quick: bool) -> list[dict]:
 # area → (module, issue that builds it, how to call its run_bench)
 AREAS: dict[str, tuple[str, int, Callable]] = {
     "archive": ("rig.archive.bench", 2, _archive),
+    "daemon": ("rig.daemon.bench", 5, _plain),
     "sim": ("sim.bench", 3, _plain),
     "ps": ("processing.photometric.bench", 6, _ps),
     "btf": ("processing.btf.bench", 7, _plain),

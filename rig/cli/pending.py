@@ -18,65 +18,6 @@ __all__ = ["register"]
 
 def register(app: typer.Typer) -> None:
     @app.command()
-    def daemon(
-        config: Annotated[Path, typer.Option("--config", "-c", help="rig config TOML")],
-    ) -> None:
-        """Run the control daemon: owns the devices and one session at a time."""
-        not_built("daemon", 5, "the ZeroMQ control daemon")
-
-    @app.command()
-    def submit(plan: Annotated[Path, typer.Argument(help="plan TOML")]) -> None:
-        """Submit a plan to the running daemon."""
-        not_built("submit", 5, "the daemon client")
-
-    @app.command()
-    def status(
-        follow: Annotated[bool, typer.Option("--follow", "-f", help="keep following")] = False,
-    ) -> None:
-        """Show the daemon's session state and progress."""
-        not_built("status", 5, "the daemon client")
-
-    @app.command()
-    def pause() -> None:
-        """Pause the running session after the current step."""
-        not_built("pause", 5, "the daemon client")
-
-    @app.command()
-    def resume(
-        archive: Annotated[
-            Path | None, typer.Argument(help="resume a crashed session from its archive")
-        ] = None,
-    ) -> None:
-        """Resume a paused session, or continue a crashed one from its archive."""
-        not_built("resume", 5, "session resume")
-
-    @app.command()
-    def abort() -> None:
-        """Abort the running session (committed steps stay in the archive)."""
-        not_built("abort", 5, "the daemon client")
-
-    @app.command()
-    def shutdown() -> None:
-        """Stop the daemon cleanly."""
-        not_built("shutdown", 5, "the daemon client")
-
-    @app.command()
-    def run(
-        plan: Annotated[Path, typer.Argument(help="plan TOML")],
-        config: Annotated[Path, typer.Option("--config", "-c", help="rig config TOML")],
-    ) -> None:
-        """Daemon + submit + follow in one process, for a local session."""
-        not_built("run", 5, "the local session runner")
-
-    @app.command()
-    def worker(
-        stage: Annotated[str, typer.Argument(help="processing stage to run")],
-        connect: Annotated[str, typer.Option("--connect", help="tcp://HOST")] = "tcp://127.0.0.1",
-    ) -> None:
-        """Pull frames from a daemon, run a processing stage, push results."""
-        not_built("worker", 5, "processing workers")
-
-    @app.command()
     def replay(
         archive: Annotated[Path, typer.Argument(help="session archive")],
         speed: Annotated[float, typer.Option("--speed", help="replay speed factor")] = 1.0,

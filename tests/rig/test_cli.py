@@ -51,8 +51,14 @@ def test_bad_plan_exits_2_with_field_names(tmp_path):
     assert "captures.btf.views" in result.output
 
 
-@pytest.mark.parametrize("args", [["daemon", "--config", "x.toml"], ["status"], ["view", "m.zarr"]])
+@pytest.mark.parametrize("args", [["replay", "s.zarr"], ["view", "m.zarr"], ["process", "s.zarr"]])
 def test_unbuilt_commands_say_so_and_fail(args):
     result = runner.invoke(app, args)
     assert result.exit_code == 3
     assert "not built yet" in result.output
+
+
+def test_status_without_a_daemon_fails_clearly():
+    result = runner.invoke(app, ["status", "--connect", "tcp://127.0.0.1:1"])
+    assert result.exit_code == 1
+    assert "error" in result.output

@@ -1,0 +1,210 @@
+"""Session commands: the daemon, its clients, local runs and workers."""
+
+from __future__ import annotations
+
+import signal
+import threading
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+from rig.cli.common import console, reporting_errors
+
+__all__ = ["register"]
+
+CONNECT = typer.Option("--connect", help="the daemon's control address, tcp://HOST[:PORT]")
+DEFAULT_CONNECT = "tcp://127.0.0.1"
+
+
+def _hms(seconds) -> str:
+    if seconds is None:
+        return "?"
+    s = round(seconds)
+    return f"{s // 3600:d}:{s % 3600 // 60:02d}:{s % 60:02d}"
+
+
+class _ProgressView:
+    """Draws a session's events: a bar for progress, lines for the rest."""
+
+    def __init__(self) -> None:
+        self.progress = Progress(
+            TextColumn("[bold]{task.description}"),
+            BarColumn(),
+            TextColumn("step {task.completed:.0f}/{task.total:.0f}"),
+            TextColumn("ETA {task.fields[eta]}"),
+            TextColumn("{task.fields[fps]} frames/s"),
+            TimeElapsedColumn(),
+            console=console,
+        )
+        self.task = None
+
+    def __enter__(self) -> _ProgressView:
+        self.progress.start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.progress.stop()
+
+    def __call__(self, event: dict) -> None:
+        topic = event.get("topic")
+        if topic == "progress":
+            fields = {
+                "eta": _hms(event.get("eta_s")),
+                "fps": f"{event.get('frames_per_s', 0.0):.1f}",
+            }
+            if self.task is None:
+                self.task = self.progress.add_task("session", total=event["steps"], **fields)
+            self.progress.update(self.task, completed=event["step"], **fields)
+        elif topic == "state":
+            self.progress.console.print(f"state: {event.get('from')} → [bold]{event.get('to')}[/]")
+        elif topic == "log":
+            detail = {k: v for k, v in event.items() if k not in ("topic", "seq", "time", "kind")}
+            self.progress.console.print(f"{event.get('kind')}: {detail}")
+        elif topic == "gap":
+            self.progress.console.print(f"[yellow]missed {event['missed']} event(s)[/yellow]")
+
+
+def _print_status(state: dict) -> None:
+    session = state.get("session") or {}
+    console.print(f"daemon: [bold]{state.get('state')}[/bold]")
+    for key in ("session", "sample", "archive", "committed", "steps", "frames", "fault", "reason"):
+        if session.get(key) is not None:
+            console.print(f"  {key}: {session[key]}")
+
+
+def register(app: typer.Typer) -> None:
+    @app.command()
+    def daemon(
+        config: Annotated[
+            Path | None, typer.Option("--config", "-c", help="rig config TOML (default rig)")
+        ] = None,
+        host: Annotated[str, typer.Option(help="address to bind; beyond loopback needs CURVE")] = (
+            "127.0.0.1"
+        ),
+        port: Annotated[int, typer.Option(help="control port; the next three carry the rest")] = (
+            5570
+        ),
+        on_fault: Annotated[
+            str, typer.Option("--on-fault", help="pause (resume retries the step) or fail")
+        ] = "pause",
+        curve_secret_key: Annotated[
+            Path | None, typer.Option(help="the server's secret CURVE certificate")
+        ] = None,
+        curve_clients_dir: Annotated[
+            Path | None, typer.Option(help="folder of the allowed clients' public certificates")
+        ] = None,
+    ) -> None:
+        """Run the control daemon: owns the devices and one session at a time."""
+        from rig.daemon import DaemonSettings, run_daemon
+
+        with reporting_errors():
+            settings = DaemonSettings(
+                host=host,
+                port=port,
+                on_fault=on_fault,
+                curve_secret_key=curve_secret_key,
+                curve_clients_dir=curve_clients_dir,
+            )
+            run_daemon(
+                config,
+                settings=settings,
+                on_ready=lambda ep: console.print(f"daemon listening on {ep.control}"),
+            )
+
+    @app.command()
+    def submit(
+        plan: Annotated[Path, typer.Argument(help="plan TOML")],
+        archive: Annotated[
+            Path | None, typer.Option("--archive", help="where to write (default: the plan's)")
+        ] = None,
+        connect: Annotated[str, CONNECT] = DEFAULT_CONNECT,
+    ) -> None:
+        """Submit a plan to the running daemon."""
+        from rig import client
+
+        with reporting_errors():
+            _print_status(client.submit(plan, archive=archive, connect=connect))
+
+    @app.command()
+    def status(
+        follow: Annotated[bool, typer.Option("--follow", "-f", help="keep following")] = False,
+        connect: Annotated[str, CONNECT] = DEFAULT_CONNECT,
+    ) -> None:
+        """Show the daemon's session state; --follow draws progress until it ends."""
+        from rig import client
+
+        with reporting_errors():
+            if not follow:
+                _print_status(client.status(connect=connect))
+                return
+            with _ProgressView() as view:
+                for event in client.follow(connect, until=client.session_ended):
+                    view(event)
+            _print_status(client.status(connect=connect))
+
+    for name, doc in (
+        ("pause", "Pause the running session after the current step."),
+        ("abort", "Abort the running session (committed steps stay in the archive)."),
+        ("shutdown", "Stop the daemon cleanly."),
+    ):
+
+        def command(connect: Annotated[str, CONNECT] = DEFAULT_CONNECT, _name=name) -> None:
+            from rig import client
+
+            with reporting_errors():
+                _print_status(getattr(client, _name)(connect=connect))
+
+        command.__doc__ = doc
+        app.command(name)(command)
+
+    @app.command()
+    def resume(
+        archive: Annotated[
+            Path | None, typer.Argument(help="continue a crashed session from its archive")
+        ] = None,
+        connect: Annotated[str, CONNECT] = DEFAULT_CONNECT,
+    ) -> None:
+        """Resume a paused session, or continue a crashed one from its archive."""
+        from rig import client
+
+        with reporting_errors():
+            _print_status(client.resume(archive, connect=connect))
+
+    @app.command()
+    def run(
+        plan: Annotated[Path, typer.Argument(help="plan TOML")],
+        config: Annotated[
+            Path | None, typer.Option("--config", "-c", help="rig config TOML (default rig)")
+        ] = None,
+        archive: Annotated[
+            Path | None, typer.Option("--archive", help="where to write (default: the plan's)")
+        ] = None,
+        workers: Annotated[int, typer.Option(min=0, help="statistics workers to run")] = 1,
+    ) -> None:
+        """Daemon + workers + submit + follow in one process, for a local session."""
+        from rig.daemon import run_local
+
+        with reporting_errors(), _ProgressView() as view:
+            final = run_local(plan, config, archive=archive, workers=workers, on_event=view)
+        _print_status(final)
+        if final.get("state") != "done":
+            raise typer.Exit(1)
+
+    @app.command()
+    def worker(
+        stage: Annotated[str, typer.Argument(help="processing stage to run (e.g. stats)")],
+        connect: Annotated[str, CONNECT] = DEFAULT_CONNECT,
+    ) -> None:
+        """Pull frames from a daemon, run a processing stage, push results (Ctrl-C stops)."""
+        from rig.worker import run_worker
+
+        stop = threading.Event()
+        previous = signal.signal(signal.SIGINT, lambda *_: stop.set())
+        try:
+            with reporting_errors():
+                done = run_worker(stage, connect, stop=stop)
+        finally:
+            signal.signal(signal.SIGINT, previous)
+        console.print(f"worker processed {done} frame(s)")
