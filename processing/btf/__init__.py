@@ -1,0 +1,31 @@
+"""BTF compression and interpolation: per-view PCA and the global SVD.
+
+Seed ``000_…`` §4.1–4.2 (per-view-slot PCA, 4-nearest light interpolation,
+view-slot blending) and seed ``001_…`` §5 (one SVD with views as columns).
+The material layout is in ``docs/material.md`` (:mod:`processing.btf.material`);
+``rig bench btf`` runs :func:`processing.btf.bench.run_bench`.
+"""
+
+from processing.btf._compress import compress_btf, compress_global_svd
+from processing.btf._errors import BtfError
+from processing.btf._interpolate import Method, direction_weights, interpolate, reconstruct
+from processing.btf._model import CompressedBTF, GlobalSVD
+from processing.btf._pca import ViewSlot, compress_view, compress_view_svd
+from processing.btf._quality import psnr_db, rmse
+
+__all__ = [
+    "BtfError",
+    "CompressedBTF",
+    "GlobalSVD",
+    "Method",
+    "ViewSlot",
+    "compress_btf",
+    "compress_global_svd",
+    "compress_view",
+    "compress_view_svd",
+    "direction_weights",
+    "interpolate",
+    "psnr_db",
+    "reconstruct",
+    "rmse",
+]
