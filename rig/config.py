@@ -17,6 +17,7 @@ from pathlib import Path
 from typing import Annotated, Literal
 
 import numpy as np
+import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from rig.camera import PinholeCamera, look_at
@@ -40,6 +41,7 @@ __all__ = [
     "default_rig_config",
     "format_validation_error",
     "load_rig_config",
+    "write_rig_config",
 ]
 
 SignedPolar = Annotated[float, Field(ge=-90, le=90, description="signed polar angle on an arc")]
@@ -438,6 +440,14 @@ def load_rig_config(path: str | Path) -> RigConfig:
             f"  - {line}" for line in format_validation_error(str(path), err, RigConfig)
         )
         raise ConfigError(f"rig config {path}: invalid\n{lines}") from err
+
+
+def write_rig_config(config: RigConfig, path: str | Path) -> Path:
+    """Write ``config`` as TOML that :func:`load_rig_config` reads back equal."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(tomli_w.dumps(config.model_dump(mode="json", exclude_none=True)))
+    return path
 
 
 def default_rig_config() -> RigConfig:

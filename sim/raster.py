@@ -71,11 +71,14 @@ class _SingleSampleRenderer(pyrender.Renderer):
 
 
 class _SharedDisplayEGL(egl.EGLPlatform):
-    """pyrender's EGL platform, minus the eglTerminate of the process-wide display.
+    """pyrender's EGL platform, with a real release and a shared display.
 
-    All contexts on a device share one EGLDisplay; pyrender terminates it when
-    any one context is deleted, which breaks every other live Simulator. Here
-    the display is terminated only when its last context goes.
+    pyrender's ``make_uncurrent`` does nothing, so the context stays bound to
+    the thread that last rendered and any other thread gets EGL_BAD_ACCESS;
+    here it unbinds. All contexts on a device share one EGLDisplay; pyrender
+    terminates it when any one context is deleted, which breaks every other
+    live Simulator. Here the display is terminated only when its last context
+    goes.
     """
 
     _live: ClassVar[dict[int, int]] = {}
@@ -86,6 +89,12 @@ class _SharedDisplayEGL(egl.EGLPlatform):
         with self._live_lock:
             key = ctypes.cast(self._egl_display, ctypes.c_void_p).value
             self._live[key] = self._live.get(key, 0) + 1
+
+    def make_uncurrent(self):
+        from OpenGL.EGL import EGL_NO_CONTEXT, EGL_NO_SURFACE, eglMakeCurrent
+
+        if not eglMakeCurrent(self._egl_display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT):
+            raise RuntimeError("EGL: could not release the context")
 
     def delete_context(self):
         from OpenGL.EGL import eglDestroyContext, eglTerminate

@@ -45,17 +45,20 @@ def _children(proc: psutil.Process) -> set[int]:
 
 
 @pytest.fixture(scope="session", autouse=True)
-def zarr_runtime():
-    """Start zarr's process-wide I/O thread and its one-worker pool once.
+def process_wide_threads():
+    """Start the library threads that live as long as the process, once.
 
-    zarr keeps an event-loop thread and a thread pool alive for the life of
-    the process; started here, before the per-test leak check takes its
-    snapshot, they are not reported as leaks of the first test that uses zarr.
+    zarr keeps an event-loop thread and a thread pool; pyzmq starts a garbage
+    collector thread on the first zero-copy send of a large frame. Started
+    here, before the per-test leak check takes its snapshot, they are not
+    reported as leaks of the first test that uses them.
     """
     import zarr
+    from zmq.utils.garbage import gc as zmq_garbage
 
     zarr.config.set({"threading.max_workers": 1})
     zarr.create_array(store={}, shape=(1,), dtype="uint8")[:] = 1
+    zmq_garbage.start()
 
 
 @pytest.fixture(autouse=True)

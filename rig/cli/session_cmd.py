@@ -11,6 +11,7 @@ import typer
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from rig.cli.common import console, reporting_errors
+from rig.errors import ConfigError
 
 __all__ = ["register"]
 
@@ -182,12 +183,33 @@ def register(app: typer.Typer) -> None:
             Path | None, typer.Option("--archive", help="where to write (default: the plan's)")
         ] = None,
         workers: Annotated[int, typer.Option(min=0, help="statistics workers to run")] = 1,
+        sim: Annotated[
+            Path | None,
+            typer.Option(
+                "--sim",
+                help="run against the simulated rig of this scene TOML, in virtual time "
+                "(instead of --config's hardware)",
+            ),
+        ] = None,
     ) -> None:
         """Daemon + workers + submit + follow in one process, for a local session."""
         from rig.daemon import run_local
 
         with reporting_errors(), _ProgressView() as view:
-            final = run_local(plan, config, archive=archive, workers=workers, on_event=view)
+            if sim is None:
+                final = run_local(plan, config, archive=archive, workers=workers, on_event=view)
+            else:
+                if config is not None:
+                    raise ConfigError("--config and --sim: give one (the scene names its rig)")
+                from rig.clock import VirtualClock
+                from sim.rig import SimulatedRig
+
+                clock = VirtualClock()
+                with SimulatedRig(sim, clock=clock) as rig:
+                    final = run_local(
+                        plan, rig.rig_config(), archive=archive, workers=workers,
+                        on_event=view, clock=clock,
+                    )  # fmt: skip
         _print_status(final)
         if final.get("state") != "done":
             raise typer.Exit(1)

@@ -2,15 +2,19 @@
 
 from __future__ import annotations
 
+import signal
+import threading
+import tomllib
 from pathlib import Path
-from typing import Annotated
+from typing import Annotated, Literal
 
 import typer
 from typer.core import TyperGroup
 
-from rig.cli.common import not_built
+from rig.cli.common import console, reporting_errors
+from rig.errors import ConfigError
 
-__all__ = ["app"]
+__all__ = ["app", "parse_faults"]
 
 
 class _DefaultServe(TyperGroup):
@@ -29,21 +33,99 @@ app = typer.Typer(
 )
 
 
+def parse_faults(specs: list[str]) -> dict[str, dict]:
+    """``["cameras.dropped_frames=2", "lamp_bank.dead_lamps=['L3']"]`` → fault tables.
+
+    Values are TOML values (numbers, booleans, quoted strings, arrays).
+    """
+    faults: dict[str, dict] = {}
+    for spec in specs:
+        key, sep, value = spec.partition("=")
+        peer, dot, name = key.strip().partition(".")
+        if not (sep and dot and peer and name):
+            raise ConfigError(
+                f"--fault {spec!r}: expected PEER.KEY=VALUE, e.g. cameras.dropped_frames=1"
+            )
+        try:
+            parsed = tomllib.loads(f"v = {value.strip()}")["v"]
+        except tomllib.TOMLDecodeError as err:
+            raise ConfigError(f"--fault {spec!r}: {value!r} is not a TOML value ({err})") from None
+        faults.setdefault(peer, {})[name] = parsed
+    return faults
+
+
 @app.command()
 def serve(
     scene: Annotated[Path, typer.Argument(help="scene TOML")],
     config_out: Annotated[
         Path, typer.Option("--config-out", help="where to write the rig config for the daemon")
     ] = Path("sim-rig.toml"),
+    speed: Annotated[
+        float, typer.Option(min=0.001, help="simulated time runs this many times faster")
+    ] = 1.0,
+    transport: Annotated[
+        str, typer.Option(help="Modbus transport: tcp (loopback) or rtu (on ptys)")
+    ] = "tcp",
+    fault: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--fault",
+            help="inject a fault, PEER.KEY=VALUE (peers: turntable, lamp_bank, light_arc, "
+            "laser, cameras), e.g. cameras.dropped_frames=1; repeatable",
+        ),
+    ] = None,
 ) -> None:
-    """Start all device peers and the camera server; print the rig config that reaches them."""
-    not_built("sim", 4, "the simulated device peers")
+    """Start all device peers and the camera server; write the rig config that reaches them.
+
+    Then, in another shell: `rig daemon --config sim-rig.toml` and `rig submit PLAN`.
+    Ctrl-C stops the simulated rig.
+    """
+    from rig.clock import RealClock, ScaledClock
+    from rig.config import write_rig_config
+    from sim.rig import SimulatedRig
+
+    with reporting_errors():
+        if transport not in ("tcp", "rtu"):
+            raise ConfigError(f"--transport {transport!r}: valid are 'tcp' and 'rtu'")
+        mode: Literal["tcp", "rtu"] = "tcp" if transport == "tcp" else "rtu"
+        clock = RealClock() if speed == 1.0 else ScaledClock(speed)
+        stop = threading.Event()
+        handlers = {
+            sig: signal.signal(sig, lambda *_: stop.set())
+            for sig in (signal.SIGINT, signal.SIGTERM)
+        }
+        try:
+            with SimulatedRig(
+                scene, clock=clock, transport=mode, faults=parse_faults(fault or [])
+            ) as sim:
+                path = write_rig_config(sim.rig_config(), config_out)
+                console.print(
+                    f"simulated rig {sim.scene.rig.name!r} of scene {scene} is up "
+                    f"(time ×{speed:g}); rig config written to {path}"
+                )
+                console.print(f"next: rig daemon --config {path}   (Ctrl-C here stops the rig)")
+                stop.wait()
+        finally:
+            for sig, handler in handlers.items():
+                signal.signal(sig, handler)
+    console.print("simulated rig stopped")
 
 
 @app.command()
 def render(
     scene: Annotated[Path, typer.Argument(help="scene TOML")],
     out: Annotated[Path, typer.Option("--out", help="folder for the PNGs")] = Path("out/sim"),
+    cameras: Annotated[int, typer.Option(min=1, help="how many cameras, spread over the arc")] = 3,
+    lamps: Annotated[int, typer.Option(min=1, help="how many lamps, spread over the arc")] = 2,
 ) -> None:
-    """Render a scene from the rig's cameras and write PNGs a person can look at."""
-    not_built("sim render", 3, "the simulator's image formation")
+    """Render a scene from the rig's cameras and write PNGs a person can look at.
+
+    Writes one image per camera × lamp, a laser frame, and the true normals,
+    height and albedo maps.
+    """
+    from sim.preview import write_preview
+
+    with reporting_errors():
+        written = write_preview(scene, out, cameras=cameras, lamps=lamps)
+    for path in written:
+        console.print(f"wrote {path}")

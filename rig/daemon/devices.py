@@ -348,10 +348,12 @@ def build_devices(
             opened.append(unit)
         cameras = {}
         for spec in config.camera_arc.cameras:
-            camera = open_camera(spec, clock=clock, scale=scale)
+            camera = open_camera(spec, clock=clock)
             opened.append(camera)
             cameras[spec.id] = (
-                camera if isinstance(camera, Camera) else ThreadedCamera(camera, spec.id)
+                camera
+                if isinstance(camera, Camera)
+                else ThreadedCamera(camera, spec.id, scale=scale)
             )
     except BaseException:
         for device in reversed(opened):

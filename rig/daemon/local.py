@@ -10,7 +10,7 @@ from contextlib import contextmanager
 from pathlib import Path
 
 from rig.clock import Clock
-from rig.config import RigConfig, load_rig_config
+from rig.config import RigConfig, default_rig_config, load_rig_config
 from rig.daemon.devices import build_devices
 from rig.daemon.endpoints import DaemonSettings, Endpoints
 from rig.daemon.server import Daemon
@@ -21,8 +21,15 @@ __all__ = ["daemon_thread", "run_daemon", "run_local"]
 log = logging.getLogger(__name__)
 
 
+def _rig_config(config: RigConfig | str | Path | None) -> RigConfig:
+    """A config as given, read from its TOML path, or the default rig for None."""
+    if config is None:
+        return default_rig_config()
+    return config if isinstance(config, RigConfig) else load_rig_config(config)
+
+
 def run_daemon(
-    config_path: str | Path | None,
+    config: RigConfig | str | Path | None,
     *,
     settings: DaemonSettings | None = None,
     on_ready: Callable[[Endpoints], None] | None = None,
@@ -31,9 +38,7 @@ def run_daemon(
 
     Must run on the main thread (it installs the signal handlers).
     """
-    from rig.config import default_rig_config
-
-    config = default_rig_config() if config_path is None else load_rig_config(config_path)
+    config = _rig_config(config)
     daemon = Daemon(config, settings=settings)
     endpoints = daemon.bind()
     previous = {
@@ -92,7 +97,7 @@ def worker_threads(endpoints: Endpoints, stage: str, n: int):
 
 def run_local(
     plan_path: str | Path,
-    config_path: str | Path | None,
+    config: RigConfig | str | Path | None,
     *,
     archive: str | Path | None = None,
     workers: int = 1,
@@ -106,9 +111,7 @@ def run_local(
     (e.g. to draw a progress bar).
     """
     from rig import client
-    from rig.config import default_rig_config
-
-    config = default_rig_config() if config_path is None else load_rig_config(config_path)
+    config = _rig_config(config)
     settings = DaemonSettings(port=0)
     daemon = daemon_thread(config, settings=settings, devices=devices, clock=clock)
     with daemon as endpoints, worker_threads(endpoints, "stats", workers):

@@ -3,9 +3,9 @@
 from __future__ import annotations
 
 import pytest
-from sim_scenes import small_scene
 
 from sim import Simulator
+from tests.sim.sim_scenes import small_scene
 
 
 @pytest.fixture(scope="module")

@@ -1,8 +1,7 @@
 """An effect the scene does not list costs nothing: count passes and stages."""
 
-from sim_scenes import small_scene
-
 from sim import Simulator
+from tests.sim.sim_scenes import small_scene
 
 EFFECT_STAGES = {
     "shadows", "specular", "laser", "noise", "saturation", "vignetting", "lens_distortion",

@@ -6,9 +6,9 @@ the two paths pick different triangles only on silhouettes.
 
 import numpy as np
 import pytest
-from sim_scenes import small_scene
 
 from sim import Simulator
+from tests.sim.sim_scenes import small_scene
 
 WHITE = 255.0
 

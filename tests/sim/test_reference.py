@@ -2,9 +2,9 @@
 
 import numpy as np
 import pytest
-from sim_scenes import small_scene
 
 from sim import Simulator
+from tests.sim.sim_scenes import small_scene
 
 mi = pytest.importorskip("mitsuba", reason="install btfrig[reference] for interreflection")
 

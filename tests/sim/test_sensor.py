@@ -2,12 +2,12 @@
 
 import numpy as np
 import pytest
-from sim_scenes import small_scene
 
 from rig.camera import PinholeCamera
 from rig.kinematics import laser_plane
 from sim import Simulator
 from sim.sensor import add_noise, distort, distortion_maps, quantize
+from tests.sim.sim_scenes import small_scene
 
 
 def test_noise_mean_and_variance_follow_the_model():

@@ -2,10 +2,10 @@
 
 import numpy as np
 import pytest
-from sim_scenes import small_scene
 
 from rig.clock import VirtualClock
 from sim import Simulator, World
+from tests.sim.sim_scenes import small_scene
 
 
 def test_frame_types_and_metadata(bumps_sim):

@@ -2,11 +2,11 @@
 
 import numpy as np
 import pytest
-from sim_scenes import small_scene
 
 from rig.geometry import texel_centers_mm
 from sim import Simulator
 from sim.samples import height_normals
+from tests.sim.sim_scenes import small_scene
 
 
 @pytest.fixture(scope="module")

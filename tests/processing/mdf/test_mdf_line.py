@@ -4,7 +4,6 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from mdf_scenes import CONFIG, frames, region, scan
 from scipy.ndimage import binary_erosion
 
 from processing.mdf import (
@@ -14,6 +13,7 @@ from processing.mdf import (
     plate_points,
     profile_axis_for,
 )
+from tests.processing.mdf.mdf_scenes import CONFIG, frames, region, scan
 
 
 def true_line_error_px(line, normal, offset, reg):

@@ -8,18 +8,6 @@ import numpy as np
 import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
-from mdf_scenes import (
-    ARCS,
-    CONFIG,
-    SAMPLE,
-    SHEET_SIGMA_MM,
-    camera,
-    displacement,
-    frames,
-    grid,
-    region,
-    scan,
-)
 
 from processing.mdf import (
     LaserLine,
@@ -44,6 +32,18 @@ from processing.mdf.synthetic import (
     scaled_camera,
     true_distance,
     visible_from,
+)
+from tests.processing.mdf.mdf_scenes import (
+    ARCS,
+    CONFIG,
+    SAMPLE,
+    SHEET_SIGMA_MM,
+    camera,
+    displacement,
+    frames,
+    grid,
+    region,
+    scan,
 )
 
 

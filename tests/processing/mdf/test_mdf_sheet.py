@@ -5,7 +5,6 @@ import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
-from mdf_scenes import CONFIG
 
 from processing.mdf import (
     LaserLine,
@@ -16,6 +15,7 @@ from processing.mdf import (
     tetrahedron_weight,
 )
 from processing.mdf.synthetic import rig_scan
+from tests.processing.mdf.mdf_scenes import CONFIG
 
 
 def exact_line(normal, offset):

@@ -3,7 +3,6 @@
 import numpy as np
 from hypothesis import given
 from hypothesis import strategies as st
-from ps_synthetic import ring_directions
 
 from processing.photometric import (
     CONDITION_CAP,
@@ -15,6 +14,7 @@ from processing.photometric import (
     light_set_condition,
     solve,
 )
+from tests.processing.photometric.ps_synthetic import ring_directions
 
 
 def assert_well_formed(result, shape):

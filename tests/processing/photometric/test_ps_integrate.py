@@ -5,7 +5,6 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
-from ps_synthetic import angular_error_deg, bumps, render_near, ring_directions
 
 from processing.photometric import (
     NearLights,
@@ -15,6 +14,12 @@ from processing.photometric import (
     integrate_gradients,
     integrate_normals,
     refine_near,
+)
+from tests.processing.photometric.ps_synthetic import (
+    angular_error_deg,
+    bumps,
+    render_near,
+    ring_directions,
 )
 
 
@@ -89,7 +94,7 @@ def test_steep_and_downward_normals_are_clipped_and_flagged(nz, azimuth, limit):
 
 def test_refine_near_converges_to_the_surface(surface):
     placed_height = surface.height - surface.height.max()
-    from ps_synthetic import Surface
+    from tests.processing.photometric.ps_synthetic import Surface
 
     placed = Surface(surface.x, surface.y, placed_height, surface.normals, surface.albedo, 0.1)
     positions = ring_directions(24) * 60.0

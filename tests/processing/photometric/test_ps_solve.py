@@ -3,15 +3,6 @@
 import numpy as np
 import pytest
 from numpy.testing import assert_allclose
-from ps_synthetic import (
-    Surface,
-    angular_error_deg,
-    bumps,
-    render_distant,
-    render_near,
-    ring_directions,
-    specular,
-)
 
 from processing.photometric import (
     DistantLights,
@@ -22,6 +13,15 @@ from processing.photometric import (
     solve,
 )
 from rig.errors import RigError
+from tests.processing.photometric.ps_synthetic import (
+    Surface,
+    angular_error_deg,
+    bumps,
+    render_distant,
+    render_near,
+    ring_directions,
+    specular,
+)
 
 
 @pytest.fixture(scope="module")

@@ -4,10 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from plate_frames import camera_homography, render_plate
 
 from rig.camera import PinholeCamera
 from rig.config import Holder, default_rig_config
+from tests.processing.registration.plate_frames import camera_homography, render_plate
 
 
 @pytest.fixture(scope="session")

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
-from plate_frames import camera_homography, project, render_plate, sample_texture, texel_truth
 
 from processing.registration import (
     Reason,
@@ -18,6 +17,13 @@ from processing.registration import (
 )
 from rig.camera import PinholeCamera
 from rig.geometry import texel_centers_mm
+from tests.processing.registration.plate_frames import (
+    camera_homography,
+    project,
+    render_plate,
+    sample_texture,
+    texel_truth,
+)
 
 N = 48
 

@@ -6,7 +6,6 @@ import numpy as np
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
-from plate_frames import camera_homography, project
 
 from processing.registration import (
     MarkerDetection,
@@ -16,6 +15,7 @@ from processing.registration import (
     marker_corners_mm,
 )
 from rig.config import Holder
+from tests.processing.registration.plate_frames import camera_homography, project
 
 
 def _detection(holder, G, ids, noise_px=0.0, seed=0) -> MarkerDetection:

@@ -6,7 +6,6 @@ import threading
 from contextlib import contextmanager
 
 import pytest
-import zarr
 
 from rig.clock import VirtualClock
 from rig.config import default_rig_config
@@ -40,13 +39,6 @@ lights = {theta_deg = 45, count = 6}
 [resolution]
 scale = 0.0625
 """
-
-
-@pytest.fixture(scope="session", autouse=True)
-def zarr_runtime():
-    """Start zarr's process-wide I/O thread and pool before the leak check looks."""
-    zarr.config.set({"threading.max_workers": 1})
-    zarr.create_array(store={}, shape=(1,), dtype="uint8")[:] = 1
 
 
 @pytest.fixture

@@ -71,8 +71,9 @@ def test_full_session_with_workers(config, rig, tmp_path):
     assert all(e["eta_s"] >= 0 for e in progress)
     seqs = [e["seq"] for e in events if e["seq"] is not None]
     assert seqs == sorted(seqs) and len(set(seqs)) == len(seqs)
+    # the subscription starts after the submit: the homing → running change may come first
     states = [e["to"] for e in events if e["topic"] == "state"]
-    assert states[-3:] == ["running", "finishing", "done"]
+    assert states[-2:] == ["finishing", "done"]
     with Archive.open(path) as archive:
         stats = archive.material["stats"]
         for camera in ("cam0", "cam2"):
