@@ -18,15 +18,6 @@ __all__ = ["register"]
 
 def register(app: typer.Typer) -> None:
     @app.command()
-    def replay(
-        archive: Annotated[Path, typer.Argument(help="session archive")],
-        speed: Annotated[float, typer.Option("--speed", help="replay speed factor")] = 1.0,
-        max_speed: Annotated[bool, typer.Option("--max", help="as fast as possible")] = False,
-    ) -> None:
-        """Run a recorded session back through the daemon and workers."""
-        not_built("replay", 5, "session replay")
-
-    @app.command()
     def process(
         archive: Annotated[Path, typer.Argument(help="session archive")],
         stages: Annotated[str, typer.Option("--stages", help="e.g. ps,btf,mdf")] = "ps,btf,mdf",

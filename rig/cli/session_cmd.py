@@ -215,6 +215,38 @@ def register(app: typer.Typer) -> None:
             raise typer.Exit(1)
 
     @app.command()
+    def replay(
+        archive: Annotated[Path, typer.Argument(help="session archive to replay")],
+        out: Annotated[
+            Path | None,
+            typer.Option("--out", help="the replay's archive (default: ARCHIVE.replay.zarr)"),
+        ] = None,
+        speed: Annotated[
+            float, typer.Option("--speed", min=0.001, help="pace: N times the recorded speed")
+        ] = 1.0,
+        max_speed: Annotated[
+            bool, typer.Option("--max", help="as fast as the archive reads (ignores --speed)")
+        ] = False,
+        workers: Annotated[int, typer.Option(min=0, help="statistics workers to run")] = 1,
+    ) -> None:
+        """Run a recorded session back through the daemon and workers.
+
+        The plan, rig config and frames come from ARCHIVE; moves, lamps, cameras and
+        exposures are checked against the recording, and a mismatch fails the replay.
+        """
+        from rig.daemon import replay_local
+
+        target = out if out is not None else archive.with_suffix(".replay.zarr")
+        with reporting_errors(), _ProgressView() as view:
+            final = replay_local(
+                archive, out=target, speed=None if max_speed else speed, workers=workers,
+                on_event=view,
+            )  # fmt: skip
+        _print_status(final)
+        if final.get("state") != "done":
+            raise typer.Exit(1)
+
+    @app.command()
     def worker(
         stage: Annotated[str, typer.Argument(help="processing stage to run (e.g. stats)")],
         connect: Annotated[str, CONNECT] = DEFAULT_CONNECT,

@@ -8,8 +8,9 @@ See ``docs/daemon.md``.
 
 from rig.daemon.devices import Captured, DeviceSet, RigDevices, ThreadedCamera, build_devices
 from rig.daemon.endpoints import DEFAULT_PORT, DaemonSettings, Endpoints, is_loopback
-from rig.daemon.local import daemon_thread, run_daemon, run_local
+from rig.daemon.local import daemon_thread, replay_local, run_daemon, run_local
 from rig.daemon.protocol import MessageError
+from rig.daemon.replay import ReplayDevices, replay_factory
 from rig.daemon.server import Daemon
 from rig.daemon.session import Session, SessionError, frame_formats
 from rig.daemon.state import (
@@ -31,6 +32,7 @@ __all__ = [
     "Endpoints",
     "IllegalTransition",
     "MessageError",
+    "ReplayDevices",
     "RigDevices",
     "Session",
     "SessionError",
@@ -43,6 +45,8 @@ __all__ = [
     "daemon_thread",
     "frame_formats",
     "is_loopback",
+    "replay_factory",
+    "replay_local",
     "run_daemon",
     "run_local",
 ]

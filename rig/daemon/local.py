@@ -14,9 +14,9 @@ from rig.config import RigConfig, default_rig_config, load_rig_config
 from rig.daemon.devices import build_devices
 from rig.daemon.endpoints import DaemonSettings, Endpoints
 from rig.daemon.server import Daemon
-from rig.daemon.session import DeviceFactory
+from rig.daemon.session import DeviceFactory, SessionError
 
-__all__ = ["daemon_thread", "run_daemon", "run_local"]
+__all__ = ["daemon_thread", "replay_local", "run_daemon", "run_local"]
 
 log = logging.getLogger(__name__)
 
@@ -111,11 +111,57 @@ def run_local(
     (e.g. to draw a progress bar).
     """
     from rig import client
-    config = _rig_config(config)
-    settings = DaemonSettings(port=0)
+
+    def submit(endpoints: Endpoints) -> None:
+        client.submit(plan_path, archive=archive, connect=endpoints)
+
+    return _in_process(
+        _rig_config(config), submit, DaemonSettings(port=0), devices, clock, workers, on_event
+    )
+
+
+def replay_local(
+    source: str | Path,
+    *,
+    out: str | Path,
+    speed: float | None = None,
+    workers: int = 1,
+    on_event: Callable[[dict], None] | None = None,
+    clock: Clock | None = None,
+) -> dict:
+    """Run the session recorded in ``source`` back through a daemon into ``out`` (``rig replay``).
+
+    The plan and rig config come from the recording; the frames too (``ReplayDevices``).
+    A mismatch between plan and recording fails the replay, naming the step.
+    """
+    from rig.archive import Archive
+    from rig.client import DaemonClient
+    from rig.daemon.replay import replay_factory
+
+    with Archive.open(source, mode="r") as recording:
+        plan_toml = recording.plan_toml
+        config = RigConfig.model_validate(recording.rig_config)
+    if plan_toml is None:
+        raise SessionError(f"{source}: the archive holds no plan to replay")
+
+    def submit(endpoints: Endpoints) -> None:
+        with DaemonClient(endpoints) as control:
+            control.request(
+                "submit", plan_toml=plan_toml, source=f"replay of {source}",
+                archive=str(Path(out).resolve()),
+            )  # fmt: skip
+
+    settings = DaemonSettings(port=0, on_fault="fail")
+    devices = replay_factory(source, speed=speed)
+    return _in_process(config, submit, settings, devices, clock, workers, on_event)
+
+
+def _in_process(config, submit, settings, devices, clock, workers, on_event) -> dict:
+    from rig import client
+
     daemon = daemon_thread(config, settings=settings, devices=devices, clock=clock)
     with daemon as endpoints, worker_threads(endpoints, "stats", workers):
-        client.submit(plan_path, archive=archive, connect=endpoints)
+        submit(endpoints)
         for event in client.follow(endpoints, until=client.session_ended):
             if on_event is not None:
                 on_event(event)

@@ -111,7 +111,10 @@ class Session:
         self.on_fault = on_fault
         self.drain_timeout_s = drain_timeout_s
         self._changed = threading.Condition()
-        self._progress = _Progress(committed=len(archive.committed_steps()))
+        self._progress = _Progress(
+            committed=len(archive.committed_steps()), frames=len(archive.frame_table())
+        )
+        self._frames_before = self._progress.frames  # a resumed session's rate counts its own
         self._lock = threading.Lock()
         self._per_kind_s = _per_step_estimate(self.schedule)
         # Estimated time of the steps after each step, for the ETA.
@@ -369,7 +372,11 @@ class Session:
                 "elapsed_s": clock_elapsed,
                 "wall_s": time.perf_counter() - self._t0[1],
                 "frames": self._progress.frames,
-                "frames_per_s": self._progress.frames / clock_elapsed if clock_elapsed > 0 else 0.0,
+                "frames_per_s": (
+                    (self._progress.frames - self._frames_before) / clock_elapsed
+                    if clock_elapsed > 0
+                    else 0.0
+                ),
             },
         )
 

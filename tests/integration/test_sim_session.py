@@ -8,60 +8,14 @@ so a wrong lamp, a missed move or a stale frame fails the test.
 
 from __future__ import annotations
 
-import tomllib
-from pathlib import Path
-
 import numpy as np
-import pytest
 
 from rig import client
 from rig.archive import Archive
 from rig.clock import VirtualClock
-from rig.daemon import DaemonSettings, daemon_thread
-from rig.daemon.local import worker_threads
 from sim.rig import SimulatedRig
-from sim.scene import scene_from_dict
 from sim.world import WorldSnapshot
-
-PLAN = """
-[sample]
-name = "integration"
-[captures.ps]
-lights = {theta_deg = 45, count = 3}
-[captures.btf]
-views = [[0, 0], [30, 90]]
-lights = [[45, 0], [30, 180]]
-[captures.mdf]
-views = [[0, 0]]
-laser_locations = [[45, 0]]
-scan_step_deg = 4.0
-"""
-
-
-@pytest.fixture(scope="module")
-def scene():
-    path = Path("examples/scenes/bumps.toml")
-    data = tomllib.loads(path.read_text())
-    data["render"]["scale"] = 0.2  # 1/5 of the rig's sensor: fast, still every feature
-    return scene_from_dict(data, source=str(path), base_dir=path.parent)
-
-
-def _session(sim, clock, tmp_path, plan=PLAN, *, until_state=client.TERMINAL_STATES, act=None):
-    """Run ``plan`` to ``until_state``; ``act(endpoints, status)`` may then steer it on."""
-    (tmp_path / "plan.toml").write_text(plan)
-    archive = tmp_path / "session.zarr"
-    settings = DaemonSettings(port=0)
-    with (
-        daemon_thread(sim.rig_config(), settings=settings, clock=clock) as endpoints,
-        worker_threads(endpoints, "stats", 1),
-    ):
-        client.submit(tmp_path / "plan.toml", archive=archive, connect=endpoints)
-        # a paused session keeps the devices: only a finished one settles
-        settled = set(until_state) <= set(client.TERMINAL_STATES)
-        status = client.wait_for_state(endpoints, until_state, settled=settled, timeout_s=60)
-        if act is not None:
-            status = act(endpoints, status)
-    return archive, status
+from tests.integration.conftest import run_session
 
 
 def _snapshot(record):
@@ -79,7 +33,7 @@ def _snapshot(record):
 def test_full_session_frames_are_what_the_simulator_renders(scene, tmp_path):
     clock = VirtualClock()
     with SimulatedRig(scene, clock=clock) as sim:
-        archive, status = _session(sim, clock, tmp_path)
+        archive, status = run_session(sim, clock, tmp_path)
         assert status["state"] == "done", status
         with Archive.open(archive) as arch:
             steps = arch.step_table()
@@ -118,7 +72,7 @@ def test_dropped_and_corrupt_frames_are_recaptured(scene, tmp_path):
     clock = VirtualClock()
     faults = {"cameras": {"dropped_frames": 1, "corrupt_frames": 1}}
     with SimulatedRig(scene, clock=clock, faults=faults) as sim:
-        archive, status = _session(sim, clock, tmp_path)
+        archive, status = run_session(sim, clock, tmp_path)
     assert status["state"] == "done", status
     n_frames, committed = _frames(archive)
     assert n_frames == status["session"]["frames"]
@@ -140,7 +94,7 @@ def test_dead_lamp_pauses_the_session_and_resume_retries_the_step(scene, tmp_pat
                 endpoints, client.TERMINAL_STATES, settled=True, timeout_s=60
             )
 
-        archive, status = _session(
+        archive, status = run_session(
             sim, clock, tmp_path, until_state=("paused", *client.TERMINAL_STATES),
             act=replace_bulb_and_resume,
         )  # fmt: skip
@@ -153,7 +107,7 @@ def test_dead_lamp_pauses_the_session_and_resume_retries_the_step(scene, tmp_pat
 def test_drive_fault_while_homing_fails_the_session_naming_the_drive(scene, tmp_path):
     clock = VirtualClock()
     with SimulatedRig(scene, clock=clock, faults={"turntable": {"drive_fault": True}}) as sim:
-        archive, status = _session(sim, clock, tmp_path)
+        archive, status = run_session(sim, clock, tmp_path)
     assert status["state"] == "failed"
     assert "turntable" in status["session"]["reason"], status["session"]
     assert _frames(archive) == (0, ())

@@ -51,7 +51,7 @@ def test_bad_plan_exits_2_with_field_names(tmp_path):
     assert "captures.btf.views" in result.output
 
 
-@pytest.mark.parametrize("args", [["replay", "s.zarr"], ["view", "m.zarr"], ["process", "s.zarr"]])
+@pytest.mark.parametrize("args", [["view", "m.zarr"], ["process", "s.zarr"]])
 def test_unbuilt_commands_say_so_and_fail(args):
     result = runner.invoke(app, args)
     assert result.exit_code == 3
@@ -62,3 +62,43 @@ def test_status_without_a_daemon_fails_clearly():
     result = runner.invoke(app, ["status", "--connect", "tcp://127.0.0.1:1"])
     assert result.exit_code == 1
     assert "error" in result.output
+
+
+def test_replay_of_a_missing_archive_names_it(tmp_path):
+    result = runner.invoke(app, ["replay", str(tmp_path / "nowhere.zarr"), "--max"])
+    assert result.exit_code == 1
+    assert "nowhere.zarr" in result.output and "no archive here" in result.output
+
+
+def test_run_refuses_both_config_and_sim(tmp_path):
+    config = tmp_path / "rig.toml"
+    config.write_text("")
+    args = ["run", str(EXAMPLES / "demo.toml"), "--config", str(config)]
+    result = runner.invoke(app, [*args, "--sim", "examples/scenes/bumps.toml"])
+    assert result.exit_code == 2
+    assert "--config and --sim" in result.output
+
+
+@pytest.mark.parametrize(
+    ("spec", "message"),
+    [("cameras.dropped_frames", "expected PEER.KEY=VALUE"), ("cameras.x=[1,", "not a TOML value")],
+)
+def test_sim_serve_rejects_a_bad_fault(spec, message):
+    result = runner.invoke(app, ["sim", "serve", "examples/scenes/bumps.toml", "--fault", spec])
+    assert result.exit_code == 2
+    assert message in result.output
+
+
+def test_sim_serve_rejects_a_fault_for_an_unknown_peer(tmp_path):
+    args = ["sim", "examples/scenes/bumps.toml", "--config-out", str(tmp_path / "c.toml")]
+    result = runner.invoke(app, [*args, "--fault", "toaster.burn=true"])
+    assert result.exit_code == 2
+    assert "toaster" in result.output and "valid are" in result.output
+    assert not (tmp_path / "c.toml").exists()
+
+
+def test_parse_faults_reads_toml_values():
+    from rig.cli.sim_cmd import parse_faults
+
+    faults = parse_faults(["cameras.dropped_frames=2", "lamp_bank.dead_lamps=['lamp3']"])
+    assert faults == {"cameras": {"dropped_frames": 2}, "lamp_bank": {"dead_lamps": ["lamp3"]}}

@@ -1,0 +1,132 @@
+"""The user's multi-process setup, on the command line: `rig sim serve` in one process,
+`rig daemon` in another, `rig submit` / `rig status` / `rig resume` as clients. The daemon
+is killed with SIGKILL mid-session; a new one resumes the archive with every step once."""
+
+from __future__ import annotations
+
+import contextlib
+import signal
+import socket
+import subprocess
+import sys
+import time
+import tomllib
+from pathlib import Path
+
+import tomli_w
+
+from rig import client
+from rig.archive import Archive
+
+RIG = str(Path(sys.executable).with_name("rig"))
+ROOT = Path(__file__).resolve().parents[2]
+PLAN = """
+[sample]
+name = "cli"
+[captures.ps]
+lights = {theta_deg = 45, count = 6}
+[captures.btf]
+views = [[0, 0]]
+lights = [[30, 0], [30, 120], [30, 240]]
+"""
+
+
+def _free_base_port() -> int:
+    """A port P with P … P + 3 free on loopback (the daemon's four sockets)."""
+    for _ in range(50):
+        with socket.socket() as probe:
+            probe.bind(("127.0.0.1", 0))
+            base = probe.getsockname()[1]
+        if base > 65530:
+            continue
+        with contextlib.ExitStack() as stack:
+            try:
+                for port in range(base, base + 4):
+                    s = stack.enter_context(socket.socket())
+                    s.bind(("127.0.0.1", port))
+            except OSError:
+                continue
+        return base
+    raise RuntimeError("no four consecutive free ports on loopback")
+
+
+def _start(*args: str) -> subprocess.Popen:
+    return subprocess.Popen(
+        [RIG, *args], cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True
+    )
+
+
+def _stop(proc: subprocess.Popen) -> str:
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGTERM)
+    try:
+        out, _ = proc.communicate(timeout=20)
+    except subprocess.TimeoutExpired:
+        proc.kill()
+        out, _ = proc.communicate()
+    return out
+
+
+def _cli(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([RIG, *args], cwd=ROOT, capture_output=True, text=True, timeout=120)
+
+
+def _wait(predicate, what: str, timeout_s: float = 60.0):
+    deadline = time.monotonic() + timeout_s
+    while True:
+        value = predicate()
+        if value:
+            return value
+        assert time.monotonic() < deadline, f"timed out waiting for {what}"
+        time.sleep(0.1)
+
+
+def test_sim_serve_daemon_submit_kill_resume(tmp_path):
+    scene = tomllib.loads((ROOT / "examples/scenes/bumps.toml").read_text())
+    scene["render"]["scale"] = 0.2
+    (tmp_path / "scene.toml").write_text(tomli_w.dumps(scene))
+    (tmp_path / "plan.toml").write_text(PLAN)
+    config, archive = tmp_path / "sim-rig.toml", tmp_path / "session.zarr"
+    connect = f"tcp://127.0.0.1:{_free_base_port()}"
+    port = connect.rsplit(":", 1)[1]
+    sim = _start("sim", str(tmp_path / "scene.toml"), "--config-out", str(config), "--speed", "4")
+    daemon = again = None
+    try:
+        _wait(lambda: config.exists() or sim.poll() is not None, "the sim's rig config")
+        assert sim.poll() is None, _stop(sim)
+        daemon = _start("daemon", "--config", str(config), "--port", port)
+        _wait(lambda: _cli("status", "--connect", connect).returncode == 0, "the daemon")
+        submitted = _cli("submit", str(tmp_path / "plan.toml"), "--archive", str(archive),
+                         "--connect", connect)  # fmt: skip
+        assert submitted.returncode == 0, submitted.stdout + submitted.stderr
+        _wait(
+            lambda: (client.status(connect=connect)["session"] or {}).get("committed", 0) >= 2,
+            "two committed steps",
+        )
+        daemon.send_signal(signal.SIGKILL)
+        assert daemon.wait(10) == -signal.SIGKILL
+        with Archive.open(archive) as arch:
+            before = arch.committed_steps()
+        again = _start("daemon", "--config", str(config), "--port", port)
+        _wait(lambda: _cli("status", "--connect", connect).returncode == 0, "the new daemon")
+        resumed = _cli("resume", str(archive), "--connect", connect)
+        assert resumed.returncode == 0, resumed.stdout + resumed.stderr
+        followed = _cli("status", "--follow", "--connect", connect)
+        assert followed.returncode == 0, followed.stdout + followed.stderr
+        final = client.wait_for_state(connect, client.TERMINAL_STATES, settled=True)
+        assert final["state"] == "done", final
+        assert _cli("shutdown", "--connect", connect).returncode == 0
+        assert again.wait(20) == 0
+    finally:
+        for proc in (again, daemon, sim):
+            if proc is not None:
+                _stop(proc)
+    with Archive.open(archive) as arch:
+        committed = arch.committed_steps()
+        table = arch.frame_table()
+        starts = [e.payload for e in arch.events("session") if e.payload["action"] == "start"]
+    assert 2 <= len(before) < len(committed)
+    assert committed == tuple(range(final["session"]["steps"]))
+    keys = [(int(r["step"]), str(r["camera"]), int(r["sub"])) for r in table]
+    assert len(keys) == len(set(keys)) == final["session"]["frames"]  # nothing captured twice
+    assert [s["committed"] for s in starts] == [0, len(before)]
