@@ -1,31 +1,58 @@
-"""The btfrig demo: plan a small session, estimate it, capture it, read it back.
+"""The btfrig demo: a whole measurement session on the simulated rig, end to end.
 
-Run by `make demo`. It uses only the public APIs and says what it produced.
+Run by `make demo`. It plans and estimates a small session, runs it through the
+daemon with the real device drivers talking to the simulated rig's peers (in
+virtual time), replays it from the archive, and writes PNGs of what the
+cameras saw. It uses only the public APIs and says what it produced.
 """
 
 from __future__ import annotations
 
 import argparse
 import shutil
-import sys
 import time
 from pathlib import Path
 
+import cv2
 import numpy as np
 
-from rig import compile_plan, default_rig_config, load_plan
-from rig.archive import Archive, FrameFormat, StepRecord
+from rig import compile_plan, load_plan
+from rig.archive import Archive
 from rig.cli.plan_cmd import print_estimate
+from rig.clock import VirtualClock
+from rig.daemon import replay_local, run_local
+from sim.rig import SimulatedRig
 
-PLAN = Path(__file__).parent / "plans" / "demo.toml"
+EXAMPLES = Path(__file__).parent
+PLAN = EXAMPLES / "plans" / "demo.toml"
+SCENE = EXAMPLES / "scenes" / "default.toml"
 
 
-def _test_pattern(step_index: int, camera: str, fmt: FrameFormat) -> np.ndarray:
-    # A frame whose content encodes step and camera, so the read-back check is exact.
-    yy, xx = np.mgrid[0 : fmt.height, 0 : fmt.width]
-    seed = step_index * 31 + int(camera.removeprefix("cam"))
-    image = np.stack([(xx + seed) % 256, (yy + 2 * seed) % 256, (xx + yy + seed) % 256], -1)
-    return image.astype(np.uint8)
+def _progress(event: dict) -> None:
+    if event.get("topic") == "progress" and event["step"] % 8 in (0, event["steps"] % 8):
+        print(f"   step {event['step']:3d}/{event['steps']}  ({event['frames']} frames)")
+    elif event.get("topic") == "state":
+        print(f"   {event['from']} → {event['to']}")
+
+
+def _to_8bit(image: np.ndarray) -> np.ndarray:
+    if image.dtype == np.uint8:
+        return image
+    return (image.astype(np.float32) * (255.0 / np.iinfo(image.dtype).max)).astype(np.uint8)
+
+
+def _contact_sheet(archive: Archive, kind: str, columns: int = 4) -> np.ndarray:
+    """The frames of the first camera of every ``kind`` step, tiled (RGB, uint8)."""
+    steps = [s for s in archive.step_table() if s.kind == kind]
+    camera = steps[0].cameras[0]
+    tiles = [_to_8bit(archive.read_frame(s.index, camera, 0)) for s in steps if camera in s.cameras]
+    rows = -(-len(tiles) // columns)
+    h, w = tiles[0].shape[:2]
+    sheet = np.zeros((rows * h, columns * w, 3), np.uint8)
+    for i, tile in enumerate(tiles):
+        r, c = divmod(i, columns)
+        sheet[r * h : (r + 1) * h, c * w : (c + 1) * w] = tile[..., :3]
+    return sheet
 
 
 def main() -> int:
@@ -33,67 +60,48 @@ def main() -> int:
     parser.add_argument("--out", type=Path, default=Path("out/demo"))
     args = parser.parse_args()
     args.out.mkdir(parents=True, exist_ok=True)
-
-    config = default_rig_config()
-    plan = load_plan(PLAN)
-    print(f"1. plan {PLAN} is valid; compiling it for rig {config.name!r}")
-    schedule = compile_plan(plan, config)
-    print_estimate(schedule)
-
     archive_path = args.out / "demo.zarr"
-    if archive_path.exists():
-        shutil.rmtree(archive_path)
-    scale = plan.resolution.scale
-    cameras = {
-        cam.id: FrameFormat(round(cam.height * scale), round(cam.width * scale), cam.channels)
-        for cam in config.camera_arc.cameras
-    }
-    print(f"2. capturing {len(schedule.steps)} steps into {archive_path} (test-pattern frames)")
-    t0 = time.perf_counter()
-    with Archive.create(
-        archive_path,
-        plan=plan.model_dump(mode="json"),
-        plan_toml=PLAN.read_text(),
-        rig_config=config.model_dump(mode="json"),
-        cameras=cameras,
-    ) as archive:
-        for step in schedule.steps:
-            record = StepRecord(
-                index=step.index,
-                kind=step.kind,
-                cameras=step.cameras,
-                views_deg={s.camera: s.view_deg for s in step.shots},
-                light_deg=step.shots[0].light_deg if step.kind != "mdf" else None,
-                actuators={"turntable_deg": step.turntable_deg, "arc_deg": step.arc_deg},
-                exposures_s=step.exposures_s,
-                lamp=step.source if step.kind != "mdf" else None,
-                laser=step.source if step.kind == "mdf" else None,
-                started_at=time.time(),
-            )
-            frames = {
-                cam: [_test_pattern(step.index, cam, cameras[cam])] * step.frames_per_camera
-                for cam in step.cameras
-            }
-            archive.append_step(record, frames)
-    seconds = time.perf_counter() - t0
+    replay_path = args.out / "demo.replay.zarr"
+    for old in (archive_path, replay_path):
+        if old.exists():
+            shutil.rmtree(old)
 
-    print("3. reading the archive back")
-    with Archive.open(archive_path) as archive:
-        committed = archive.committed_steps()
-        n_frames = len(archive.frame_table())
-        for step in schedule.steps:
-            for cam in step.cameras:
-                got = archive.read_frame(step.index, cam)
-                if not np.array_equal(got, _test_pattern(step.index, cam, cameras[cam])):
-                    print(f"   MISMATCH at step {step.index}, camera {cam}", file=sys.stderr)
-                    return 1
-    size_mb = sum(f.stat().st_size for f in archive_path.rglob("*") if f.is_file()) / 1e6
+    plan = load_plan(PLAN)
+    clock = VirtualClock()
+    t0 = time.perf_counter()
+    with SimulatedRig(SCENE, clock=clock) as sim:
+        config = sim.rig_config()
+        print(f"1. plan {PLAN} is valid; on the simulated rig of scene {SCENE.name}:")
+        print_estimate(compile_plan(plan, config))
+        print(f"2. running the session through the daemon into {archive_path}")
+        final = run_local(PLAN, config, archive=archive_path, on_event=_progress, clock=clock)
+    if final["state"] != "done":
+        print(f"   the session ended {final['state']}: {final['session'].get('reason')}")
+        return 1
+    s = final["session"]
     print(
-        f"   {len(committed)} steps, {n_frames} frames, {size_mb:.1f} MB on disk, "
-        f"written in {seconds:.1f} s; every frame read back bit-exact"
+        f"   {s['committed']} steps, {s['frames']} frames in {time.perf_counter() - t0:.0f} s "
+        f"of wall time ({clock.now() / 60:.1f} min of rig time)"
     )
-    print(f"\nResults: {archive_path}")
-    return 0
+
+    print(f"3. replaying it from the archive into {replay_path}")
+    replayed = replay_local(archive_path, out=replay_path, speed=None)
+    if replayed["state"] != "done":
+        print(f"   the replay ended {replayed['state']}: {replayed['session'].get('reason')}")
+        return 1
+    with Archive.open(archive_path) as live, Archive.open(replay_path) as again:
+        keys = [(int(r["step"]), str(r["camera"]), int(r["sub"])) for r in live.frame_table()]
+        same = all(np.array_equal(live.read_frame(*k), again.read_frame(*k)) for k in keys)
+        print(f"   {len(again.frame_table())} frames replayed, identical to the live ones: {same}")
+
+        print("4. writing what the cameras saw")
+        for kind in ("ps", "btf"):
+            path = args.out / f"{kind}_frames.png"
+            cv2.imwrite(str(path), cv2.cvtColor(_contact_sheet(live, kind), cv2.COLOR_RGB2BGR))
+            print(f"   {path}")
+    size_mb = sum(f.stat().st_size for f in archive_path.rglob("*") if f.is_file()) / 1e6
+    print(f"\nResults: {archive_path} ({size_mb:.1f} MB) and the PNGs in {args.out}")
+    return 0 if same else 1
 
 
 if __name__ == "__main__":
