@@ -44,13 +44,18 @@ def _ps(module, quick: bool) -> list[dict]:
     return module.run_bench(capture_time_s=capture_time_s, **size)
 
 
+def _btf(module, quick: bool) -> list[dict]:
+    sizes = {"size": 32, "speed_size": 64, "memory_size": 64, "repeats": 1} if quick else {}
+    return module.run_bench(**sizes)
+
+
 # area → (module, issue that builds it, how to call its run_bench)
 AREAS: dict[str, tuple[str, int, Callable]] = {
     "archive": ("rig.archive.bench", 2, _archive),
     "daemon": ("rig.daemon.bench", 5, _plain),
     "sim": ("sim.bench", 3, _plain),
     "ps": ("processing.photometric.bench", 6, _ps),
-    "btf": ("processing.btf.bench", 7, _plain),
+    "btf": ("processing.btf.bench", 7, _btf),
     "mdf": ("processing.mdf.bench", 8, _plain),
     "calibration": ("calibration.bench", 9, _plain),
 }
@@ -59,6 +64,20 @@ app = typer.Typer(no_args_is_help=True, help="Benchmarks: accuracy against time,
 
 
 def print_rows(title: str, rows: list[dict]) -> None:
+    """One table, or one per kind when the rows say their kind in a ``"row"`` column."""
+    if rows and all("row" in r for r in rows):
+        kinds = dict.fromkeys(r["row"] for r in rows)
+        if len(kinds) > 1:
+            for kind in kinds:
+                group = [dict(r) for r in rows if r["row"] == kind]
+                for r in group:
+                    del r["row"]
+                _print_table(f"{title}: {kind}", group)
+            return
+    _print_table(title, rows)
+
+
+def _print_table(title: str, rows: list[dict]) -> None:
     table = Table(title=title)
     columns = list(dict.fromkeys(k for row in rows for k in row))
     for col in columns:
