@@ -111,3 +111,27 @@ def test_drive_fault_while_homing_fails_the_session_naming_the_drive(scene, tmp_
     assert status["state"] == "failed"
     assert "turntable" in status["session"]["reason"], status["session"]
     assert _frames(archive) == (0, ())
+
+
+def test_stalled_turntable_pauses_naming_it_and_resume_finishes(scene, tmp_path):
+    clock = VirtualClock()
+    with SimulatedRig(scene, clock=clock) as sim:
+        sim.motion.turntable.set_stall(0.5)  # every move stops halfway
+
+        def unjam_and_resume(endpoints, status):
+            assert status["state"] == "paused", status
+            fault = status["session"]["fault"]
+            assert "turntable" in fault["device"], fault
+            sim.motion.turntable.set_stall(None)
+            client.resume(connect=endpoints)
+            return client.wait_for_state(
+                endpoints, client.TERMINAL_STATES, settled=True, timeout_s=60
+            )
+
+        archive, status = run_session(
+            sim, clock, tmp_path, until_state=("paused", *client.TERMINAL_STATES),
+            act=unjam_and_resume,
+        )  # fmt: skip
+    assert status["state"] == "done", status
+    n_frames, committed = _frames(archive)
+    assert committed == tuple(range(status["session"]["steps"]))
