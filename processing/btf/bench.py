@@ -19,7 +19,7 @@ from processing.btf._quality import psnr_db, rmse
 from processing.btf.synthetic import SyntheticBTF
 from rig.geometry import Sampling
 
-__all__ = ["run_bench"]
+__all__ = ["plot_bench", "run_bench"]
 
 
 def _best_of(repeats: int, fn) -> tuple[float, object]:
@@ -178,3 +178,39 @@ def run_bench(
             "input_mib": 4 * np.prod(lazy.shape) / mib,
         })  # fmt: skip
     return rows
+
+
+def plot_bench(rows: list[dict], path) -> None:
+    """Write the accuracy–storage–time plot of ``docs/btf.md`` (PNG) from :func:`run_bench` rows.
+
+    Left: RMSE against the storage ratio for the per-view PCA (c labelled) and
+    the global SVD; right: RMSE at held-out lights per interpolation method.
+    """
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(10, 3.8))
+    ax0, ax1 = fig.subplots(1, 2, gridspec_kw={"width_ratios": [2, 1]})
+    for kind, marker, label in (("pca", "o-", "per-view PCA"), ("svd", "s--", "global SVD")):
+        sel = [r for r in rows if r["row"] == kind]
+        if not sel:
+            continue
+        ratio = [r["storage_ratio"] for r in sel]
+        ax0.plot(ratio, [r["rmse"] for r in sel], marker, label=label)
+        for r in sel:
+            ax0.annotate(
+                f"c={r['components']}, {r['compress_s']:.1f} s",
+                (r["storage_ratio"], r["rmse"]), textcoords="offset points", xytext=(4, 4),
+                fontsize=7,
+            )  # fmt: skip
+    ax0.set_xscale("log")
+    ax0.set_yscale("log")
+    ax0.set_xlabel("storage ratio (float32 normtextures / compressed)")
+    ax0.set_ylabel("RMSE over all measured images")
+    ax0.set_title("accuracy vs storage (labels: c, compression time)")
+    ax0.legend(fontsize=8)
+    interp = [r for r in rows if r["row"] == "interpolation"]
+    ax1.bar([r["method"] for r in interp], [r["rmse"] for r in interp], color="tab:gray")
+    ax1.set_ylabel("RMSE at held-out lights")
+    ax1.set_title("light interpolation (c = 16)")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)

@@ -13,7 +13,7 @@ from processing.btf import (
     reconstruct,
     rmse,
 )
-from processing.btf.bench import run_bench
+from processing.btf.bench import plot_bench, run_bench
 from processing.btf.material import from_arrays, to_arrays
 from processing.btf.synthetic import SyntheticBTF
 from rig.geometry import Sampling
@@ -120,7 +120,7 @@ def test_material_arrays_round_trip(btf, model, kind):
         from_arrays(broken, attrs)
 
 
-def test_bench_rows(benchmark):
+def test_bench_rows(benchmark, tmp_path):
     rows = benchmark.pedantic(
         lambda: run_bench(
             size=8, components=(1, 4), svd_components=(2,), speed_size=16, memory_size=8,
@@ -139,3 +139,5 @@ def test_bench_rows(benchmark):
     assert speed["gram_rmse"] == pytest.approx(speed["numpy_svd_rmse"], rel=1e-3)
     memory = next(r for r in rows if r["row"] == "memory")
     assert memory["peak_mib"] > 0
+    plot_bench(rows, tmp_path / "btf_bench.png")
+    assert (tmp_path / "btf_bench.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
