@@ -49,7 +49,8 @@ class SimulatedRig:
         daemon in another process, a ``VirtualClock`` serves in-process tests
     transport : Modbus over loopback ``"tcp"`` or ``"rtu"`` on ptys
     faults : per peer (``turntable``, ``lamp_bank``, ``light_arc``, ``laser``,
-        ``cameras``) its fault table, e.g. ``{"cameras": {"dropped_frames": 1}}``
+        ``cameras``) its fault table, e.g. ``{"cameras": {"dropped_frames": 1}}``;
+        on top of the scene's ``[faults.<peer>]`` tables, key by key
     """
 
     def __init__(
@@ -61,13 +62,16 @@ class SimulatedRig:
         faults: Mapping[str, Mapping[str, Any]] | None = None,
     ):
         self.scene = scene if isinstance(scene, Scene) else load_scene(scene)
-        faults = dict(faults or {})
-        unknown = sorted(set(faults) - set(FAULT_PEERS))
+        # the scene's fault tables, with those given here on top, key by key
+        merged = {peer: dict(table) for peer, table in self.scene.spec.faults.items()}
+        for peer, table in (faults or {}).items():
+            merged.setdefault(peer, {}).update(table)
+        unknown = sorted(set(merged) - set(FAULT_PEERS))
         if unknown:
             raise ConfigError(
                 f"faults for unknown peer(s) {unknown}; valid are {list(FAULT_PEERS)}"
             )
-        self._faults = faults
+        self._faults = merged
         self._transport = transport
         self.world = World(self.scene.rig, clock or RealClock())
         self.simulator: Simulator | None = None

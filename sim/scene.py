@@ -170,6 +170,10 @@ class SceneSpec(_Closed):
     vignetting: VignettingParams | None = None
     lens_distortion: LensDistortionParams | None = None
     interreflection: InterreflectionParams | None = None
+    faults: dict[str, dict[str, Any]] = Field(
+        default_factory=dict,
+        description="per peer (turntable, lamp_bank, light_arc, laser, cameras) its fault table",
+    )
 
     def problems(self) -> list[str]:
         """Cross-field problems pydantic's field checks cannot see."""

@@ -8,12 +8,18 @@ so a wrong lamp, a missed move or a stale frame fails the test.
 
 from __future__ import annotations
 
+import tomllib
+from pathlib import Path
+
 import numpy as np
+import pytest
 
 from rig import client
 from rig.archive import Archive
 from rig.clock import VirtualClock
+from rig.errors import ConfigError
 from sim.rig import SimulatedRig
+from sim.scene import scene_from_dict
 from sim.world import WorldSnapshot
 from tests.integration.conftest import run_session
 
@@ -102,6 +108,7 @@ def test_dead_lamp_pauses_the_session_and_resume_retries_the_step(scene, tmp_pat
     n_frames, committed = _frames(archive)
     assert committed == tuple(range(status["session"]["steps"]))
     assert n_frames == status["session"]["frames"]
+    assert n_frames == status["session"]["frames"]
 
 
 def test_drive_fault_while_homing_fails_the_session_naming_the_drive(scene, tmp_path):
@@ -135,3 +142,15 @@ def test_stalled_turntable_pauses_naming_it_and_resume_finishes(scene, tmp_path)
     assert status["state"] == "done", status
     n_frames, committed = _frames(archive)
     assert committed == tuple(range(status["session"]["steps"]))
+    assert n_frames == status["session"]["frames"]
+
+
+def test_scene_fault_tables_are_injected_and_bad_peers_refused(tmp_path):
+    scene = tomllib.loads(Path("examples/scenes/bumps.toml").read_text())
+    scene["render"]["scale"] = 0.1
+    scene["faults"] = {"laser": {"battery_mv": 6000}}
+    with SimulatedRig(scene_from_dict(scene), clock=VirtualClock()) as sim:
+        assert sim.brick.faults.battery_mv == 6000
+    scene["faults"] = {"toaster": {"burn": True}}
+    with pytest.raises(ConfigError, match=r"unknown peer\(s\) \['toaster'\]; valid are"):
+        SimulatedRig(scene_from_dict(scene), clock=VirtualClock())
