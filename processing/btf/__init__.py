@@ -12,12 +12,14 @@ from processing.btf._interpolate import Method, direction_weights, interpolate, 
 from processing.btf._model import CompressedBTF, GlobalSVD
 from processing.btf._pca import ViewSlot, compress_view, compress_view_svd
 from processing.btf._quality import psnr_db, rmse
+from processing.btf._slots import SlotTable, view_slots
 
 __all__ = [
     "BtfError",
     "CompressedBTF",
     "GlobalSVD",
     "Method",
+    "SlotTable",
     "ViewSlot",
     "compress_btf",
     "compress_global_svd",
@@ -28,4 +30,5 @@ __all__ = [
     "psnr_db",
     "reconstruct",
     "rmse",
+    "view_slots",
 ]

@@ -6,6 +6,7 @@ markers on the sample holder plate and resampled on the shared texel grid
 are documented in ``docs/btf.md``.
 """
 
+from processing.registration._capture import CaptureRegistration, register_capture
 from processing.registration._errors import Reason, RegistrationError
 from processing.registration._homography import (
     PlaneHomography,
@@ -23,6 +24,7 @@ from processing.registration._rectify import Normtexture, Region, blend_edges, r
 from processing.registration._register import Registration, register_frame
 
 __all__ = [
+    "CaptureRegistration",
     "MarkerDetection",
     "Normtexture",
     "PlaneHomography",
@@ -37,6 +39,7 @@ __all__ = [
     "fit_plane_homography",
     "marker_corners_mm",
     "rectify",
+    "register_capture",
     "register_frame",
     "undistort_px",
 ]
