@@ -303,18 +303,34 @@ class Holder(_Closed):
                 f"the border between sample ({self.sample_mm} mm) and plate edge "
                 f"({border:.1f} mm) must hold a marker of {self.marker_mm} mm with margin"
             )
+        spacing = self._spacing_mm()
+        if spacing < self.marker_mm * 1.2:
+            most = int(2 * self._mid_mm() // (self.marker_mm * 1.2))
+            raise ValueError(
+                f"markers_per_side={self.markers_per_side}: markers {spacing:.1f} mm apart "
+                f"would touch (marker_mm={self.marker_mm}); at most {most} fit per side"
+            )
         return self
 
+    def _mid_mm(self) -> float:
+        return (self.plate_mm + self.sample_mm) / 4  # middle of the border strip
+
+    def _spacing_mm(self) -> float:
+        return 2 * self._mid_mm() / self.markers_per_side
+
     def marker_centers_mm(self) -> np.ndarray:
-        """(n, 2) marker centres on the plate (sample frame, mm), ids in order."""
-        mid = (self.plate_mm + self.sample_mm) / 4  # middle of the border strip
-        half = self.plate_mm / 2 - self.marker_mm
-        ticks = np.linspace(-half, half, self.markers_per_side)
+        """(n, 2) marker centres on the plate (sample frame, mm), ids in order.
+
+        The markers walk counter-clockwise around the middle of the border strip,
+        evenly spaced; each side starts at a corner and owns it, so no two overlap.
+        """
+        mid = self._mid_mm()
+        ticks = -mid + self._spacing_mm() * np.arange(self.markers_per_side)
         sides = [
             np.column_stack([ticks, np.full_like(ticks, -mid)]),
             np.column_stack([np.full_like(ticks, mid), ticks]),
-            np.column_stack([ticks[::-1], np.full_like(ticks, mid)]),
-            np.column_stack([np.full_like(ticks, -mid), ticks[::-1]]),
+            np.column_stack([-ticks, np.full_like(ticks, mid)]),
+            np.column_stack([np.full_like(ticks, -mid), -ticks]),
         ]
         return np.vstack(sides)
 

@@ -203,8 +203,8 @@ def fit_plane_homography(
         Largest allowed :attr:`PlaneHomography.noise_gain`; above it →
         ``Reason.ILL_CONDITIONED``.
     outlier_px : float
-        Markers whose RMS corner error exceeds this after the first fit are
-        dropped and the fit is repeated (once).
+        While the worst marker's RMS corner error exceeds this, it is dropped
+        and the fit repeated (down to ``min_markers``).
     max_reprojection_px : float
         Mean reprojection error above this → ``Reason.HIGH_REPROJECTION``.
 
@@ -245,9 +245,11 @@ def fit_plane_homography(
         raise RegistrationError("detection.corners_px contains NaN or inf")
     image_all = undistort_px(raw.reshape(-1, 2), camera).reshape(-1, 4, 2)
 
+    # Drop the worst marker while it is off by more than outlier_px, one at a
+    # time: a gross outlier drags the least-squares fit, so its neighbours'
+    # errors only fall back under the limit once it is gone.
     keep = np.ones(len(ids), bool)
-    H = np.zeros((3, 3))
-    for attempt in range(2):
+    while True:
         plane = all_plane[ids[keep]].reshape(-1, 2)
         centred = plane - plane.mean(axis=0)
         spread = np.linalg.svd(centred, compute_uv=False)
@@ -257,10 +259,9 @@ def fit_plane_homography(
         H = _refine(_dlt(plane, image), plane, image)
         pred, _ = _apply(H, plane)
         rms = np.sqrt(np.mean(np.sum((pred - image) ** 2, axis=1).reshape(-1, 4), axis=1))
-        bad = rms > outlier_px
-        if attempt == 1 or not bad.any() or (~bad).sum() < min_markers:
+        if rms.max() <= outlier_px or keep.sum() <= min_markers:
             break
-        keep[np.flatnonzero(keep)[bad]] = False
+        keep[np.flatnonzero(keep)[np.argmax(rms)]] = False
 
     used, outliers = ids[keep], ids[~keep]
     plane = all_plane[used].reshape(-1, 2)
