@@ -98,6 +98,13 @@ class RigSpec(_Closed):
 
 class RenderSpec(_Closed):
     scale: float = Field(1.0, gt=0, le=4, description="image size and intrinsics factor")
+    supersample: int = Field(
+        1,
+        ge=1,
+        le=8,
+        description="k: shade k×k points per pixel and average them, as a sensor integrates "
+        "over its pixel's area (1: one point at the pixel centre; k² times the shading cost)",
+    )
 
 
 class Radiometry(_Closed):

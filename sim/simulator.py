@@ -27,6 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rig.camera import PinholeCamera
 from sim.illumination import direct_radiance, visible_from
 from sim.model import SceneModel
 from sim.raster import IdRasterizer
@@ -154,7 +155,9 @@ class Simulator:
             camera = self.model.camera(camera_id)
             spec = self.scene.rig.camera(camera_id)
             hits = self._pixel_hits(camera_id, snapshot.turntable_deg)
-            radiance = self._radiance(camera_id, hits, snapshot)
+            radiance = _area_average(
+                self._radiance(camera_id, hits, snapshot), self.scene.spec.render.supersample
+            )
             if self.scene.has("interreflection"):
                 self.counters["stage.interreflection"] += 1
                 radiance += self._indirect(camera_id, snapshot)
@@ -293,7 +296,7 @@ class Simulator:
         if key in self._hits:
             self._hits.move_to_end(key)
             return self._hits[key]
-        camera = self.model.camera(camera_id)
+        camera = _supersampled(self.model.camera(camera_id), self.scene.spec.render.supersample)
         faces = self._raster.face_ids(camera, turntable_deg)
         self.counters["gl_pass"] += 1
         origin, dirs = self.model.camera_rays(camera, turntable_deg)
@@ -347,3 +350,22 @@ class Simulator:
                 self.model, self.scene.spec.params("interreflection")
             )
         return self._reference.indirect(camera_id, snapshot)
+
+
+def _supersampled(camera: PinholeCamera, k: int) -> PinholeCamera:
+    """The camera with k×k sub-pixels per pixel, centred in their pixel."""
+    if k == 1:
+        return camera
+    K = camera.K.copy()
+    K[:2] *= k
+    K[0, 2] = (camera.K[0, 2] + 0.5) * k - 0.5
+    K[1, 2] = (camera.K[1, 2] + 0.5) * k - 0.5
+    return PinholeCamera(K, camera.dist, camera.R, camera.t, camera.width * k, camera.height * k)
+
+
+def _area_average(image: np.ndarray, k: int) -> np.ndarray:
+    """(H·k, W·k, C) → (H, W, C): each pixel the mean of its k×k sub-pixels."""
+    if k == 1:
+        return image
+    h, w, c = image.shape
+    return image.reshape(h // k, k, w // k, k, c).mean(axis=(1, 3))
