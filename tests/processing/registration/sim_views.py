@@ -7,12 +7,12 @@ every view, and the true normtexture is the simulator's ``btf_truth`` (computed
 by ray casting, independent of the rasteriser) times the irradiance and the
 camera's DN scale, box-averaged over each texel.
 
-The simulator samples each pixel at its centre; a real sensor integrates over the
-pixel's area. Frames here are rendered at ``oversample`` times the resolution and
-box-averaged down to the camera's pixels (the area integral a sensor performs),
-then quantised — with the simulator's own shot and read noise model applied at
-that pixel size for the noisy variant. Point-sampled frames alias the marker
-edges and cost 0.1–0.5 px of corner accuracy (see ``docs/btf.md``).
+A real sensor integrates over each pixel's area: frames here are rendered with the
+scene's ``render.supersample = oversample`` (``oversample``² shading points per
+pixel, averaged), then quantised — with the simulator's own shot and read noise
+model applied to the same signal for the noisy variant. Point-sampled frames
+(``oversample = 1``) alias the marker edges and cost 0.1–0.5 px of corner accuracy
+(see ``docs/btf.md``).
 """
 
 from __future__ import annotations
@@ -33,7 +33,7 @@ FULL_WELL_E = 10000.0
 READ_NOISE_E = 5.0
 
 
-def registration_scene(scale: float):
+def registration_scene(scale: float, supersample: int = 1):
     """The flat Lambertian scene with directional lamps, cameras at ``scale``."""
     lamps = [
         {"id": lamp.id, "theta_deg": lamp.theta_deg, "kind": "directional"}
@@ -46,7 +46,7 @@ def registration_scene(scale: float):
         "sample": {"generator": "flat", "depth_mm": 0.01, "materials": ["m"]},
         "materials": {"m": {"albedo": albedo}},
         "rig": {"overrides": {"light_arc": {"lamps": lamps}}},
-        "render": {"scale": scale},
+        "render": {"scale": scale, "supersample": supersample},
     })  # fmt: skip
 
 
@@ -95,7 +95,7 @@ class SimRegistration:
     scale : float
         Render scale of the cameras the frames are registered for.
     oversample : int
-        Samples per pixel and axis (the frame is rendered at scale · oversample).
+        Shading points per pixel and axis (``render.supersample``).
     size : int
         N of the normtextures.
     """
@@ -105,7 +105,7 @@ class SimRegistration:
         self.config = self.scene.rig
         self.oversample = oversample
         self.size = size
-        self._sim = Simulator(registration_scene(scale * oversample))
+        self._sim = Simulator(registration_scene(scale, oversample))
         self._rng = np.random.default_rng(seed)
         self._truth: dict[tuple, np.ndarray] = {}
 
@@ -119,12 +119,10 @@ class SimRegistration:
         self.close()
 
     def _frames(self, camera: str, turntable_deg: float, arc_deg: float, lamp: str):
-        k = self.oversample
         frame = self._sim.render_state(
             camera, turntable_deg=turntable_deg, arc_deg=arc_deg, lamps_on=[lamp]
         )
-        h, w = frame.signal.shape[:2]
-        signal = frame.signal.astype(np.float64).reshape(h // k, k, w // k, k, -1).mean((1, 3))
+        signal = frame.signal.astype(np.float64)
         bits = frame.bit_depth
         noisy = add_noise(
             signal, bit_depth=bits, full_well_e=FULL_WELL_E, read_noise_e=READ_NOISE_E,
