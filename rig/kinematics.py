@@ -25,6 +25,7 @@ __all__ = [
     "RigPose",
     "forward",
     "inverse",
+    "lamp_position_mm",
     "laser_plane",
     "rotate_z",
     "sampling_residuals",
@@ -95,6 +96,15 @@ def forward(
     view = np.array(direction_angles(rotate_z(view_w, -turntable_deg)))
     light = np.array(direction_angles(rotate_z(light_w, -turntable_deg)))
     return view, light
+
+
+def lamp_position_mm(
+    config: RigConfig, lamp: str, *, arc_deg: float, turntable_deg: float
+) -> np.ndarray:
+    """(3,) position of lamp ``lamp`` in the sample frame, mm (on the light arc's radius)."""
+    theta = config.lamp(lamp).theta_deg
+    world = config.light_arc.radius_mm * arc_direction(theta, arc_deg)
+    return rotate_z(world, -turntable_deg)
 
 
 def _source_theta(config: RigConfig, source: str) -> float:

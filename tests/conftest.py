@@ -4,6 +4,7 @@ A test that leaves a thread, a socket or a child process behind fails: a daemon
 that runs for hours cannot afford leaks, and a leaking test hides them.
 """
 
+import contextlib
 import os
 import threading
 import time
@@ -49,7 +50,8 @@ def process_wide_threads():
     """Start the library threads that live as long as the process, once.
 
     zarr keeps an event-loop thread and a thread pool; pyzmq starts a garbage
-    collector thread on the first zero-copy send of a large frame. Started
+    collector thread on the first zero-copy send of a large frame; distributed
+    keeps one offload thread. Started
     here, before the per-test leak check takes its snapshot, they are not
     reported as leaks of the first test that uses them.
     """
@@ -59,6 +61,10 @@ def process_wide_threads():
     zarr.config.set({"threading.max_workers": 1})
     zarr.create_array(store={}, shape=(1,), dtype="uint8")[:] = 1
     zmq_garbage.start()
+    with contextlib.suppress(ImportError):  # the dask extra: its one offload thread
+        from distributed.utils import _offload_executor
+
+        _offload_executor.submit(int).result()
 
 
 @pytest.fixture(autouse=True)

@@ -18,17 +18,6 @@ __all__ = ["register"]
 
 def register(app: typer.Typer) -> None:
     @app.command()
-    def process(
-        archive: Annotated[Path, typer.Argument(help="session archive")],
-        stages: Annotated[str, typer.Option("--stages", help="e.g. ps,btf,mdf")] = "ps,btf,mdf",
-        scheduler: Annotated[
-            str | None, typer.Option("--scheduler", help="Dask scheduler address")
-        ] = None,
-    ) -> None:
-        """Run processing stages over a recorded archive into its material/ group."""
-        not_built("process", 6, "offline processing on Dask")
-
-    @app.command()
     def calibrate(
         target: Annotated[str, typer.Argument(help="cameras | lamps | laser | response")],
         config: Annotated[Path, typer.Option("--config", "-c", help="rig config TOML")],

@@ -1,0 +1,173 @@
+"""The ``ps`` stage: photometric stereo of every recorded view, on the texel grid.
+
+A *view* is one camera at one turntable angle; its images are the frames of
+the ``ps`` steps taken from there, one lamp each. Every frame is registered
+onto the sample's N×N texel grid (``processing.registration``: holder markers
+→ homography → rectified normtexture), so normals, albedo and height share
+the grid of the normtextures and the MDF (``rig.geometry.texel_centers_mm``)
+and are in the sample frame. The lamps are near: their positions come from
+the archive's rig config and each step's recorded arc and turntable angles
+(``rig.kinematics.lamp_position_mm``), and the solve is refined with the
+integrated height (seed 004: Woodham's method, then integration).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from processing.photometric import (
+    DistantLights,
+    NearLights,
+    PixelGrid,
+    Reason,
+    integrate_normals,
+    refine_near,
+    solve,
+)
+from processing.registration import register_capture
+from rig.archive import Archive
+from rig.config import RigConfig
+from rig.geometry import direction_vector
+from rig.kinematics import lamp_position_mm
+
+__all__ = ["PsStage", "PsView"]
+
+_AXES = ("arc_deg", "turntable_deg")
+_AXES = ("arc_deg", "turntable_deg")
+#: An observation at or above this fraction of full scale counts as clipped.
+SATURATION = 0.98
+
+
+@dataclass(frozen=True)
+class PsView:
+    """One view to solve: a camera at a turntable angle and its ps steps (one lamp each)."""
+
+    name: str
+    camera: str
+    turntable_deg: float
+    steps: tuple[int, ...]
+
+
+@dataclass(frozen=True)
+class PsStage:
+    """Photometric stereo per view. ``size``: texels per side; ``method``: the solver's."""
+
+    size: int = 128
+    method: str = "irls"
+    refine_iterations: int = 2
+    name: str = "ps"
+
+    def plan(self, archive: Archive) -> list[PsView]:
+        views: dict[tuple[str, float], list[int]] = {}
+        for step in archive.step_table():
+            if step.kind != "ps":
+                continue
+            turntable = round(float(step.actuators["turntable_deg"]), 1) % 360.0
+            for camera in step.cameras:
+                views.setdefault((camera, turntable), []).append(step.index)
+        return [
+            PsView(f"{camera}_tt{turntable:05.1f}", camera, turntable, tuple(steps))
+            for (camera, turntable), steps in sorted(views.items())
+        ]
+
+    def compute(self, archive_path: str, item: PsView) -> dict:
+        with Archive.open(archive_path, mode="r") as archive:
+            config = RigConfig.model_validate(archive.rig_config)
+            records = {s.index: s for s in archive.step_table()}
+            steps = [records[i] for i in item.steps]
+            frames = [archive.read_frame(s.index, item.camera, 0) for s in steps]
+        bits = config.camera(item.camera).bit_depth
+        full_scale = float(2**bits - 1)
+        images, usable, lamps, registered = [], None, [], 0
+        for step, frame in zip(steps, frames, strict=True):
+            capture = register_capture(frame, config, step, item.camera, size=self.size)
+            reg = capture.registration
+            if not reg.valid:
+                continue  # flagged (too few markers…): that lamp is left out, never warped
+            registered += 1
+            texture = reg.normtexture.texture.astype(np.float64) / full_scale
+            clipped = texture >= SATURATION
+            # Exposures may differ between lamps: radiance ∝ value / exposure.
+            images.append(np.where(clipped, np.inf, texture / step.exposures_s[0]))
+            valid = reg.normtexture.valid
+            usable = valid if usable is None else usable & valid
+            lamps.append(step)
+        sample_mm = config.holder.sample_mm
+        if len(images) < 3:
+            return _empty(item, self.size, registered, len(steps))
+        stack = np.stack(images)
+        # Clipped observations: one above any real value, so the solver's saturation
+        # test drops exactly them.
+        finite = stack[np.isfinite(stack)]
+        ceiling = float(finite.max()) * 1.01 + 1e-12 if finite.size else 1.0
+        stack = np.where(np.isfinite(stack), stack, ceiling).astype(np.float32)
+        lights = _lights(config, lamps)
+        grid = PixelGrid.for_sample(sample_mm, self.size)
+        options = {"method": self.method, "saturation_level": ceiling, "mask": usable}
+        if isinstance(lights, NearLights):
+            refined = refine_near(
+                stack, lights, grid=grid, iterations=self.refine_iterations, **options
+            )
+            result, height = refined.result, refined.height
+        else:
+            result = solve(stack, lights, **options)
+            height = integrate_normals(
+                result.normals, pitch_mm=sample_mm / self.size, mask=result.valid
+            )
+        return {
+            "view": item,
+            "normals": result.normals,
+            "albedo": result.albedo,
+            "valid": result.valid,
+            "reason": result.reason,
+            "height_mm": height.height_mm,
+            "lamps": [s.lamp for s in lamps],
+            "registered": registered,
+            "frames": len(steps),
+        }
+
+    def write(self, group, archive: Archive, results) -> dict:
+        solved = 0
+        for r in results:
+            view: PsView = r["view"]
+            sub = group.create_group(view.name)
+            for key in ("normals", "albedo", "valid", "reason", "height_mm"):
+                sub.create_array(key, data=np.asarray(r[key]))
+            sub.attrs.update(
+                camera=view.camera, turntable_deg=view.turntable_deg, steps=list(view.steps),
+                lamps=r["lamps"], frames=r["frames"], registered=r["registered"],
+                size=self.size, method=self.method, grid="rig.geometry.texel_centers_mm",
+            )  # fmt: skip
+            solved += int(np.count_nonzero(r["valid"]))
+        group.attrs.update(stage="ps", size=self.size, method=self.method)
+        texels = len(results) * self.size**2
+        return {"views": len(results), "valid_fraction": solved / texels if texels else 0.0}
+
+
+def _lights(config: RigConfig, steps) -> NearLights | DistantLights:
+    lamps = [config.lamp(s.lamp) for s in steps]
+    intensities = np.array([lamp.intensity for lamp in lamps])
+    if all(lamp.kind == "directional" for lamp in lamps):
+        directions = np.array([direction_vector(*s.light_deg) for s in steps])
+        return DistantLights(directions, intensities)
+    positions = [
+        lamp_position_mm(config, s.lamp, **{k: s.actuators[k] for k in _AXES}) for s in steps
+    ]
+    return NearLights(np.array(positions), intensities)
+
+
+def _empty(item: PsView, n: int, registered: int, frames: int) -> dict:
+    """Fewer than three registered lamps: nothing solvable, every texel flagged."""
+    return {
+        "view": item,
+        "normals": np.broadcast_to(np.array([0, 0, 1], np.float32), (n, n, 3)).copy(),
+        "albedo": np.zeros((n, n, 3), np.float32),
+        "valid": np.zeros((n, n), bool),
+        "reason": np.full((n, n), Reason.TOO_FEW_LIGHTS, np.uint8),
+        "height_mm": np.zeros((n, n), np.float32),
+        "lamps": [],
+        "registered": registered,
+        "frames": frames,
+    }

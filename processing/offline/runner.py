@@ -1,0 +1,120 @@
+"""Run processing stages over a recorded session archive on Dask.
+
+A *stage* (see :class:`Stage`) splits an archive into independent work items
+(``plan``), computes each item from the archive alone (``compute``, run on a
+Dask worker: it opens the archive read-only itself, so a cluster with the
+archive on a shared file system scales past one machine), and writes all item
+results into the archive's ``material/<stage>`` group (``write``). The write
+goes through ``Archive.replace_material``: re-running a stage replaces its
+output atomically, and a failed run leaves the previous output intact.
+
+No home-made scheduler: a ``distributed.LocalCluster`` by default (threads,
+so numpy releases the GIL and nothing is pickled to subprocesses), or a
+running scheduler's address.
+"""
+
+from __future__ import annotations
+
+import logging
+from collections.abc import Callable, Mapping, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any, Protocol
+
+from rig.archive import Archive
+from rig.errors import ConfigError
+
+__all__ = ["Stage", "StageRun", "run_stages"]
+
+log = logging.getLogger(__name__)
+
+#: progress(stage, items done, items in all)
+Progress = Callable[[str, int, int], None]
+
+
+class Stage(Protocol):
+    """What ``rig process`` needs from a stage."""
+
+    name: str
+
+    def plan(self, archive: Archive) -> list[Any]:
+        """The independent work items of this archive (small, plain values)."""
+
+    def compute(self, archive_path: str, item: Any) -> Any:
+        """One item's result, from the archive at ``archive_path`` (opened read-only)."""
+
+    def write(self, group, archive: Archive, results: Sequence[Any]) -> dict:
+        """Write the results into ``group`` (``material/<name>``); a summary for the user."""
+
+
+@dataclass(frozen=True)
+class StageRun:
+    """What one stage did."""
+
+    stage: str
+    items: int
+    summary: Mapping[str, Any]
+
+
+def run_stages(
+    archive_path: str | Path,
+    stages: Sequence[Stage],
+    *,
+    scheduler: str | None = None,
+    workers: int = 2,
+    progress: Progress | None = None,
+) -> list[StageRun]:
+    """Run ``stages`` in order over the archive; their results land in ``material/``.
+
+    Parameters
+    ----------
+    archive_path : path of a session archive (committed steps only are read)
+    stages : the stages, e.g. ``[STAGES["ps"]]``
+    scheduler : address of a running Dask scheduler (``tcp://host:8786``);
+        default a local cluster of ``workers`` threads
+    progress : called as items finish
+
+    Raises
+    ------
+    ConfigError
+        A stage finds nothing to do in this archive (e.g. no ps steps).
+    """
+    from distributed import Client, LocalCluster, as_completed
+
+    path = str(Path(archive_path).resolve())
+    with Archive.open(path, mode="r") as archive:
+        plans = {stage.name: stage.plan(archive) for stage in stages}
+    for stage in stages:
+        if not plans[stage.name]:
+            raise ConfigError(f"{path}: nothing for stage {stage.name!r} in this archive")
+    cluster = None
+    if scheduler is None:
+        cluster = LocalCluster(
+            n_workers=1, threads_per_worker=workers, processes=False,
+            dashboard_address=None, silence_logs=logging.ERROR,
+        )  # fmt: skip
+    runs = []
+    try:
+        with Client(cluster if cluster is not None else scheduler) as client:
+            for stage in stages:
+                items = plans[stage.name]
+                futures = [client.submit(stage.compute, path, item, pure=False) for item in items]
+                index = {f.key: i for i, f in enumerate(futures)}
+                results: list[Any] = [None] * len(items)
+                if progress is not None:
+                    progress(stage.name, 0, len(items))
+                for done, future in enumerate(as_completed(futures), start=1):
+                    results[index[future.key]] = future.result()
+                    if progress is not None:
+                        progress(stage.name, done, len(items))
+                with (
+                    Archive.open(path, mode="a") as archive,
+                    archive.replace_material(stage.name) as group,
+                ):
+                    summary = stage.write(group, archive, results)
+                log.info("stage %s: %d item(s) into material/", stage.name, len(items))
+                runs.append(StageRun(stage.name, len(items), summary))
+    finally:
+        if cluster is not None:
+            cluster.close()
+    return runs

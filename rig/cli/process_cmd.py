@@ -1,0 +1,105 @@
+"""`rig process`: processing stages over a recorded archive, on Dask."""
+
+from __future__ import annotations
+
+import logging
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
+
+from rig.cli.common import console, reporting_errors
+from rig.errors import ConfigError
+
+__all__ = ["register", "write_ps_previews"]
+
+
+def write_ps_previews(archive_path: Path, out: Path) -> list[Path]:
+    """Normal map, albedo and shaded height PNGs of every view in ``material/ps``."""
+    import cv2
+    import numpy as np
+
+    from processing.photometric import albedo_preview, hillshade_preview, normal_map_preview
+    from rig.archive import Archive
+
+    out.mkdir(parents=True, exist_ok=True)
+    written = []
+    with Archive.open(archive_path, mode="r") as archive:
+        group = archive.material["ps"]
+        sample_mm = archive.rig_config["holder"]["sample_mm"]
+        for name in sorted(group):
+            view = group[name]
+            valid = view["valid"][:]
+            height = view["height_mm"][:]
+            images = {
+                "normals": normal_map_preview(view["normals"][:]),
+                "albedo": albedo_preview(view["albedo"][:], valid=valid),
+                "height": hillshade_preview(height, pitch_mm=sample_mm / height.shape[0]),
+            }
+            for kind, image in images.items():
+                path = out / f"{name}_{kind}.png"
+                bgr = image[..., ::-1] if image.ndim == 3 else image
+                cv2.imwrite(str(path), np.ascontiguousarray(bgr))
+                written.append(path)
+    return written
+
+
+def register(app: typer.Typer) -> None:
+    @app.command()
+    def process(
+        archive: Annotated[Path, typer.Argument(help="session archive")],
+        stages: Annotated[str, typer.Option("--stages", help="comma-separated, e.g. ps")] = "ps",
+        size: Annotated[
+            int, typer.Option(min=8, max=4096, help="texels per side of the maps")
+        ] = 128,
+        scheduler: Annotated[
+            str | None,
+            typer.Option("--scheduler", help="a running Dask scheduler (default: local cluster)"),
+        ] = None,
+        workers: Annotated[int, typer.Option(min=1, help="local cluster threads")] = 2,
+        previews: Annotated[
+            Path | None,
+            typer.Option("--previews", help="folder for preview PNGs (default: ARCHIVE_previews)"),
+        ] = None,
+    ) -> None:
+        """Run processing stages over a recorded archive into its material/ group.
+
+        Re-running a stage replaces its output atomically; a failed run leaves the
+        previous output as it was. Stages: ps (photometric stereo: normals, albedo,
+        height on the sample's texel grid, with preview PNGs).
+        """
+        from processing.offline import STAGES, run_stages
+
+        logging.getLogger("distributed").setLevel(logging.WARNING)  # its INFO is for its devs
+        with reporting_errors():
+            names = [s.strip() for s in stages.split(",") if s.strip()]
+            unknown = [n for n in names if n not in STAGES]
+            if unknown or not names:
+                raise ConfigError(
+                    f"--stages {stages!r}: unknown stage(s) {unknown}; valid are {sorted(STAGES)}"
+                )
+            chosen = [STAGES[n](size=size) for n in names]
+            columns = (
+                TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
+                TimeElapsedColumn(),
+            )  # fmt: skip
+            with Progress(*columns, console=console) as bar:
+                tasks: dict[str, int] = {}
+
+                def progress(stage: str, done: int, total: int) -> None:
+                    if stage not in tasks:
+                        tasks[stage] = bar.add_task(stage, total=total)
+                    bar.update(tasks[stage], completed=done)
+
+                runs = run_stages(
+                    archive, chosen, scheduler=scheduler, workers=workers, progress=progress
+                )
+            for run in runs:
+                detail = ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}"
+                                   for k, v in run.summary.items())  # fmt: skip
+                console.print(f"{run.stage}: {run.items} item(s) → material/{run.stage} ({detail})")
+            if "ps" in names:
+                folder = previews or archive.with_name(f"{archive.stem}_previews")
+                for path in write_ps_previews(archive, folder):
+                    console.print(f"wrote {path}")
