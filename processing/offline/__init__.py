@@ -6,10 +6,11 @@ stage's results atomically into the archive's ``material/<stage>`` group.
 See ``docs/processing.md`` for the stage protocol.
 """
 
+from processing.offline.btf import BtfSlot, BtfStage
 from processing.offline.ps import PsStage, PsView
 from processing.offline.runner import Stage, StageRun, run_stages
 
 #: stage name → how to build it (keyword options, e.g. ``size=``)
-STAGES = {"ps": PsStage}
+STAGES = {"ps": PsStage, "btf": BtfStage}
 
-__all__ = ["STAGES", "PsStage", "PsView", "Stage", "StageRun", "run_stages"]
+__all__ = ["STAGES", "BtfSlot", "BtfStage", "PsStage", "PsView", "Stage", "StageRun", "run_stages"]

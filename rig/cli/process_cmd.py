@@ -57,6 +57,9 @@ def register(app: typer.Typer) -> None:
             str | None,
             typer.Option("--scheduler", help="a running Dask scheduler (default: local cluster)"),
         ] = None,
+        components: Annotated[
+            int, typer.Option(min=1, max=64, help="btf: PCA components per view slot")
+        ] = 8,
         workers: Annotated[int, typer.Option(min=1, help="local cluster threads")] = 2,
         previews: Annotated[
             Path | None,
@@ -67,11 +70,16 @@ def register(app: typer.Typer) -> None:
 
         Re-running a stage replaces its output atomically; a failed run leaves the
         previous output as it was. Stages: ps (photometric stereo: normals, albedo,
-        height on the sample's texel grid, with preview PNGs).
+        height on the sample's texel grid, with preview PNGs); btf (registered
+        normtextures of every view slot, compressed by per-view PCA, --components).
         """
+        import distributed  # noqa: F401  (configures its loggers on import)
+
         from processing.offline import STAGES, run_stages
 
-        logging.getLogger("distributed").setLevel(logging.WARNING)  # its INFO is for its devs
+        for name in list(logging.root.manager.loggerDict):
+            if name.split(".")[0] == "distributed":  # its INFO lines are for its developers
+                logging.getLogger(name).setLevel(logging.WARNING)
         with reporting_errors():
             names = [s.strip() for s in stages.split(",") if s.strip()]
             unknown = [n for n in names if n not in STAGES]
@@ -79,7 +87,8 @@ def register(app: typer.Typer) -> None:
                 raise ConfigError(
                     f"--stages {stages!r}: unknown stage(s) {unknown}; valid are {sorted(STAGES)}"
                 )
-            chosen = [STAGES[n](size=size) for n in names]
+            options = {"btf": {"components": components}}
+            chosen = [STAGES[n](size=size, **options.get(n, {})) for n in names]
             columns = (
                 TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
                 TimeElapsedColumn(),

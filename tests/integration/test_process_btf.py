@@ -1,0 +1,107 @@
+"""`rig process --stages btf` on a session recorded against the simulated rig: every measured
+(view slot, light) comes back from the material's per-view PCA as the registered frame."""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from processing.btf import reconstruct, view_slots
+from processing.btf.material import from_arrays
+from processing.offline import BtfStage, run_stages
+from processing.registration import register_capture
+from rig.archive import Archive
+from rig.clock import VirtualClock
+from rig.config import RigConfig
+from rig.daemon import run_local
+from sim.rig import SimulatedRig
+from sim.scene import scene_from_dict
+
+SIZE = 32
+PLAN = """
+[sample]
+name = "btf"
+[captures.btf]
+views = [[0, 0], [30, 0], [30, 90]]
+lights = {theta_deg = 45, count = 6}
+[exposure]
+exposure_s = 0.05
+"""
+
+
+def _record(tmp, scale):
+    data = tomllib.loads(Path("examples/scenes/bumps.toml").read_text())
+    data["render"] = {"scale": scale, "supersample": 2}
+    (tmp / "plan.toml").write_text(PLAN)
+    clock = VirtualClock()
+    with SimulatedRig(scene_from_dict(data), clock=clock) as sim:
+        final = run_local(tmp / "plan.toml", sim.rig_config(), archive=tmp / "b.zarr", clock=clock)
+    assert final["state"] == "done", final
+    return tmp / "b.zarr"
+
+
+@pytest.fixture(scope="module")
+def archive(tmp_path_factory):
+    return _record(tmp_path_factory.mktemp("btf"), 0.5)
+
+
+def _material(path):
+    with Archive.open(path) as arch:
+        group = arch.material["btf"]
+        arrays = {k: group[k][:] for k in group.array_keys()}
+        return arrays, dict(group.attrs)
+
+
+def _registered(path, slot, light):
+    with Archive.open(path) as arch:
+        config = RigConfig.model_validate(arch.rig_config)
+        table = view_slots(arch.step_table())
+        step, camera = int(table.steps[slot, light]), str(table.cameras[slot, light])
+        record = next(s for s in arch.step_table() if s.index == step)
+        frame = arch.read_frame(step, camera, 0)
+    reg = register_capture(frame, config, record, camera, size=SIZE).registration
+    full_scale = 2 ** config.camera(camera).bit_depth - 1
+    return reg.normtexture.texture / (full_scale * record.exposures_s[0])
+
+
+def test_full_rank_pca_gives_back_every_registered_frame(archive):
+    (run,) = run_stages(archive, [BtfStage(size=SIZE, components=6)])
+    assert run.summary == {"slots": 3, "flagged_frames": 0, "components": 6}
+    arrays, attrs = _material(archive)
+    assert arrays["slot_valid"].all() and attrs["flagged"] == []
+    model = from_arrays(arrays, attrs)
+    for slot in range(3):
+        for light in range(6):
+            want = _registered(archive, slot, light)
+            got = reconstruct(model, view=slot, light=light)
+            # float16 bases: ~1e-3 relative
+            assert np.abs(got - want).max() <= 2e-3 * np.abs(want).max() + 1e-4
+
+
+def test_fewer_components_cost_accuracy_not_validity(archive):
+    errors = []
+    for c in (1, 3):
+        run_stages(archive, [BtfStage(size=SIZE, components=c)])
+        model = from_arrays(*_material(archive))
+        want = _registered(archive, 1, 2)
+        errors.append(np.sqrt(np.mean((reconstruct(model, view=1, light=2) - want) ** 2)))
+    assert errors[0] > errors[1] > 0
+
+
+def test_frames_whose_markers_are_too_small_are_flagged_never_warped(tmp_path):
+    # at a quarter of the rig's resolution the 30° views' markers are a few pixels wide
+    small = _record(tmp_path, 0.25)
+    (run,) = run_stages(small, [BtfStage(size=SIZE, components=4)])
+    arrays, attrs = _material(small)
+    flagged_slots = {f[0] for f in attrs["flagged"]}
+    assert run.summary["flagged_frames"] == len(attrs["flagged"]) > 0
+    assert all(f[4] in ("TOO_FEW_MARKERS", "COLLINEAR_MARKERS", "HIGH_REPROJECTION",
+                        "ILL_CONDITIONED") for f in attrs["flagged"])  # fmt: skip
+    for slot in range(3):
+        assert arrays["slot_valid"][slot] == (slot not in flagged_slots)
+        if slot in flagged_slots:  # stored empty, not filled with a bad warp
+            assert not arrays["mean"][slot].any() and arrays["rank"][slot] == 0
+    assert arrays["slot_valid"].any()  # the frontal view registers
