@@ -75,6 +75,22 @@ class PinholeCamera:
         if not np.allclose(self.R @ self.R.T, np.eye(3), atol=1e-9):
             raise ValueError("PinholeCamera.R is not a rotation matrix")
 
+    def scaled(self, scale: float) -> PinholeCamera:
+        """The same camera with its image resampled by ``scale`` (binned: fewer pixels).
+
+        Pixel centres stay on the same rays: ``c' = (c + ½)·scale − ½``; the size
+        rounds as the archive's frame formats do.
+        """
+        if not scale > 0:
+            raise ValueError(f"PinholeCamera.scaled: scale={scale} must be > 0")
+        if scale == 1.0:
+            return self
+        K = self.K.copy()
+        K[:2, :2] *= scale
+        K[:2, 2] = (K[:2, 2] + 0.5) * scale - 0.5
+        width, height = max(1, round(self.width * scale)), max(1, round(self.height * scale))
+        return PinholeCamera(K, self.dist, self.R, self.t, width, height)
+
     @property
     def center(self) -> np.ndarray:
         """(3,) camera centre in world coordinates, mm."""

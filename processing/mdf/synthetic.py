@@ -196,11 +196,7 @@ def rig_scan(
 
 def scaled_camera(camera: PinholeCamera, scale: float) -> PinholeCamera:
     """The same camera with its image resampled by ``scale`` (fewer pixels, same view)."""
-    K = camera.K.copy()
-    K[:2, :2] *= scale
-    K[:2, 2] = (K[:2, 2] + 0.5) * scale - 0.5
-    width, height = round(camera.width * scale), round(camera.height * scale)
-    return PinholeCamera(K, camera.dist, camera.R, camera.t, width, height)
+    return camera.scaled(scale)
 
 
 def render_scan(

@@ -7,10 +7,22 @@ See ``docs/processing.md`` for the stage protocol.
 """
 
 from processing.offline.btf import BtfSlot, BtfStage
+from processing.offline.mdf import MdfStage, MdfView
 from processing.offline.ps import PsStage, PsView
 from processing.offline.runner import Stage, StageRun, run_stages
 
 #: stage name → how to build it (keyword options, e.g. ``size=``)
-STAGES = {"ps": PsStage, "btf": BtfStage}
+STAGES = {"ps": PsStage, "btf": BtfStage, "mdf": MdfStage}
 
-__all__ = ["STAGES", "BtfSlot", "BtfStage", "PsStage", "PsView", "Stage", "StageRun", "run_stages"]
+__all__ = [
+    "STAGES",
+    "BtfSlot",
+    "BtfStage",
+    "MdfStage",
+    "MdfView",
+    "PsStage",
+    "PsView",
+    "Stage",
+    "StageRun",
+    "run_stages",
+]

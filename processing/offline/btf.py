@@ -21,6 +21,7 @@ import numpy as np
 
 from processing.btf import CompressedBTF, compress_view, view_slots
 from processing.btf.material import to_arrays
+from processing.offline.runner import frame_camera
 from processing.registration import register_capture
 from rig.archive import Archive
 from rig.config import RigConfig
@@ -62,7 +63,11 @@ class BtfStage:
             for light, (step, camera) in enumerate(item.captures):
                 record = records[step]
                 frame = archive.read_frame(step, camera, 0)
-                reg = register_capture(frame, config, record, camera, size=self.size).registration
+                turntable = record.actuators["turntable_deg"]
+                lens = frame_camera(archive, config, camera, turntable)
+                reg = register_capture(
+                    frame, config, record, camera, size=self.size, camera=lens
+                ).registration
                 if not reg.valid:
                     flagged.append((item.index, light, step, camera, reg.reason.name))
                     continue

@@ -17,6 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from processing.offline.runner import frame_camera
 from processing.photometric import (
     DistantLights,
     NearLights,
@@ -78,11 +79,15 @@ class PsStage:
             records = {s.index: s for s in archive.step_table()}
             steps = [records[i] for i in item.steps]
             frames = [archive.read_frame(s.index, item.camera, 0) for s in steps]
+            # only K and dist are used: the frame's intrinsics, at the plan's resolution
+            lens = frame_camera(archive, config, item.camera, item.turntable_deg)
         bits = config.camera(item.camera).bit_depth
         full_scale = float(2**bits - 1)
         images, usable, lamps, registered = [], None, [], 0
         for step, frame in zip(steps, frames, strict=True):
-            capture = register_capture(frame, config, step, item.camera, size=self.size)
+            capture = register_capture(
+                frame, config, step, item.camera, size=self.size, camera=lens
+            )
             reg = capture.registration
             if not reg.valid:
                 continue  # flagged (too few markers…): that lamp is left out, never warped

@@ -22,9 +22,10 @@ from pathlib import Path
 from typing import Any, Protocol
 
 from rig.archive import Archive
+from rig.config import RigConfig
 from rig.errors import ConfigError
 
-__all__ = ["Stage", "StageRun", "run_stages"]
+__all__ = ["Stage", "StageRun", "frame_camera", "run_stages"]
 
 log = logging.getLogger(__name__)
 
@@ -45,6 +46,13 @@ class Stage(Protocol):
 
     def write(self, group, archive: Archive, results: Sequence[Any]) -> dict:
         """Write the results into ``group`` (``material/<name>``); a summary for the user."""
+
+
+def frame_camera(archive: Archive, config: RigConfig, camera_id: str, turntable_deg: float):
+    """The model of ``camera_id``'s archived frames: sample frame at ``turntable_deg``,
+    intrinsics scaled to the plan's resolution (the daemon bins frames by it)."""
+    scale = float(archive.plan.get("resolution", {}).get("scale", 1.0))
+    return config.camera_model(camera_id, turntable_deg=turntable_deg).scaled(scale)
 
 
 @dataclass(frozen=True)

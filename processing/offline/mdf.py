@@ -1,0 +1,119 @@
+"""The ``mdf`` stage: the mesostructure distance function of every recorded view.
+
+A *view* is one camera at one turntable angle; its scans are the ``mdf`` steps
+taken from there, one laser location each (seed 001 §3). Per scan, the frames
+and the sheet tilt read back at each frame (the step's ``scan`` event) give
+D_{v,l} on the texel grid (``processing.mdf.reconstruct_scan``: line in the
+reference region, space-time peaks, triangulation); the scans of a view are
+merged with the tetrahedron weights (``merge_scans``). The laser sheet's angle
+to the reference plane comes from the rig's kinematics at each recorded tilt
+(``rig.kinematics.laser_plane``) until a laser calibration is in the archive.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from processing.mdf import (
+    MdfSettings,
+    ReferenceRegion,
+    assemble_mdf,
+    merge_scans,
+    reconstruct_scan,
+    view_direction_deg,
+)
+from processing.offline.runner import frame_camera
+from rig.archive import Archive
+from rig.config import RigConfig, arc_direction
+from rig.geometry import texel_centers_mm
+from rig.kinematics import laser_plane, rotate_z
+
+__all__ = ["MdfStage", "MdfView"]
+
+
+@dataclass(frozen=True)
+class MdfView:
+    """One camera at a turntable angle and its scans (mdf steps, one laser location each)."""
+
+    name: str
+    camera: str
+    turntable_deg: float
+    steps: tuple[int, ...]
+
+
+@dataclass(frozen=True)
+class MdfStage:
+    """MDF per view on the N×N texel grid; ``peak``: the sub-pixel peak detector."""
+
+    size: int = 128
+    peak: str = "gaussian"
+    name: str = "mdf"
+
+    def plan(self, archive: Archive) -> list[MdfView]:
+        views: dict[tuple[str, float], list[int]] = {}
+        for step in archive.step_table():
+            if step.kind != "mdf":
+                continue
+            turntable = round(float(step.actuators["turntable_deg"]), 1) % 360.0
+            for camera in step.cameras:
+                views.setdefault((camera, turntable), []).append(step.index)
+        return [
+            MdfView(f"{camera}_tt{turntable:05.1f}", camera, turntable, tuple(steps))
+            for (camera, turntable), steps in sorted(views.items())
+        ]
+
+    def compute(self, archive_path: str, item: MdfView) -> dict:
+        with Archive.open(archive_path, mode="r") as archive:
+            config = RigConfig.model_validate(archive.rig_config)
+            records = {s.index: s for s in archive.step_table()}
+            tilts = {e.payload["step"]: e.payload["tilts_deg"] for e in archive.events("scan")}
+            holder = config.holder
+            first = records[item.steps[0]]
+            camera = frame_camera(archive, config, item.camera, first.actuators["turntable_deg"])
+            region = ReferenceRegion.from_holder(
+                camera, sample_mm=holder.sample_mm, plate_mm=holder.plate_mm
+            )
+            texels = texel_centers_mm(holder.sample_mm, self.size)
+            settings = MdfSettings(peak_method=self.peak)
+            scans = []
+            for index in item.steps:
+                record = records[index]
+                arc, turntable = record.actuators["arc_deg"], record.actuators["turntable_deg"]
+                angles = [
+                    _sheet_angle_deg(config, arc, record.laser, tilt, turntable)
+                    for tilt in tilts[index]
+                ]
+                mount_theta = config.laser.mount_theta_deg[record.laser]
+                source = config.laser.radius_mm * arc_direction(mount_theta, arc)
+                frames = (archive.read_frame(index, item.camera, sub) for sub in range(len(angles)))
+                source_mm = rotate_z(source, -turntable)
+                scan = reconstruct_scan(
+                    frames, region, texels, source_mm=source_mm,
+                    sheet_angle_deg=np.array(angles), settings=settings,
+                )  # fmt: skip
+                scans.append(scan)
+        merged = merge_scans(scans)
+        return {"view": item, "merged": merged, "view_deg": view_direction_deg(camera)}
+
+    def write(self, group, archive: Archive, results) -> dict:
+        results = sorted(results, key=lambda r: r["view"].name)
+        mdf = assemble_mdf([r["merged"] for r in results], [r["view_deg"] for r in results])
+        group.create_array("distance_mm", data=mdf.distance.astype(np.float32))
+        group.create_array("reason", data=mdf.reason)
+        group.create_array("count", data=mdf.count)
+        group.create_array("view_dirs_deg", data=mdf.view_dirs_deg)
+        group.attrs.update(
+            stage="mdf", size=self.size, peak=self.peak, unseen=-1.0,
+            views=[r["view"].name for r in results], grid="rig.geometry.texel_centers_mm",
+        )  # fmt: skip
+        seen = float(np.mean(mdf.distance >= 0))
+        return {"views": len(results), "seen_fraction": seen}
+
+
+def _sheet_angle_deg(config: RigConfig, arc: float, mount: int, tilt: float, turntable: float):
+    normal, _ = laser_plane(
+        config, arc_deg=arc, mount=mount, tilt_deg=tilt, turntable_deg=turntable
+    )
+    return float(np.degrees(np.arccos(np.clip(normal[2], -1.0, 1.0))))
