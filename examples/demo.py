@@ -3,8 +3,9 @@
 Run by `make demo`. It plans and estimates a small session, runs it through the
 daemon with the real device drivers talking to the simulated rig's peers (in
 virtual time), replays it from the archive, writes PNGs of what the cameras
-saw, and processes the photometric-stereo set on Dask into normal, albedo and
-height maps. It uses only the public APIs and says what it produced.
+saw, and processes the session on Dask: photometric stereo into normal, albedo
+and height maps, the BTF into per-view PCA, the laser scans into the MDF. It
+uses only the public APIs and says what it produced.
 """
 
 from __future__ import annotations
@@ -17,11 +18,11 @@ from pathlib import Path
 import cv2
 import numpy as np
 
-from processing.offline import PsStage, run_stages
+from processing.offline import BtfStage, MdfStage, PsStage, run_stages
 from rig import compile_plan, load_plan
 from rig.archive import Archive
 from rig.cli.plan_cmd import print_estimate
-from rig.cli.process_cmd import write_ps_previews
+from rig.cli.process_cmd import write_mdf_previews, write_ps_previews
 from rig.clock import VirtualClock
 from rig.daemon import replay_local, run_local
 from sim.rig import SimulatedRig
@@ -102,10 +103,13 @@ def main() -> int:
             path = args.out / f"{kind}_frames.png"
             cv2.imwrite(str(path), cv2.cvtColor(_contact_sheet(live, kind), cv2.COLOR_RGB2BGR))
             print(f"   {path}")
-    print("5. photometric stereo of the ps views (rig process --stages ps)")
-    for run in run_stages(archive_path, [PsStage(size=128)]):
-        print(f"   {run.items} view(s), {run.summary['valid_fraction']:.1%} of the texels solved")
-    for path in write_ps_previews(archive_path, args.out):
+    print("5. processing on Dask (rig process --stages ps,btf,mdf)")
+    stages = [PsStage(size=128), BtfStage(size=128, components=8), MdfStage(size=128)]
+    for run in run_stages(archive_path, stages):
+        summary = ", ".join(f"{k} {v:.3g}" for k, v in run.summary.items())
+        print(f"   {run.stage}: {run.items} item(s) → material/{run.stage} ({summary})")
+    for path in [*write_ps_previews(archive_path, args.out),
+                 *write_mdf_previews(archive_path, args.out)]:  # fmt: skip
         print(f"   {path}")
     size_mb = sum(f.stat().st_size for f in archive_path.rglob("*") if f.is_file()) / 1e6
     print(f"\nResults: {archive_path} ({size_mb:.1f} MB) and the PNGs in {args.out}")

@@ -12,7 +12,7 @@ from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, T
 from rig.cli.common import console, reporting_errors
 from rig.errors import ConfigError
 
-__all__ = ["register", "write_ps_previews"]
+__all__ = ["register", "write_mdf_previews", "write_ps_previews"]
 
 
 def write_ps_previews(archive_path: Path, out: Path) -> list[Path]:
@@ -42,6 +42,31 @@ def write_ps_previews(archive_path: Path, out: Path) -> list[Path]:
                 bgr = image[..., ::-1] if image.ndim == 3 else image
                 cv2.imwrite(str(path), np.ascontiguousarray(bgr))
                 written.append(path)
+    return written
+
+
+def write_mdf_previews(archive_path: Path, out: Path) -> list[Path]:
+    """Each view's MDF as a grey PNG: black at the reference plane, white at the 99th percentile,
+    dark red where unseen (−1)."""
+    import cv2
+    import numpy as np
+
+    from rig.archive import Archive
+
+    out.mkdir(parents=True, exist_ok=True)
+    written = []
+    with Archive.open(archive_path, mode="r") as archive:
+        group = archive.material["mdf"]
+        distance = group["distance_mm"][:]
+        names = group.attrs["views"]
+    seen = distance >= 0
+    top = float(np.percentile(distance[seen], 99)) if seen.any() else 1.0  # outliers clip
+    for name, d, s in zip(names, distance, seen, strict=True):
+        grey = np.round(255.0 * np.clip(d / max(top, 1e-9), 0.0, 1.0)).astype(np.uint8)
+        image = np.where(s[..., None], grey[..., None], np.array([0, 0, 96], np.uint8))
+        path = out / f"{name}_mdf.png"
+        cv2.imwrite(str(path), image)
+        written.append(path)
     return written
 
 
@@ -108,7 +133,8 @@ def register(app: typer.Typer) -> None:
                 detail = ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}"
                                    for k, v in run.summary.items())  # fmt: skip
                 console.print(f"{run.stage}: {run.items} item(s) → material/{run.stage} ({detail})")
-            if "ps" in names:
-                folder = previews or archive.with_name(f"{archive.stem}_previews")
-                for path in write_ps_previews(archive, folder):
+            folder = previews or archive.with_name(f"{archive.stem}_previews")
+            writers = {"ps": write_ps_previews, "mdf": write_mdf_previews}
+            for name in names:
+                for path in writers.get(name, lambda *_: [])(archive, folder):
                     console.print(f"wrote {path}")
