@@ -51,7 +51,9 @@ def test_bad_plan_exits_2_with_field_names(tmp_path):
     assert "captures.btf.views" in result.output
 
 
-@pytest.mark.parametrize("args", [["view", "m.zarr"], ["process", "s.zarr"]])
+@pytest.mark.parametrize(
+    "args", [["view", "m.zarr"], ["export", "s.zarr", "--format", "png16", "--out", "x"]]
+)
 def test_unbuilt_commands_say_so_and_fail(args):
     result = runner.invoke(app, args)
     assert result.exit_code == 3
@@ -102,3 +104,9 @@ def test_parse_faults_reads_toml_values():
 
     faults = parse_faults(["cameras.dropped_frames=2", "lamp_bank.dead_lamps=['lamp3']"])
     assert faults == {"cameras": {"dropped_frames": 2}, "lamp_bank": {"dead_lamps": ["lamp3"]}}
+
+
+def test_process_of_a_missing_archive_names_it(tmp_path):
+    result = runner.invoke(app, ["process", str(tmp_path / "nowhere.zarr")])
+    assert result.exit_code == 1
+    assert "nowhere.zarr" in result.output and "no archive here" in result.output
