@@ -7,9 +7,9 @@ See ``docs/processing.md`` for the stage protocol.
 """
 
 from processing.offline.btf import BtfSlot, BtfStage
-from processing.offline.mdf import MdfStage, MdfView
-from processing.offline.ps import PsStage, PsView
-from processing.offline.runner import Stage, StageRun, run_stages
+from processing.offline.mdf import MdfStage
+from processing.offline.ps import PsStage
+from processing.offline.runner import Stage, StageRun, View, frame_camera, run_stages, views_of
 
 #: stage name → how to build it (keyword options, e.g. ``size=``)
 STAGES = {"ps": PsStage, "btf": BtfStage, "mdf": MdfStage}
@@ -19,10 +19,11 @@ __all__ = [
     "BtfSlot",
     "BtfStage",
     "MdfStage",
-    "MdfView",
     "PsStage",
-    "PsView",
     "Stage",
     "StageRun",
+    "View",
+    "frame_camera",
     "run_stages",
+    "views_of",
 ]

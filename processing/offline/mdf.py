@@ -24,23 +24,13 @@ from processing.mdf import (
     reconstruct_scan,
     view_direction_deg,
 )
-from processing.offline.runner import frame_camera
+from processing.offline.runner import View, frame_camera, views_of
 from rig.archive import Archive
 from rig.config import RigConfig, arc_direction
 from rig.geometry import texel_centers_mm
 from rig.kinematics import laser_plane, rotate_z
 
-__all__ = ["MdfStage", "MdfView"]
-
-
-@dataclass(frozen=True)
-class MdfView:
-    """One camera at a turntable angle and its scans (mdf steps, one laser location each)."""
-
-    name: str
-    camera: str
-    turntable_deg: float
-    steps: tuple[int, ...]
+__all__ = ["MdfStage"]
 
 
 @dataclass(frozen=True)
@@ -51,20 +41,10 @@ class MdfStage:
     peak: str = "gaussian"
     name: str = "mdf"
 
-    def plan(self, archive: Archive) -> list[MdfView]:
-        views: dict[tuple[str, float], list[int]] = {}
-        for step in archive.step_table():
-            if step.kind != "mdf":
-                continue
-            turntable = round(float(step.actuators["turntable_deg"]), 1) % 360.0
-            for camera in step.cameras:
-                views.setdefault((camera, turntable), []).append(step.index)
-        return [
-            MdfView(f"{camera}_tt{turntable:05.1f}", camera, turntable, tuple(steps))
-            for (camera, turntable), steps in sorted(views.items())
-        ]
+    def plan(self, archive: Archive) -> list[View]:
+        return views_of(archive, "mdf")
 
-    def compute(self, archive_path: str, item: MdfView) -> dict:
+    def compute(self, archive_path: str, item: View) -> dict:
         with Archive.open(archive_path, mode="r") as archive:
             config = RigConfig.model_validate(archive.rig_config)
             records = {s.index: s for s in archive.step_table()}

@@ -17,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from processing.offline.runner import frame_camera
+from processing.offline.runner import View, frame_camera, views_of
 from processing.photometric import (
     DistantLights,
     NearLights,
@@ -33,22 +33,12 @@ from rig.config import RigConfig
 from rig.geometry import direction_vector
 from rig.kinematics import lamp_position_mm
 
-__all__ = ["PsStage", "PsView"]
+__all__ = ["PsStage"]
 
 _AXES = ("arc_deg", "turntable_deg")
 _AXES = ("arc_deg", "turntable_deg")
 #: An observation at or above this fraction of full scale counts as clipped.
 SATURATION = 0.98
-
-
-@dataclass(frozen=True)
-class PsView:
-    """One view to solve: a camera at a turntable angle and its ps steps (one lamp each)."""
-
-    name: str
-    camera: str
-    turntable_deg: float
-    steps: tuple[int, ...]
 
 
 @dataclass(frozen=True)
@@ -60,20 +50,10 @@ class PsStage:
     refine_iterations: int = 2
     name: str = "ps"
 
-    def plan(self, archive: Archive) -> list[PsView]:
-        views: dict[tuple[str, float], list[int]] = {}
-        for step in archive.step_table():
-            if step.kind != "ps":
-                continue
-            turntable = round(float(step.actuators["turntable_deg"]), 1) % 360.0
-            for camera in step.cameras:
-                views.setdefault((camera, turntable), []).append(step.index)
-        return [
-            PsView(f"{camera}_tt{turntable:05.1f}", camera, turntable, tuple(steps))
-            for (camera, turntable), steps in sorted(views.items())
-        ]
+    def plan(self, archive: Archive) -> list[View]:
+        return views_of(archive, "ps")
 
-    def compute(self, archive_path: str, item: PsView) -> dict:
+    def compute(self, archive_path: str, item: View) -> dict:
         with Archive.open(archive_path, mode="r") as archive:
             config = RigConfig.model_validate(archive.rig_config)
             records = {s.index: s for s in archive.step_table()}
@@ -136,7 +116,7 @@ class PsStage:
     def write(self, group, archive: Archive, results) -> dict:
         solved = 0
         for r in results:
-            view: PsView = r["view"]
+            view: View = r["view"]
             sub = group.create_group(view.name)
             for key in ("normals", "albedo", "valid", "reason", "height_mm"):
                 sub.create_array(key, data=np.asarray(r[key]))
@@ -163,7 +143,7 @@ def _lights(config: RigConfig, steps) -> NearLights | DistantLights:
     return NearLights(np.array(positions), intensities)
 
 
-def _empty(item: PsView, n: int, registered: int, frames: int) -> dict:
+def _empty(item: View, n: int, registered: int, frames: int) -> dict:
     """Fewer than three registered lamps: nothing solvable, every texel flagged."""
     return {
         "view": item,

@@ -25,7 +25,7 @@ from rig.archive import Archive
 from rig.config import RigConfig
 from rig.errors import ConfigError
 
-__all__ = ["Stage", "StageRun", "frame_camera", "run_stages"]
+__all__ = ["Stage", "StageRun", "View", "frame_camera", "run_stages", "views_of"]
 
 log = logging.getLogger(__name__)
 
@@ -46,6 +46,31 @@ class Stage(Protocol):
 
     def write(self, group, archive: Archive, results: Sequence[Any]) -> dict:
         """Write the results into ``group`` (``material/<name>``); a summary for the user."""
+
+
+@dataclass(frozen=True)
+class View:
+    """One camera at one turntable angle, and the steps of one kind captured from there."""
+
+    name: str
+    camera: str
+    turntable_deg: float
+    steps: tuple[int, ...]
+
+
+def views_of(archive: Archive, kind: str) -> list[View]:
+    """The views of the archive's ``kind`` steps (ps: one lamp each; mdf: one scan each)."""
+    views: dict[tuple[str, float], list[int]] = {}
+    for step in archive.step_table():
+        if step.kind != kind:
+            continue
+        turntable = round(float(step.actuators["turntable_deg"]), 1) % 360.0
+        for camera in step.cameras:
+            views.setdefault((camera, turntable), []).append(step.index)
+    return [
+        View(f"{camera}_tt{turntable:05.1f}", camera, turntable, tuple(steps))
+        for (camera, turntable), steps in sorted(views.items())
+    ]
 
 
 def frame_camera(archive: Archive, config: RigConfig, camera_id: str, turntable_deg: float):
