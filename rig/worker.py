@@ -7,8 +7,14 @@ re-sends those of a worker that died. The worker says ``hello`` on start and
 sends a heartbeat every ``heartbeat_s``: the daemon streams only while some
 worker is alive. Several workers of one stage share the frames round robin.
 
-Stages are pure functions ``image (H, W, C) → dict[name, ndarray]`` in
-``STAGES``; the processing packages add theirs as they land.
+A worker runs one or more stages (``"stats,register"``) on every frame it
+pulls; frames go round robin to the workers, so every worker of a session runs
+the same stages. A stage is a function ``(image, header) → dict[name, ndarray]``
+in ``STAGES`` (``{}`` for frames not of its kind); the results travel as
+``<stage>.<name>`` arrays and land in the archive's ``material/live/<stage>/``.
+Besides ``stats``, the stages of ``processing.live``: ``register`` (btf/ps
+frames rectified onto the texel grid), ``laser`` (the laser line of mdf frames),
+``ps`` (a view's photometric stereo when its last lamp is in).
 """
 
 from __future__ import annotations
@@ -23,6 +29,7 @@ from collections.abc import Callable
 import numpy as np
 import zmq
 
+from processing.live import LIVE_STAGES
 from rig.daemon.endpoints import Endpoints
 from rig.daemon.protocol import (
     MAX_FRAME_BYTES,
@@ -66,8 +73,12 @@ def frame_stats(image: np.ndarray, *, saturation_level: float | None = None) -> 
     return {"mean": mean.astype(np.float32), "saturated": saturated.astype(np.float32)}
 
 
-#: stage name → function of one frame.
-STAGES: dict[str, Callable[[np.ndarray], dict]] = {"stats": frame_stats}
+def _stats(image: np.ndarray, header: dict) -> dict:
+    return frame_stats(image)
+
+
+#: stage name → function of one frame and its header (as a dict).
+STAGES: dict[str, Callable[[np.ndarray, dict], dict]] = {"stats": _stats, **LIVE_STAGES}
 
 
 def run_worker(
@@ -83,9 +94,11 @@ def run_worker(
 
     Raises ``ConfigError`` for an unknown stage.
     """
-    if stage not in STAGES:
-        raise ConfigError(f"unknown stage {stage!r}; the stages are {sorted(STAGES)}")
-    function = STAGES[stage]
+    names = [n.strip() for n in stage.split(",") if n.strip()]
+    unknown = [n for n in names if n not in STAGES]
+    if unknown or not names:
+        raise ConfigError(f"unknown stage(s) {unknown or stage!r}; the stages are {sorted(STAGES)}")
+    functions = {n: STAGES[n] for n in names}
     endpoints = Endpoints.from_base(connect) if isinstance(connect, str) else connect
     worker = name or f"{os.uname().nodename}-{os.getpid()}-{uuid.uuid4().hex[:6]}"
     ctx = zmq.Context()
@@ -105,7 +118,7 @@ def run_worker(
         while not (stop is not None and stop.is_set()):
             if frames.poll(int(heartbeat_s * 500)):
                 parts = frames.recv_multipart(copy=False)
-                results.send_multipart(_process(parts, function, plain), copy=False)
+                results.send_multipart(_process(parts, functions, plain), copy=False)
                 done += 1
                 if max_frames is not None and done >= max_frames:
                     break
@@ -120,7 +133,17 @@ def run_worker(
     return done
 
 
-def _process(parts, function, plain: dict) -> list:
+def _wire(value) -> np.ndarray:
+    """An array in one of the protocol's dtypes (bool → uint8, float16 → float32)."""
+    a = np.asarray(value)
+    if a.dtype == np.bool_:
+        return a.astype(np.uint8)
+    if a.dtype == np.float16:
+        return a.astype(np.float32)
+    return a
+
+
+def _process(parts, functions: dict, plain: dict) -> list:
     try:
         header, image = decode_frame(parts)
     except MessageError as err:
@@ -133,6 +156,26 @@ def _process(parts, function, plain: dict) -> list:
         "camera": header.camera,
         "sub": header.sub,
     }
-    values = function(image)
-    specs = tuple(NamedArray(name=n, dtype=a.dtype.name, shape=a.shape) for n, a in values.items())
-    return encode_result(ResultHeader(kind="result", arrays=specs, **ids, **plain), values.values())
+    values, problems = {}, []
+    facts = header.model_dump()
+    for name, function in functions.items():
+        try:
+            out = function(image, facts)
+        except Exception as err:  # reported with the result; the frame is still acknowledged
+            log.warning("%s: stage %s failed on frame %s: %s", plain["worker"], name, ids, err)
+            problems.append(f"stage {name}: {type(err).__name__}: {err}"[:1000])
+            continue
+        values.update({f"{name}.{key}": _wire(value) for key, value in out.items()})
+    try:
+        specs = tuple(
+            NamedArray(name=n, dtype=a.dtype.name, shape=a.shape) for n, a in values.items()
+        )
+        result = ResultHeader(
+            kind="result", arrays=specs, message="; ".join(problems) or None, **ids, **plain
+        )
+    except ValueError as err:  # arrays the protocol cannot carry: report, still acknowledge
+        log.warning("%s: results of frame %s not sendable: %s", plain["worker"], ids, err)
+        problems.append(f"results not sendable: {err}"[:1000])
+        values = {}
+        result = ResultHeader(kind="result", message="; ".join(problems), **ids, **plain)
+    return encode_result(result, values.values())

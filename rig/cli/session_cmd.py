@@ -182,7 +182,11 @@ def register(app: typer.Typer) -> None:
         archive: Annotated[
             Path | None, typer.Option("--archive", help="where to write (default: the plan's)")
         ] = None,
-        workers: Annotated[int, typer.Option(min=0, help="statistics workers to run")] = 1,
+        workers: Annotated[int, typer.Option(min=0, help="live workers to run")] = 1,
+        stages: Annotated[
+            str,
+            typer.Option("--stages", help="the workers' live stages: stats, register, laser, ps"),
+        ] = "stats",
         sim: Annotated[
             Path | None,
             typer.Option(
@@ -197,7 +201,9 @@ def register(app: typer.Typer) -> None:
 
         with reporting_errors(), _ProgressView() as view:
             if sim is None:
-                final = run_local(plan, config, archive=archive, workers=workers, on_event=view)
+                final = run_local(
+                    plan, config, archive=archive, workers=workers, stages=stages, on_event=view
+                )
             else:
                 if config is not None:
                     raise ConfigError("--config and --sim: give one (the scene names its rig)")
@@ -208,7 +214,7 @@ def register(app: typer.Typer) -> None:
                 with SimulatedRig(sim, clock=clock) as rig:
                     final = run_local(
                         plan, rig.rig_config(), archive=archive, workers=workers,
-                        on_event=view, clock=clock,
+                        stages=stages, on_event=view, clock=clock,
                     )  # fmt: skip
         _print_status(final)
         if final.get("state") != "done":
@@ -248,10 +254,18 @@ def register(app: typer.Typer) -> None:
 
     @app.command()
     def worker(
-        stage: Annotated[str, typer.Argument(help="processing stage to run (e.g. stats)")],
+        stage: Annotated[
+            str,
+            typer.Argument(help="live stage(s), comma-separated: stats, register, laser, ps"),
+        ],
         connect: Annotated[str, CONNECT] = DEFAULT_CONNECT,
     ) -> None:
-        """Pull frames from a daemon, run a processing stage, push results (Ctrl-C stops)."""
+        """Pull frames from a daemon, run live stages on them, push results (Ctrl-C stops).
+
+        Every worker of a session must run the same stages (frames go round robin).
+        Stages other than stats read the session's archive: a worker on another machine
+        needs it at the same path (a shared file system).
+        """
         from rig.worker import run_worker
 
         stop = threading.Event()

@@ -101,22 +101,25 @@ def run_local(
     *,
     archive: str | Path | None = None,
     workers: int = 1,
+    stages: str = "stats",
     on_event: Callable[[dict], None] | None = None,
     devices: DeviceFactory = build_devices,
     clock: Clock | None = None,
 ) -> dict:
     """Daemon + workers + submit + follow in one process; the final status (``rig run``).
 
-    Every socket is on free loopback ports; ``on_event`` sees each event
-    (e.g. to draw a progress bar).
+    Every socket is on free loopback ports; ``workers`` threads run the live
+    ``stages`` (comma-separated, see ``rig.worker``); ``on_event`` sees each
+    event (e.g. to draw a progress bar).
     """
     from rig import client
 
     def submit(endpoints: Endpoints) -> None:
         client.submit(plan_path, archive=archive, connect=endpoints)
 
+    settings = DaemonSettings(port=0)
     return _in_process(
-        _rig_config(config), submit, DaemonSettings(port=0), devices, clock, workers, on_event
+        _rig_config(config), submit, settings, devices, clock, workers, stages, on_event
     )
 
 
@@ -153,14 +156,14 @@ def replay_local(
 
     settings = DaemonSettings(port=0, on_fault="fail")
     devices = replay_factory(source, speed=speed)
-    return _in_process(config, submit, settings, devices, clock, workers, on_event)
+    return _in_process(config, submit, settings, devices, clock, workers, "stats", on_event)
 
 
-def _in_process(config, submit, settings, devices, clock, workers, on_event) -> dict:
+def _in_process(config, submit, settings, devices, clock, workers, stages, on_event) -> dict:
     from rig import client
 
     daemon = daemon_thread(config, settings=settings, devices=devices, clock=clock)
-    with daemon as endpoints, worker_threads(endpoints, "stats", workers):
+    with daemon as endpoints, worker_threads(endpoints, stages, workers):
         submit(endpoints)
         for event in client.follow(endpoints, until=client.session_ended):
             if on_event is not None:

@@ -224,6 +224,8 @@ class FrameHeader(_Closed):
     exposure_s: float = Field(gt=0)
     timestamp: float
     array: ArraySpec
+    #: the session's archive, for live stages that read config, plan and steps from it
+    archive: Annotated[str, Field(max_length=4096)] | None = None
 
 
 class NamedArray(ArraySpec):
@@ -241,7 +243,7 @@ class ResultHeader(_Closed):
     step: int | None = Field(None, ge=0)
     camera: str | None = Field(None, max_length=128)
     sub: int | None = Field(None, ge=0)
-    arrays: tuple[NamedArray, ...] = Field((), max_length=16)
+    arrays: tuple[NamedArray, ...] = Field((), max_length=32)
     message: str | None = Field(None, max_length=4096)
 
 

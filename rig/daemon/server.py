@@ -395,7 +395,7 @@ class Daemon:
                 self._publish("log", {"kind": "worker_message", "error": err.to_json()})
                 continue
             self._workers[header.worker] = time.monotonic()
-            if header.kind == "error":
+            if header.kind == "error" or header.message:  # a bad frame, or a stage that failed
                 problem = {"worker": header.worker, "frame_id": header.frame_id}
                 self._publish("log", {"kind": "worker_error", "message": header.message, **problem})
             if header.kind != "result":

@@ -347,6 +347,7 @@ class Session:
                     exposure_s=frame.exposure_s,
                     timestamp=frame.timestamp,
                     array=ArraySpec(dtype=frame.image.dtype.name, shape=frame.image.shape),
+                    archive=str(self.archive.path),
                 )
                 self.outbox.stream(header, frame.image)
 
@@ -384,7 +385,7 @@ class Session:
         devices.all_off()
         results = self.outbox.drain(self.id, self.drain_timeout_s)
         if results:
-            _write_stats(self.archive, results)
+            _write_live(self.archive, results)
         self._log("session", action="finished", session=self.id, processed=len(results))
 
     # -- endings ----------------------------------------------------------------------------
@@ -449,17 +450,25 @@ def _per_step_estimate(schedule: Schedule) -> dict[str, float]:
     return {k: schedule.estimate.by_kind_s.get(k, 0.0) / n for k, n in counts.items()}
 
 
-def _write_stats(archive: Archive, results: list[tuple[dict, dict]]) -> None:
-    """Per-camera tables of the workers' per-frame statistics in ``material/stats``."""
-    by_camera: dict[str, list[tuple[dict, dict]]] = {}
+def _write_live(archive: Archive, results: list[tuple[dict, dict]]) -> None:
+    """The workers' results in ``material/live/<stage>/<camera>/``: ``step``, ``sub`` and
+    each array the stage returned, stacked over the frames it returned them for.
+
+    Workers name arrays ``<stage>.<name>``; one frame may carry several stages.
+    """
+    rows: dict[tuple[str, str], list[tuple[dict, dict]]] = {}
     for header, arrays in results:
-        by_camera.setdefault(header["camera"], []).append((header, arrays))
-    with archive.replace_material("stats") as group:
-        for camera, rows in by_camera.items():
-            rows.sort(key=lambda r: (r[0]["step"], r[0]["sub"]))
-            sub = group.create_group(camera)
-            sub.create_array("step", data=np.array([r[0]["step"] for r in rows], dtype=np.int64))
-            sub.create_array("sub", data=np.array([r[0]["sub"] for r in rows], dtype=np.int64))
-            for name in rows[0][1]:
-                data = np.stack([np.asarray(r[1][name], dtype=np.float32) for r in rows])
-                sub.create_array(name, data=data)
+        by_stage: dict[str, dict] = {}
+        for full, value in arrays.items():
+            stage, _, name = full.partition(".")
+            by_stage.setdefault(stage, {})[name] = value
+        for stage, values in by_stage.items():
+            rows.setdefault((stage, header["camera"]), []).append((header, values))
+    with archive.replace_material("live") as group:
+        for (stage, camera), mine in sorted(rows.items()):
+            mine.sort(key=lambda r: (r[0]["step"], r[0]["sub"]))
+            sub = group.require_group(stage).create_group(camera)
+            sub.create_array("step", data=np.array([r[0]["step"] for r in mine], dtype=np.int64))
+            sub.create_array("sub", data=np.array([r[0]["sub"] for r in mine], dtype=np.int64))
+            for name in mine[0][1]:
+                sub.create_array(name, data=np.stack([np.asarray(r[1][name]) for r in mine]))

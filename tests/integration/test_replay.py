@@ -37,7 +37,7 @@ def _frames(path):
 
 def _stats(path):
     with Archive.open(path) as archive:
-        group = archive.material["stats"]
+        group = archive.material["live/stats"]
         return {cam: {k: group[cam][k][:] for k in ("step", "sub", "mean")} for cam in group}
 
 

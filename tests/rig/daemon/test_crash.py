@@ -58,7 +58,7 @@ def test_a_worker_killed_mid_stream_loses_no_frame(config, rig, tmp_path):
     assert stream["resent"] >= 1 and stream["not_streamed"] == 0
     table, _ = _check_archive(path, config, TINY_PLAN)
     with Archive.open(path) as archive:
-        stats = archive.material["stats"]
+        stats = archive.material["live/stats"]
         for camera in set(table["camera"]):
             rows = table[table["camera"] == camera]
             got = sorted(zip(stats[camera]["step"][:], stats[camera]["sub"][:], strict=True))

@@ -75,7 +75,7 @@ def test_full_session_with_workers(config, rig, tmp_path):
     states = [e["to"] for e in events if e["topic"] == "state"]
     assert states[-2:] == ["finishing", "done"]
     with Archive.open(path) as archive:
-        stats = archive.material["stats"]
+        stats = archive.material["live/stats"]
         for camera in ("cam0", "cam2"):
             group = stats[camera]
             rows = table[table["camera"] == camera]

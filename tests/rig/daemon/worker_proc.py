@@ -24,7 +24,7 @@ def main() -> None:
     if args.die_after is not None:
         seen = 0
 
-        def dying(image):
+        def dying(image, header):
             nonlocal seen
             seen += 1
             if seen >= args.die_after:

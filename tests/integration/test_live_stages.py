@@ -1,0 +1,125 @@
+"""Live stages during a session against the simulated rig: the workers run ``stats,register,
+laser,ps`` while the daemon captures, and what they push back equals what ``rig process``
+computes from the archive afterwards."""
+
+from __future__ import annotations
+
+import tomllib
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from processing.offline import PsStage, View, run_stages
+from processing.registration import register_frame
+from rig.archive import Archive
+from rig.clock import VirtualClock
+from rig.config import RigConfig
+from rig.daemon import run_local
+from sim.rig import SimulatedRig
+from sim.scene import scene_from_dict
+
+PLAN = """
+[sample]
+name = "live"
+[captures.ps]
+views = [[0, 0]]
+lights = {theta_deg = 45, count = 6}
+[captures.btf]
+views = [[0, 0], [30, 90]]
+lights = [[45, 0]]
+[captures.mdf]
+views = [[0, 0]]
+laser_locations = [[45, 0]]
+[exposure]
+exposure_s = 0.05
+"""
+
+
+@pytest.fixture(scope="module")
+def session(tmp_path_factory):
+    tmp = tmp_path_factory.mktemp("live")
+    data = tomllib.loads(Path("examples/scenes/bumps.toml").read_text())
+    data["render"] = {"scale": 0.5}
+    data["effects"] = ["laser"]
+    data["laser"] = {"power_w": 0.1}
+    (tmp / "plan.toml").write_text(PLAN)
+    clock = VirtualClock()
+    with SimulatedRig(scene_from_dict(data), clock=clock) as sim:
+        final = run_local(
+            tmp / "plan.toml", sim.rig_config(), archive=tmp / "s.zarr", clock=clock,
+            workers=2, stages="stats,register,laser,ps",
+        )  # fmt: skip
+    assert final["state"] == "done", final
+    assert final["stream"]["not_streamed"] == 0
+    return tmp / "s.zarr"
+
+
+def test_every_frame_gets_its_stages(session):
+    with Archive.open(session) as arch:
+        live = arch.material["live"]
+        table = arch.frame_table()
+        steps = {s.index: s for s in arch.step_table()}
+        kinds = np.array([steps[int(i)].kind for i in table["step"]])
+        assert sorted(live.group_keys()) == ["laser", "ps", "register", "stats"]
+        n = {stage: sum(live[stage][c]["step"].shape[0] for c in live[stage]) for stage in live}
+    assert n["stats"] == len(table)
+    assert n["register"] == np.isin(kinds, ["btf", "ps"]).sum()
+    assert n["laser"] == (kinds == "mdf").sum()
+    assert n["ps"] == 1  # one view, solved once, when its last lamp came in
+
+
+def test_live_registration_is_the_offline_one(session):
+    with Archive.open(session) as arch:
+        config = RigConfig.model_validate(arch.rig_config)
+        group = arch.material["live/register/cam0"]
+        step, texture = int(group["step"][0]), group["texture"][0]
+        frame = arch.read_frame(step, "cam0", 0)
+    reg = register_frame(frame, config.holder, size=texture.shape[0],
+                         camera=config.camera_model("cam0"))  # fmt: skip
+    assert reg.valid
+    np.testing.assert_allclose(texture, reg.normtexture.texture, rtol=2e-3, atol=0.05)
+
+
+def test_live_laser_lines_are_found_while_scanning(session):
+    with Archive.open(session) as arch:
+        reasons = arch.material["live/laser/cam0"]["reason"][:]
+    assert (reasons == 0).mean() > 0.5  # the sheet is on the plate in most of the sweep
+
+
+def test_live_ps_view_is_the_offline_solve(session):
+    with Archive.open(session) as arch:
+        live = arch.material["live/ps/cam0"]
+        normals = live["normals"][0]
+        ps_steps = tuple(s.index for s in arch.step_table() if s.kind == "ps")
+    offline = PsStage(size=normals.shape[0]).compute(
+        str(session), View("cam0_tt000.0", "cam0", 0.0, ps_steps)
+    )
+    np.testing.assert_allclose(normals, offline["normals"], atol=1e-5)
+    (run,) = run_stages(session, [PsStage(size=normals.shape[0])])
+    assert run.summary["valid_fraction"] > 0.95
+
+
+def test_a_failing_stage_is_reported_and_the_frame_still_acknowledged():
+    from rig.daemon.protocol import ArraySpec, FrameHeader, decode_result, encode_frame
+    from rig.worker import STAGES, _process
+
+    def broken(image, header):
+        raise RuntimeError("lens cap on")
+
+    STAGES["broken"] = broken
+    try:
+        image = np.zeros((4, 4, 3), np.uint8)
+        header = FrameHeader(
+            frame_id=7, session="s", step=0, kind="btf", camera="cam0", sub=0,
+            exposure_s=0.01, timestamp=0.0, array=ArraySpec(dtype="uint8", shape=(4, 4, 3)),
+        )  # fmt: skip
+        parts = encode_frame(header, image)
+        plain = {"worker": "w", "stage": "stats,broken"}
+        functions = {"stats": STAGES["stats"], "broken": broken}
+        result, arrays = decode_result(_process(parts, functions, plain))
+    finally:
+        del STAGES["broken"]
+    assert result.kind == "result" and result.frame_id == 7  # acknowledged: never resent
+    assert "stage broken: RuntimeError: lens cap on" in result.message
+    assert set(arrays) == {"stats.mean", "stats.saturated"}
