@@ -30,6 +30,7 @@ from sim.rig import SimulatedRig
 EXAMPLES = Path(__file__).parent
 PLAN = EXAMPLES / "plans" / "demo.toml"
 SCENE = EXAMPLES / "scenes" / "default.toml"
+LIVE_STAGES = "stats,register,laser,ps"  # what the workers compute while capturing
 
 
 def _progress(event: dict) -> None:
@@ -78,14 +79,19 @@ def main() -> int:
         print(f"1. plan {PLAN} is valid; on the simulated rig of scene {SCENE.name}:")
         print_estimate(compile_plan(plan, config))
         print(f"2. running the session through the daemon into {archive_path}")
-        final = run_local(PLAN, config, archive=archive_path, on_event=_progress, clock=clock)
+        print(f"   two workers run the live stages {LIVE_STAGES} on every frame")
+        final = run_local(
+            PLAN, config, archive=archive_path, on_event=_progress, clock=clock,
+            workers=2, stages=LIVE_STAGES,
+        )  # fmt: skip
     if final["state"] != "done":
         print(f"   the session ended {final['state']}: {final['session'].get('reason')}")
         return 1
     s = final["session"]
     print(
         f"   {s['committed']} steps, {s['frames']} frames in {time.perf_counter() - t0:.0f} s "
-        f"of wall time ({clock.now() / 60:.1f} min of rig time)"
+        f"of wall time ({clock.now() / 60:.1f} min of rig time); "
+        f"{final['stream']['processed']} processed live into material/live"
     )
 
     print(f"3. replaying it from the archive into {replay_path}")
