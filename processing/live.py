@@ -25,13 +25,13 @@ from pathlib import Path
 
 import numpy as np
 
-from processing.mdf import MdfSettings, ReferenceRegion, detect_laser_line, profile_axis_for
+from processing.mdf import ReferenceRegion, frame_laser_line
 from processing.offline.ps import PsStage
-from processing.offline.runner import View, frame_camera
+from processing.offline.runner import View
 from processing.registration import register_frame
 from rig.archive import Archive, StepRecord
-from rig.config import RigConfig, arc_direction
-from rig.kinematics import rotate_z
+from rig.config import RigConfig
+from rig.kinematics import laser_source_mm
 from rig.plan import parse_plan
 from rig.schedule import compile_plan
 
@@ -62,9 +62,11 @@ class LiveSession:
                     self._steps = {s.index: s for s in archive.step_table()}
             return self._steps[index]
 
-    def lens(self, camera_id: str):
-        """The camera's intrinsics at the plan's resolution (only K and dist matter here)."""
-        return self.config.camera_model(camera_id).scaled(self._scale)
+    def lens(self, camera_id: str, turntable_deg: float = 0.0):
+        """The camera of the archived frames: sample frame at ``turntable_deg``, intrinsics
+        at the plan's resolution (as ``processing.offline.frame_camera``)."""
+        model = self.config.camera_model(camera_id, turntable_deg=turntable_deg)
+        return model.scaled(self._scale)
 
     def ps_view_completed_by(self, step: int, camera: str) -> View | None:
         """The ps view whose last planned step is ``step`` (seen by ``camera``), if any."""
@@ -96,8 +98,9 @@ def _session_of(header: dict) -> LiveSession:
 
 
 def live_register(image: np.ndarray, header: dict, *, size: int = LIVE_SIZE) -> dict:
-    """btf/ps frames → ``texture`` (N, N, C) float32, ``valid`` (N, N), ``reason``,
-    ``reprojection_px`` (the registration's mean marker error; 0 when flagged)."""
+    """btf/ps frames → ``texture`` (N, N, C) float32, ``valid`` (N, N), ``reason``
+    (``processing.registration.Reason``; a flagged frame's texture is all zero) and
+    ``reprojection_px`` (the fit's mean marker error, 0 when too few markers to fit)."""
     if header["kind"] not in ("btf", "ps"):
         return {}
     session = _session_of(header)
@@ -111,7 +114,13 @@ def live_register(image: np.ndarray, header: dict, *, size: int = LIVE_SIZE) -> 
     }
 
 
-_REGIONS: dict[tuple, ReferenceRegion] = {}
+@lru_cache(maxsize=32)
+def _region(path: str, camera_id: str, turntable_deg: float) -> ReferenceRegion:
+    session = _session(path)
+    holder = session.config.holder
+    return ReferenceRegion.from_holder(
+        session.lens(camera_id, turntable_deg), sample_mm=holder.sample_mm, plate_mm=holder.plate_mm
+    )
 
 
 def live_laser_line(image: np.ndarray, header: dict) -> dict:
@@ -120,27 +129,10 @@ def live_laser_line(image: np.ndarray, header: dict) -> dict:
         return {}
     session = _session_of(header)
     step = session.step(header["step"])
-    config = session.config
     turntable, arc = step.actuators["turntable_deg"], step.actuators["arc_deg"]
-    key = (session.path, header["camera"], round(turntable, 6))
-    if key not in _REGIONS:
-        with Archive.open(session.path, mode="r") as archive:
-            camera = frame_camera(archive, config, header["camera"], turntable)
-        holder = config.holder
-        _REGIONS[key] = ReferenceRegion.from_holder(
-            camera, sample_mm=holder.sample_mm, plate_mm=holder.plate_mm
-        )
-    region = _REGIONS[key]
-    mount = config.laser.mount_theta_deg[step.laser]
-    source = rotate_z(config.laser.radius_mm * arc_direction(mount, arc), -turntable)
-    strip = np.array([-source[1], source[0]])
-    s = MdfSettings()
-    line = detect_laser_line(
-        image, region, profile_axis=profile_axis_for(region.camera, strip),
-        threshold=s.line_threshold, sigma_px=s.sigma_px, method=s.peak_method,
-        inlier_tol_px=s.inlier_tol_px, min_inliers=s.min_inliers, min_span_mm=s.min_span_mm,
-        ransac_iterations=s.ransac_iterations,
-    )  # fmt: skip
+    region = _region(session.path, header["camera"], round(float(turntable), 6))
+    source = laser_source_mm(session.config, step.laser, arc_deg=arc, turntable_deg=turntable)
+    line = frame_laser_line(image, region, source_mm=source)
     return {
         "normal": np.asarray(line.normal, np.float32),
         "rho_mm": np.float32(line.rho_mm),

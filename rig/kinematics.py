@@ -27,6 +27,7 @@ __all__ = [
     "inverse",
     "lamp_position_mm",
     "laser_plane",
+    "laser_source_mm",
     "rotate_z",
     "sampling_residuals",
     "wrap_into",
@@ -104,6 +105,17 @@ def lamp_position_mm(
     """(3,) position of lamp ``lamp`` in the sample frame, mm (on the light arc's radius)."""
     theta = config.lamp(lamp).theta_deg
     world = config.light_arc.radius_mm * arc_direction(theta, arc_deg)
+    return rotate_z(world, -turntable_deg)
+
+
+def laser_source_mm(
+    config: RigConfig, mount: int, *, arc_deg: float, turntable_deg: float
+) -> np.ndarray:
+    """(3,) position of laser mount ``mount``'s emitter in the sample frame, mm."""
+    mounts = config.laser.mount_theta_deg
+    if not 0 <= mount < len(mounts):
+        raise KinematicsError(f"laser mount {mount} does not exist; valid are 0..{len(mounts) - 1}")
+    world = config.laser.radius_mm * arc_direction(mounts[mount], arc_deg)
     return rotate_z(world, -turntable_deg)
 
 

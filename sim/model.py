@@ -12,8 +12,7 @@ from functools import cached_property
 import numpy as np
 
 from rig.camera import PinholeCamera
-from rig.config import arc_direction
-from rig.kinematics import laser_plane, rotate_z
+from rig.kinematics import lamp_position_mm, laser_plane, laser_source_mm, rotate_z
 from sim.holder import RECESS_GREY, SceneMesh, assemble, plate_albedo
 from sim.materials import eval_albedo
 from sim.raycast import RayCaster
@@ -115,8 +114,9 @@ class SceneModel:
         out = {}
         for lamp_id in sorted(snapshot.lamps_on):
             lamp = rig.lamp(lamp_id)
-            world = rig.light_arc.radius_mm * arc_direction(lamp.theta_deg, snapshot.arc_deg)
-            pos = rotate_z(world, -snapshot.turntable_deg)
+            pos = lamp_position_mm(
+                rig, lamp_id, arc_deg=snapshot.arc_deg, turntable_deg=snapshot.turntable_deg
+            )
             out[lamp_id] = LightSource.from_lamp(
                 lamp, pos, self.scene.spec.radiometry.intensity_w_sr
             )
@@ -125,8 +125,10 @@ class SceneModel:
     def laser_sheet(self, snapshot: WorldSnapshot) -> tuple[np.ndarray, np.ndarray, float]:
         """Laser source position (3,), sheet normal (3,) and offset d, sample frame."""
         rig = self.scene.rig
-        mount = rig.laser.mount_theta_deg[snapshot.laser_mount]
-        source = rig.laser.radius_mm * arc_direction(mount, snapshot.arc_deg)
+        source = laser_source_mm(
+            rig, snapshot.laser_mount, arc_deg=snapshot.arc_deg,
+            turntable_deg=snapshot.turntable_deg,
+        )  # fmt: skip
         normal, d = laser_plane(
             rig,
             arc_deg=snapshot.arc_deg,
@@ -134,4 +136,4 @@ class SceneModel:
             tilt_deg=snapshot.laser_tilt_deg,
             turntable_deg=snapshot.turntable_deg,
         )
-        return rotate_z(source, -snapshot.turntable_deg), normal, d
+        return source, normal, d

@@ -21,7 +21,7 @@ from processing.mdf.merge import (
 )
 from processing.mdf.peaks import PEAK_METHODS, PeakMethod, peak_offset, peak_radius
 from processing.mdf.reference import ReferenceRegion, plate_points, profile_axis_for
-from processing.mdf.scan import MdfSettings, ScanAccumulator, reconstruct_scan
+from processing.mdf.scan import MdfSettings, ScanAccumulator, frame_laser_line, reconstruct_scan
 from processing.mdf.sheet import ScanPlanes, scan_planes, sheet_from_line, tetrahedron_weight
 from processing.mdf.spacetime import PixelPeaks, SpaceTimeTracker, space_time_peaks
 
@@ -45,6 +45,7 @@ __all__ = [
     "detect_laser_line",
     "displacement_image",
     "frame_intensity",
+    "frame_laser_line",
     "merge_scans",
     "peak_offset",
     "peak_radius",

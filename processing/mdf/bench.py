@@ -41,7 +41,6 @@ from processing.mdf.synthetic import (
     RibbedSample,
     render_scan,
     rig_scan,
-    scaled_camera,
     true_distance,
 )
 from rig.config import RigConfig, default_rig_config
@@ -103,7 +102,7 @@ def run_bench(
         location_counts, step_factors = (1, 5), (1.0, 2.0)
     camera = config.camera_model(camera_id)
     rows = _throughput(camera.height, camera.width, throughput_frames, seed)
-    detector_camera = scaled_camera(camera, 0.25) if quick else camera
+    detector_camera = camera.scaled(0.25) if quick else camera
     rows += _detectors(config, detector_camera, sheet_sigma_mm, seed, quick)
     rows += _accuracy(
         config, camera, scale, texels, sheet_sigma_mm, location_counts, step_factors, seed
@@ -220,7 +219,7 @@ def _line_error_px(line, normal, offset, region) -> float:
 def _accuracy(
     config, camera, scale, texels, sheet_sigma_mm, location_counts, step_factors, seed
 ) -> list[dict]:
-    cam = scaled_camera(camera, scale)
+    cam = camera.scaled(scale)
     sample = RibbedSample(sample_mm=config.holder.sample_mm, plate_mm=config.holder.plate_mm)
     region = ReferenceRegion.from_holder(
         cam, sample_mm=config.holder.sample_mm, plate_mm=config.holder.plate_mm

@@ -22,7 +22,7 @@ from processing.mdf.reference import ReferenceRegion, profile_axis_for
 from processing.mdf.sheet import ScanPlanes, scan_planes, tetrahedron_weight
 from processing.mdf.spacetime import SpaceTimeTracker
 
-__all__ = ["MdfSettings", "ScanAccumulator", "reconstruct_scan"]
+__all__ = ["MdfSettings", "ScanAccumulator", "frame_laser_line", "reconstruct_scan"]
 
 
 @dataclass(frozen=True)
@@ -91,9 +91,7 @@ class ScanAccumulator:
         self.region = region
         self.source_mm = source
         self.settings = settings
-        # The strip runs across the emitter's azimuth; search across it.
-        strip = np.array([-source[1], source[0]])
-        self.profile_axis = profile_axis_for(region.camera, strip if strip.any() else [1.0, 0])
+        self.profile_axis = _profile_axis(region, source)
         self.lines: list[LaserLine] = []
         self._tracker = SpaceTimeTracker(
             region.mask.shape, method=settings.peak_method, min_contrast=settings.min_contrast
@@ -101,20 +99,7 @@ class ScanAccumulator:
 
     def add(self, frame) -> LaserLine:
         """Process the next frame; returns its laser line."""
-        s = self.settings
-        line = detect_laser_line(
-            frame,
-            self.region,
-            profile_axis=self.profile_axis,
-            threshold=s.line_threshold,
-            sigma_px=s.sigma_px,
-            method=s.peak_method,
-            inlier_tol_px=s.inlier_tol_px,
-            min_inliers=s.min_inliers,
-            min_span_mm=s.min_span_mm,
-            ransac_iterations=s.ransac_iterations,
-            seed=len(self.lines),
-        )
+        line = _line(frame, self.region, self.profile_axis, self.settings, seed=len(self.lines))
         self._tracker.update(frame)
         self.lines.append(line)
         return line
@@ -162,6 +147,36 @@ class ScanAccumulator:
             edge_tol_px=s.edge_tol_px,
             above_tol_px=s.above_tol_px,
         )
+
+
+def frame_laser_line(
+    frame, region: ReferenceRegion, *, source_mm, settings: MdfSettings | None = None
+) -> LaserLine:
+    """The laser line of one frame on its own (the live worker's per-frame part)."""
+    source = np.asarray(source_mm, dtype=np.float64)
+    return _line(frame, region, _profile_axis(region, source), settings or MdfSettings(), seed=0)
+
+
+def _profile_axis(region: ReferenceRegion, source: np.ndarray) -> int:
+    # The strip runs across the emitter's azimuth; search across it.
+    strip = np.array([-source[1], source[0]])
+    return profile_axis_for(region.camera, strip if strip.any() else [1.0, 0])
+
+
+def _line(frame, region, profile_axis: int, s: MdfSettings, *, seed: int) -> LaserLine:
+    return detect_laser_line(
+        frame,
+        region,
+        profile_axis=profile_axis,
+        threshold=s.line_threshold,
+        sigma_px=s.sigma_px,
+        method=s.peak_method,
+        inlier_tol_px=s.inlier_tol_px,
+        min_inliers=s.min_inliers,
+        min_span_mm=s.min_span_mm,
+        ransac_iterations=s.ransac_iterations,
+        seed=seed,
+    )
 
 
 def reconstruct_scan(

@@ -18,8 +18,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from rig.camera import PinholeCamera
-from rig.config import RigConfig, arc_direction
-from rig.kinematics import laser_plane, rotate_z
+from rig.config import RigConfig
+from rig.kinematics import laser_plane, laser_source_mm
 
 __all__ = [
     "RibbedSample",
@@ -27,7 +27,6 @@ __all__ = [
     "first_hit",
     "render_scan",
     "rig_scan",
-    "scaled_camera",
     "true_distance",
     "visible_from",
 ]
@@ -185,18 +184,12 @@ def rig_scan(
         for t in tilts
     ]
     normal = np.array([n for n, _ in planes])
-    source = laser.radius_mm * arc_direction(laser.mount_theta_deg[mount], arc_deg)
     return SyntheticScan(
         normal=normal,
         offset=np.array([d for _, d in planes]),
-        source_mm=rotate_z(source, -turntable_deg),
+        source_mm=laser_source_mm(config, mount, arc_deg=arc_deg, turntable_deg=turntable_deg),
         angle_deg=np.rad2deg(np.arccos(np.clip(normal[:, 2], -1, 1))),
     )
-
-
-def scaled_camera(camera: PinholeCamera, scale: float) -> PinholeCamera:
-    """The same camera with its image resampled by ``scale`` (fewer pixels, same view)."""
-    return camera.scaled(scale)
 
 
 def render_scan(

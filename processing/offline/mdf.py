@@ -26,9 +26,9 @@ from processing.mdf import (
 )
 from processing.offline.runner import View, frame_camera, views_of
 from rig.archive import Archive
-from rig.config import RigConfig, arc_direction
+from rig.config import RigConfig
 from rig.geometry import texel_centers_mm
-from rig.kinematics import laser_plane, rotate_z
+from rig.kinematics import laser_plane, laser_source_mm
 
 __all__ = ["MdfStage"]
 
@@ -65,10 +65,10 @@ class MdfStage:
                     _sheet_angle_deg(config, arc, record.laser, tilt, turntable)
                     for tilt in tilts[index]
                 ]
-                mount_theta = config.laser.mount_theta_deg[record.laser]
-                source = config.laser.radius_mm * arc_direction(mount_theta, arc)
+                source_mm = laser_source_mm(
+                    config, record.laser, arc_deg=arc, turntable_deg=turntable
+                )
                 frames = (archive.read_frame(index, item.camera, sub) for sub in range(len(angles)))
-                source_mm = rotate_z(source, -turntable)
                 scan = reconstruct_scan(
                     frames, region, texels, source_mm=source_mm,
                     sheet_angle_deg=np.array(angles), settings=settings,

@@ -36,7 +36,6 @@ from rig.kinematics import lamp_position_mm
 __all__ = ["PsStage"]
 
 _AXES = ("arc_deg", "turntable_deg")
-_AXES = ("arc_deg", "turntable_deg")
 #: An observation at or above this fraction of full scale counts as clipped.
 SATURATION = 0.98
 

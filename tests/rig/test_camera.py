@@ -66,3 +66,16 @@ def test_camera_in_the_turned_sample_frame():
     rz = np.array([[np.cos(a), -np.sin(a), 0], [np.sin(a), np.cos(a), 0], [0, 0, 1]])
     p_world = p_sample @ rz.T
     assert_allclose(turned.project(p_sample)[0], world.project(p_world)[0], atol=1e-9)
+
+
+@pytest.mark.parametrize("scale", [0.25, 0.5, 2.0])
+def test_scaled_camera_keeps_pixel_centres_on_their_rays(scale):
+    cam = _camera(dist=(-0.1, 0.02, 0.001, -0.001, 0.0))
+    small = cam.scaled(scale)
+    assert (small.width, small.height) == (round(640 * scale), round(480 * scale))
+    points = np.array([[10.0, -20.0, 0.0], [-40.0, 30.0, -2.0]])
+    full, _ = cam.project(points)
+    got, _ = small.project(points)
+    assert_allclose(got, (full + 0.5) * scale - 0.5, atol=1e-9)
+    with pytest.raises(ValueError, match="scale=0"):
+        cam.scaled(0.0)

@@ -7,7 +7,7 @@ from functools import cache
 import numpy as np
 
 from processing.mdf import MdfSettings, ReferenceRegion, reconstruct_scan
-from processing.mdf.synthetic import RibbedSample, render_scan, rig_scan, scaled_camera
+from processing.mdf.synthetic import RibbedSample, render_scan, rig_scan
 from rig.config import default_rig_config
 from rig.geometry import texel_centers_mm
 
@@ -23,7 +23,7 @@ TEXELS = 32
 
 @cache
 def camera(camera_id: str = "cam2"):
-    return scaled_camera(CONFIG.camera_model(camera_id), SCALE)
+    return CONFIG.camera_model(camera_id).scaled(SCALE)
 
 
 @cache

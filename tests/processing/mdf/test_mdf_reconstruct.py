@@ -29,7 +29,6 @@ from processing.mdf.synthetic import (
     first_hit,
     render_scan,
     rig_scan,
-    scaled_camera,
     true_distance,
     visible_from,
 )
@@ -239,7 +238,7 @@ def test_frame_count_mismatch_is_an_error():
     noise=st.floats(0, 20),
 )
 def test_any_scan_is_finite_and_consistent(theta, arc, step, noise):
-    cam = scaled_camera(CONFIG.camera_model(theta), 0.0625)
+    cam = CONFIG.camera_model(theta).scaled(0.0625)
     reg = ReferenceRegion.from_holder(cam, sample_mm=100.0, plate_mm=180.0)
     sc = rig_scan(CONFIG, arc_deg=arc, step_deg=step, sweep_deg=11.0)
     result = reconstruct_scan(
