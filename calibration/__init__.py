@@ -4,7 +4,6 @@ target), laser planes (two or more heights) and the radiometric response."""
 from calibration.cameras import (
     CameraCalibration,
     CameraCalibrationError,
-    CharucoBoardSpec,
     CharucoView,
     TurntableAxis,
     calibrate_intrinsics,
@@ -34,7 +33,6 @@ from calibration.response import (
 __all__ = [
     "CameraCalibration",
     "CameraCalibrationError",
-    "CharucoBoardSpec",
     "CharucoView",
     "FlatField",
     "Highlight",

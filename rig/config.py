@@ -24,6 +24,7 @@ from rig.camera import PinholeCamera, look_at
 from rig.connections import CameraConnection, DynamixelConnection, ModbusConnection, NxtConnection
 from rig.errors import ConfigError
 from rig.geometry import direction_vector
+from rig.targets import Targets
 
 __all__ = [
     "Axis",
@@ -345,6 +346,7 @@ class RigConfig(_Closed):
     camera_arc: CameraArc = CameraArc()
     laser: Laser = Laser()
     holder: Holder = Holder()
+    targets: Targets = Targets()
     calibration: str | None = Field(None, description="path of a calibration file")
 
     def camera(self, camera_id: str) -> CameraSpec:

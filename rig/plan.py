@@ -165,15 +165,29 @@ class MdfCapture(_Closed):
     scan_step_deg: float = Field(0.1, gt=0, le=10, description="sheet tilt between frames")
 
 
+class FixedShot(_Closed):
+    """Frames at given actuator positions, under one lamp: what calibration
+    sessions need where a direction pair cannot say it (a zenith camera's view
+    is the same at every turntable angle)."""
+
+    turntable_deg: float = Field(ge=-720, le=720)
+    arc_deg: float = Field(0.0, ge=-720, le=720)
+    lamp: str = Field(description="a lamp id of the rig")
+    cameras: tuple[str, ...] | None = Field(None, description="camera ids (default: all)")
+
+
 class Captures(_Closed):
     btf: BtfCapture | None = None
     ps: PsCapture | None = None
     mdf: MdfCapture | None = None
+    fixed: tuple[FixedShot, ...] | None = Field(None, min_length=1)
 
     @model_validator(mode="after")
     def _something(self) -> Captures:
-        if self.btf is None and self.ps is None and self.mdf is None:
-            raise ValueError("a plan must capture something: add [captures.btf], .ps or .mdf")
+        if all(getattr(self, k) is None for k in ("btf", "ps", "mdf", "fixed")):
+            raise ValueError(
+                "a plan must capture something: add [captures.btf], .ps, .mdf or .fixed"
+            )
         return self
 
 

@@ -17,8 +17,8 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from rig.config import RigConfig
-from rig.errors import PlanError
-from rig.kinematics import inverse
+from rig.errors import ConfigError, PlanError
+from rig.kinematics import forward, inverse
 from rig.plan import Plan
 
 __all__ = ["Estimate", "Schedule", "Shot", "Step", "compile_plan"]
@@ -115,8 +115,31 @@ def _check_plan_fits_rig(plan: Plan, config: RigConfig) -> None:
                 f"than the scan frame period {period:.4f} s "
                 f"(laser.frame_rate_hz = {config.laser.frame_rate_hz}); use ≤ {period:.4f}"
             )
+    for i, shot in enumerate(plan.captures.fixed or ()):
+        for name, check, ids in (("lamp", config.lamp, (shot.lamp,)),
+                                 ("cameras", config.camera, shot.cameras or ())):  # fmt: skip
+            for item in ids:
+                try:
+                    check(item)
+                except ConfigError as err:
+                    problems.append(f"captures.fixed[{i}].{name}: {err}")
     if problems:
         raise PlanError("plan vs rig config", problems)
+
+
+def _fixed_groups(plan: Plan, config: RigConfig, groups: dict) -> int:
+    """Add the plan's fixed shots to ``groups`` (as BTF steps); their count."""
+    everyone = tuple(c.id for c in config.camera_arc.cameras)
+    n = 0
+    for shot in plan.captures.fixed or ():
+        gkey = ("btf", round(shot.turntable_deg, 6), round(shot.arc_deg, 6), shot.lamp)
+        for camera in shot.cameras or everyone:
+            view, light = forward(config, turntable_deg=shot.turntable_deg,
+                                  arc_deg=shot.arc_deg, camera=camera, lamp=shot.lamp)  # fmt: skip
+            pair = (tuple(float(a) for a in view), tuple(float(a) for a in light))
+            groups[gkey].setdefault(camera, Shot(camera, *pair, 0.0, 0.0))
+            n += 1
+    return n
 
 
 def compile_plan(plan: Plan, config: RigConfig) -> Schedule:
@@ -140,6 +163,7 @@ def compile_plan(plan: Plan, config: RigConfig) -> Schedule:
             pose.camera,
             Shot(pose.camera, view, light, pose.view_residual_deg, pose.light_residual_deg),
         )
+    n_pairs += _fixed_groups(plan, config, groups)
     naive_keys = list(groups)  # insertion order = the plan's order
     tour = _nearest_neighbour_tour(naive_keys, config)
     steps = _make_steps(tour, groups, plan, config)

@@ -87,6 +87,9 @@ class SceneModel:
             out[extra] = eval_albedo(
                 spec.materials[name].albedo, xy[extra], sample_mm=self.sample_mm
             )
+        if self.sample.pattern is not None:
+            printed = materials >= 2
+            out[printed] *= self.sample.pattern(points[printed])[:, None]
         return out
 
     def hits(self, shape, pixels, origin, dirs, faces) -> SurfaceHits:

@@ -22,6 +22,7 @@ from pathlib import Path
 from typing import Any, Protocol
 
 from rig.archive import Archive
+from rig.calfile import CalibrationFile
 from rig.config import RigConfig
 from rig.errors import ConfigError
 
@@ -75,9 +76,20 @@ def views_of(archive: Archive, kind: str) -> list[View]:
 
 def frame_camera(archive: Archive, config: RigConfig, camera_id: str, turntable_deg: float):
     """The model of ``camera_id``'s archived frames: sample frame at ``turntable_deg``,
-    intrinsics scaled to the plan's resolution (the daemon bins frames by it)."""
+    intrinsics scaled to the plan's resolution (the daemon bins frames by it).
+
+    The archive's calibration (``rig calibrate``) when it has the camera, else
+    the rig config's nominal model.
+    """
     scale = float(archive.plan.get("resolution", {}).get("scale", 1.0))
-    return config.camera_model(camera_id, turntable_deg=turntable_deg).scaled(scale)
+    calibrated = None
+    if archive.calibration:
+        source = f"{archive.path} (calibration v{archive.calibration_version})"
+        calibrated = CalibrationFile.from_dict(archive.calibration, source=source).camera(camera_id)
+    if calibrated is None:
+        return config.camera_model(camera_id, turntable_deg=turntable_deg).scaled(scale)
+    width = max(1, round(config.camera(camera_id).width * scale))
+    return calibrated.model(turntable_deg=turntable_deg, scale=width / calibrated.image_size[0])
 
 
 @dataclass(frozen=True)

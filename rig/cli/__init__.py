@@ -10,7 +10,15 @@ import logging
 
 import typer
 
-from rig.cli import bench_cmd, pending, plan_cmd, process_cmd, session_cmd, sim_cmd
+from rig.cli import (
+    bench_cmd,
+    calibrate_cmd,
+    pending,
+    plan_cmd,
+    process_cmd,
+    session_cmd,
+    sim_cmd,
+)
 from rig.cli.common import console
 
 __all__ = ["app", "main"]
@@ -25,6 +33,7 @@ app = typer.Typer(
 plan_cmd.register(app)
 session_cmd.register(app)
 process_cmd.register(app)
+calibrate_cmd.register(app)
 pending.register(app)
 app.add_typer(sim_cmd.app, name="sim")
 app.add_typer(bench_cmd.app, name="bench")

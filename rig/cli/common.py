@@ -9,6 +9,7 @@ from pathlib import Path
 
 import typer
 from rich.console import Console
+from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from rig.config import RigConfig, default_rig_config, load_rig_config
 from rig.errors import ConfigError, PlanError, RigError
@@ -17,6 +18,7 @@ __all__ = [
     "EXIT_FAILURE",
     "EXIT_INVALID",
     "EXIT_NOT_BUILT",
+    "SessionProgress",
     "console",
     "load_config_option",
     "not_built",
@@ -57,3 +59,51 @@ def not_built(command: str, issue: int | None, what: str) -> None:
         f"[yellow]rig {command}:[/yellow] not built yet — {what} ({tracked}). Nothing was done."
     )
     raise typer.Exit(EXIT_NOT_BUILT)
+
+
+def _hms(seconds) -> str:
+    if seconds is None:
+        return "?"
+    s = round(seconds)
+    return f"{s // 3600:d}:{s % 3600 // 60:02d}:{s % 60:02d}"
+
+
+class SessionProgress:
+    """Draws a session's events: a bar for progress, lines for the rest."""
+
+    def __init__(self) -> None:
+        self.progress = Progress(
+            TextColumn("[bold]{task.description}"),
+            BarColumn(),
+            TextColumn("step {task.completed:.0f}/{task.total:.0f}"),
+            TextColumn("ETA {task.fields[eta]}"),
+            TextColumn("{task.fields[fps]} frames/s"),
+            TimeElapsedColumn(),
+            console=console,
+        )
+        self.task = None
+
+    def __enter__(self) -> SessionProgress:
+        self.progress.start()
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.progress.stop()
+
+    def __call__(self, event: dict) -> None:
+        topic = event.get("topic")
+        if topic == "progress":
+            fields = {
+                "eta": _hms(event.get("eta_s")),
+                "fps": f"{event.get('frames_per_s', 0.0):.1f}",
+            }
+            if self.task is None:
+                self.task = self.progress.add_task("session", total=event["steps"], **fields)
+            self.progress.update(self.task, completed=event["step"], **fields)
+        elif topic == "state":
+            self.progress.console.print(f"state: {event.get('from')} → [bold]{event.get('to')}[/]")
+        elif topic == "log":
+            detail = {k: v for k, v in event.items() if k not in ("topic", "seq", "time", "kind")}
+            self.progress.console.print(f"{event.get('kind')}: {detail}")
+        elif topic == "gap":
+            self.progress.console.print(f"[yellow]missed {event['missed']} event(s)[/yellow]")

@@ -18,14 +18,6 @@ __all__ = ["register"]
 
 def register(app: typer.Typer) -> None:
     @app.command()
-    def calibrate(
-        target: Annotated[str, typer.Argument(help="cameras | lamps | laser | response")],
-        config: Annotated[Path, typer.Option("--config", "-c", help="rig config TOML")],
-    ) -> None:
-        """Calibrate cameras, lamps, laser planes or the radiometric response."""
-        not_built("calibrate", 9, "calibration sessions")
-
-    @app.command()
     def view(
         material: Annotated[Path, typer.Argument(help="archive with a material/ group")],
         out: Annotated[Path | None, typer.Option("--out", help="write a PNG")] = None,

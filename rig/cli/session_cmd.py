@@ -8,63 +8,14 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
-from rig.cli.common import console, reporting_errors
+from rig.cli.common import SessionProgress, console, reporting_errors
 from rig.errors import ConfigError
 
 __all__ = ["register"]
 
 CONNECT = typer.Option("--connect", help="the daemon's control address, tcp://HOST[:PORT]")
 DEFAULT_CONNECT = "tcp://127.0.0.1"
-
-
-def _hms(seconds) -> str:
-    if seconds is None:
-        return "?"
-    s = round(seconds)
-    return f"{s // 3600:d}:{s % 3600 // 60:02d}:{s % 60:02d}"
-
-
-class _ProgressView:
-    """Draws a session's events: a bar for progress, lines for the rest."""
-
-    def __init__(self) -> None:
-        self.progress = Progress(
-            TextColumn("[bold]{task.description}"),
-            BarColumn(),
-            TextColumn("step {task.completed:.0f}/{task.total:.0f}"),
-            TextColumn("ETA {task.fields[eta]}"),
-            TextColumn("{task.fields[fps]} frames/s"),
-            TimeElapsedColumn(),
-            console=console,
-        )
-        self.task = None
-
-    def __enter__(self) -> _ProgressView:
-        self.progress.start()
-        return self
-
-    def __exit__(self, *exc) -> None:
-        self.progress.stop()
-
-    def __call__(self, event: dict) -> None:
-        topic = event.get("topic")
-        if topic == "progress":
-            fields = {
-                "eta": _hms(event.get("eta_s")),
-                "fps": f"{event.get('frames_per_s', 0.0):.1f}",
-            }
-            if self.task is None:
-                self.task = self.progress.add_task("session", total=event["steps"], **fields)
-            self.progress.update(self.task, completed=event["step"], **fields)
-        elif topic == "state":
-            self.progress.console.print(f"state: {event.get('from')} → [bold]{event.get('to')}[/]")
-        elif topic == "log":
-            detail = {k: v for k, v in event.items() if k not in ("topic", "seq", "time", "kind")}
-            self.progress.console.print(f"{event.get('kind')}: {detail}")
-        elif topic == "gap":
-            self.progress.console.print(f"[yellow]missed {event['missed']} event(s)[/yellow]")
 
 
 def _print_status(state: dict) -> None:
@@ -140,7 +91,7 @@ def register(app: typer.Typer) -> None:
             if not follow:
                 _print_status(client.status(connect=connect))
                 return
-            with _ProgressView() as view:
+            with SessionProgress() as view:
                 for event in client.follow(connect, until=client.session_ended):
                     view(event)
             _print_status(client.status(connect=connect))
@@ -182,7 +133,9 @@ def register(app: typer.Typer) -> None:
         archive: Annotated[
             Path | None, typer.Option("--archive", help="where to write (default: the plan's)")
         ] = None,
-        workers: Annotated[int, typer.Option(min=0, help="live workers to run")] = 1,
+        workers: Annotated[
+            int, typer.Option(min=1, help="live workers to run (frames wait for one)")
+        ] = 1,
         stages: Annotated[
             str,
             typer.Option("--stages", help="the workers' live stages: stats, register, laser, ps"),
@@ -199,7 +152,7 @@ def register(app: typer.Typer) -> None:
         """Daemon + workers + submit + follow in one process, for a local session."""
         from rig.daemon import run_local
 
-        with reporting_errors(), _ProgressView() as view:
+        with reporting_errors(), SessionProgress() as view:
             if sim is None:
                 final = run_local(
                     plan, config, archive=archive, workers=workers, stages=stages, on_event=view
@@ -233,7 +186,7 @@ def register(app: typer.Typer) -> None:
         max_speed: Annotated[
             bool, typer.Option("--max", help="as fast as the archive reads (ignores --speed)")
         ] = False,
-        workers: Annotated[int, typer.Option(min=0, help="statistics workers to run")] = 1,
+        workers: Annotated[int, typer.Option(min=1, help="statistics workers to run")] = 1,
     ) -> None:
         """Run a recorded session back through the daemon and workers.
 
@@ -243,7 +196,7 @@ def register(app: typer.Typer) -> None:
         from rig.daemon import replay_local
 
         target = out if out is not None else archive.with_suffix(".replay.zarr")
-        with reporting_errors(), _ProgressView() as view:
+        with reporting_errors(), SessionProgress() as view:
             final = replay_local(
                 archive, out=target, speed=None if max_speed else speed, workers=workers,
                 on_event=view,

@@ -30,6 +30,7 @@ import numpy as np
 
 from drivers.errors import DeviceError
 from rig.archive import Archive, ArchiveError, FrameFormat, FrameRecord, StepRecord
+from rig.calfile import load_calibration
 from rig.clock import Clock
 from rig.config import RigConfig
 from rig.daemon.devices import Captured, DeviceSet
@@ -133,6 +134,7 @@ class Session:
             plan_toml=plan_toml,
             rig_config=config.model_dump(mode="json"),
             cameras=frame_formats(config, scale=plan.resolution.scale),
+            calibration=_calibration_of(config),
         )
         try:
             return cls(plan=plan, config=config, archive=archive, **kw)
@@ -472,3 +474,10 @@ def _write_live(archive: Archive, results: list[tuple[dict, dict]]) -> None:
             sub.create_array("sub", data=np.array([r[0]["sub"] for r in mine], dtype=np.int64))
             for name in mine[0][1]:
                 sub.create_array(name, data=np.stack([np.asarray(r[1][name]) for r in mine]))
+
+
+def _calibration_of(config: RigConfig) -> dict | None:
+    """The calibration file the rig config names, validated, for the archive."""
+    if config.calibration is None:
+        return None
+    return load_calibration(config.calibration).model_dump(mode="json", exclude_none=True)

@@ -1,6 +1,6 @@
-"""Sample generators: height fields, the weave, and a registry for more."""
+"""Sample generators: height fields, the weave, calibration targets, and a registry."""
 
-from sim.samples import heightfields, weave
+from sim.samples import heightfields, targets, weave
 from sim.samples.base import (
     Generator,
     SampleGeometry,
@@ -20,5 +20,6 @@ __all__ = [
     "height_normals",
     "heightfields",
     "register_sample",
+    "targets",
     "weave",
 ]

@@ -53,6 +53,8 @@ class SampleGeometry:
     normals : (V, 3) float64 unit vertex normals (exact surface normals there)
     face_material : (F,) int64 index into the generator's material list
     height : the height function ``h(x, y) -> z`` for height fields, else None
+    pattern : for a printed target, ``points (n, 3) -> (n,)`` factors in [0, 1]
+        that multiply the material's albedo (the print on it), else None
     """
 
     vertices: np.ndarray
@@ -60,6 +62,7 @@ class SampleGeometry:
     normals: np.ndarray
     face_material: np.ndarray
     height: HeightFn | None = None
+    pattern: Callable[[np.ndarray], np.ndarray] | None = None
 
 
 @dataclass(frozen=True)
@@ -110,23 +113,25 @@ def generator(name: str) -> Generator:
 
 
 def height_field_geometry(
-    height: HeightFn, *, sample_mm: float, grid: int, depth_mm: float
+    height: HeightFn, *, sample_mm: float, grid: int, depth_mm: float, top_mm: float = 0.0
 ) -> SampleGeometry:
     """Triangulate ``z = h(x, y)`` over the sample square on a ``grid``² lattice.
 
     Normals come from central differences of ``h`` with a 1e-4 mm step (exact
     to ~1e-8 for smooth ``h``). Raises ``ConfigError`` when the surface leaves
-    the recess (above z = 0 or below the floor at −``depth_mm``).
+    the recess (above z = ``top_mm`` or below the floor at −``depth_mm``); a
+    sample stays below the reference plane (``top_mm`` 0), a calibration
+    target may rise above it.
     """
     c = np.linspace(-sample_mm / 2, sample_mm / 2, grid)
     xx, yy = np.meshgrid(c, c)
     x, y = xx.ravel(), yy.ravel()
     z = height(x, y)
     top, bottom = float(z.max()), float(z.min())
-    if top > 1e-9 or bottom < -depth_mm - 1e-9:
+    if top > top_mm + 1e-9 or bottom < -depth_mm - 1e-9:
         raise ConfigError(
-            f"the sample surface spans z = {bottom:.3f} … {top:.3f} mm but must lie in the "
-            f"recess, −{depth_mm} ≤ z ≤ 0: lower the amplitude or deepen depth_mm"
+            f"the sample surface spans z = {bottom:.3f} … {top:.3f} mm but must lie in "
+            f"−{depth_mm} ≤ z ≤ {top_mm:g}: lower the amplitude or deepen depth_mm"
         )
     normals = height_normals(height, x, y)
     i = np.arange(grid * grid).reshape(grid, grid)

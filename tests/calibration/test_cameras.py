@@ -5,15 +5,15 @@ from numpy.testing import assert_allclose
 
 from calibration.cameras import (
     CameraCalibrationError,
-    CharucoBoardSpec,
     calibrate_intrinsics,
     detect_charuco,
     turntable_axis,
 )
 from rig.camera import PinholeCamera
 from rig.config import default_rig_config
+from rig.targets import CharucoTarget
 
-SPEC = CharucoBoardSpec()
+SPEC = CharucoTarget(square_mm=15.0, marker_mm=11.0)
 PPMM = 12  # board texture resolution, pixels per mm
 SUPERSAMPLE = 2
 _nominal = default_rig_config().camera_model("cam2")
@@ -124,5 +124,5 @@ def test_grazing_board_and_too_few_views():
     assert detect_charuco(grazing, SPEC) is None  # too few corners to trust
     with pytest.raises(CameraCalibrationError, match="usable board image"):
         calibrate_intrinsics([None, None, None], (CAMERA.width, CAMERA.height))
-    with pytest.raises(CameraCalibrationError, match="unknown ArUco dictionary"):
-        CharucoBoardSpec(dictionary="DICT_NOPE").board()
+    with pytest.raises(ValueError, match="unknown ArUco dictionary"):
+        CharucoTarget(dictionary="DICT_NOPE")

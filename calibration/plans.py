@@ -1,0 +1,45 @@
+"""Calibration sessions as plans: what the rig captures to calibrate each part.
+
+A calibration is captured like any session — a plan the daemon runs into an
+archive — so it can be resumed, replayed and re-computed later. The plans use
+``[captures.fixed]`` shots at given turntable and arc angles: a camera
+calibration is every camera at several turntable angles under one lamp.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import tomli_w
+
+from rig.config import RigConfig
+from rig.errors import ConfigError
+
+__all__ = ["camera_plan", "turntable_angles"]
+
+
+def turntable_angles(poses: int) -> np.ndarray:
+    """``poses`` turntable angles around a full turn, offset by half a step so no
+    board edge lines up with the pixel grid (which biases corner positions)."""
+    if poses < 3:
+        raise ConfigError(f"poses: need ≥ 3 turntable angles to calibrate a camera, got {poses}")
+    return (np.arange(poses) + 0.5) * 360.0 / poses
+
+
+def camera_plan(
+    config: RigConfig, *, poses: int = 12, cameras=None, archive: str, exposure_s: float = 0.05
+) -> str:
+    """Plan TOML: every camera (or those named) sees the ChArUco wedge at ``poses``
+    turntable angles, lit by the lamp nearest the zenith with the arc at 0°."""
+    ids = None if cameras is None else [config.camera(c).id for c in cameras]
+    lamp = min(config.light_arc.lamps, key=lambda lamp: abs(lamp.theta_deg)).id
+    fixed = [{"turntable_deg": float(a), "lamp": lamp} for a in turntable_angles(poses)]
+    if ids is not None:
+        for shot in fixed:
+            shot["cameras"] = ids
+    plan = {
+        "sample": {"name": "calibration-cameras", "description": "ChArUco wedge, rig calibrate"},
+        "captures": {"fixed": fixed},
+        "exposure": {"exposure_s": exposure_s},
+        "output": {"archive": archive},
+    }
+    return tomli_w.dumps(plan)

@@ -1,0 +1,134 @@
+"""`rig calibrate`: capture a calibration session, compute, write the calibration file."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from rig.cli.common import (
+    EXIT_FAILURE,
+    SessionProgress,
+    console,
+    load_config_option,
+    not_built,
+    reporting_errors,
+)
+from rig.errors import ConfigError
+
+__all__ = ["register"]
+
+_BUILT = ("cameras",)
+
+
+def register(app: typer.Typer) -> None:
+    @app.command()
+    def calibrate(
+        target: Annotated[str, typer.Argument(help="cameras | lamps | laser | response")],
+        config: Annotated[
+            Path | None, typer.Option("--config", "-c", help="rig config TOML (default rig)")
+        ] = None,
+        sim: Annotated[
+            bool, typer.Option("--sim", help="capture from the simulated rig (virtual time)")
+        ] = False,
+        from_archive: Annotated[
+            Path | None,
+            typer.Option("--from", help="compute from this recorded session instead of capturing"),
+        ] = None,
+        archive: Annotated[
+            Path, typer.Option("--archive", help="where the calibration session is recorded")
+        ] = Path("calibration/cameras.zarr"),
+        out: Annotated[
+            Path | None,
+            typer.Option(
+                "--out",
+                help="calibration file to update (default: the config's, "
+                "else calibration/calibration.toml)",
+            ),
+        ] = None,
+        poses: Annotated[int, typer.Option(min=3, help="turntable angles per camera")] = 12,
+        cameras: Annotated[
+            str | None, typer.Option("--cameras", help="comma-separated camera ids (default all)")
+        ] = None,
+        scale: Annotated[
+            float, typer.Option(min=0.05, max=1.0, help="--sim: image size factor")
+        ] = 0.5,
+        apply: Annotated[
+            list[Path] | None,
+            typer.Option("--apply", help="also store the calibration in these session archives"),
+        ] = None,
+    ) -> None:
+        """Calibrate cameras, lamps, laser planes or the radiometric response.
+
+        Captures a calibration session with the rig (or, with --sim, the simulated
+        rig), computes from the archive, and updates the calibration file (its
+        TARGET section, with date, software and residuals), a report and plots.
+        --from ARCHIVE recomputes from a recorded (or replayed) session.
+        """
+        if target not in _BUILT:
+            not_built(f"calibrate {target}", 9, f"{target} calibration sessions")
+        with reporting_errors():
+            rig = load_config_option(config)
+            ids = None if cameras is None else [c.strip() for c in cameras.split(",") if c.strip()]
+            if from_archive is None:
+                _capture(rig, archive, sim=sim, poses=poses, cameras=ids, scale=scale)
+                source = archive
+            else:
+                source = from_archive
+            failed = _compute(source, rig, out, apply or [])
+        if failed:
+            raise typer.Exit(EXIT_FAILURE)
+
+
+def _capture(rig, archive: Path, *, sim: bool, poses: int, cameras, scale: float) -> None:
+    from calibration.plans import camera_plan
+    from rig.daemon import run_local
+
+    if archive.exists():
+        raise ConfigError(f"--archive {archive} exists; give a new path or use --from {archive}")
+    archive.parent.mkdir(parents=True, exist_ok=True)
+    plan_path = archive.with_suffix(".plan.toml")
+    plan_path.write_text(camera_plan(rig, poses=poses, cameras=cameras, archive=str(archive)))
+    console.print(f"plan: {plan_path}")
+    if sim:
+        from rig.clock import VirtualClock
+        from sim.calibration import target_scene
+        from sim.rig import SimulatedRig
+
+        clock = VirtualClock()
+        scene = target_scene("cameras", rig, scale=scale)
+        with SimulatedRig(scene, clock=clock) as simulated, SessionProgress() as view:
+            final = run_local(plan_path, simulated.rig_config(), archive=archive, on_event=view,
+                              clock=clock)  # fmt: skip
+    else:
+        with SessionProgress() as view:
+            final = run_local(plan_path, rig, archive=archive, on_event=view)
+    if final.get("state") != "done":
+        raise ConfigError(f"the calibration session ended {final.get('state')}: {final}")
+
+
+def _compute(source: Path, rig, out: Path | None, apply: list[Path]) -> dict[str, str]:
+    from calibration.report import camera_report, plot_camera_residuals
+    from calibration.sessions import calibrate_cameras, camera_result
+    from rig.archive import Archive, software_versions
+    from rig.calfile import CalibrationFile, Provenance, load_calibration, write_calibration
+
+    found, failed = calibrate_cameras(source, progress=console.print)
+    if not found:
+        raise ConfigError(f"no camera could be calibrated from {source}: {failed}")
+    path = out or Path(rig.calibration or "calibration/calibration.toml")
+    current = load_calibration(path) if path.exists() else CalibrationFile(rig=rig.name)
+    section = {camera_id: camera_result(cam) for camera_id, cam in found.items()}
+    updated = current.with_section(
+        "cameras", section, Provenance.now(source.resolve(), software_versions())
+    )
+    write_calibration(updated, path)
+    console.print(camera_report(found, failed))
+    plot = plot_camera_residuals(found, path.with_suffix(".cameras.png"))
+    console.print(f"calibration: {path} (cameras), plot: {plot}")
+    for target in apply:
+        with Archive.open(target, mode="a") as session:
+            version = session.set_calibration(updated.model_dump(mode="json", exclude_none=True))
+        console.print(f"{target}: calibration version {version}")
+    return failed

@@ -1,0 +1,53 @@
+"""Scenes of the calibration targets on a rig, for ``rig calibrate … --sim``.
+
+The target is the rig's own (``RigConfig.targets``); the effects are those a
+calibration must cope with: sensor noise, lens distortion and vignetting.
+"""
+
+from __future__ import annotations
+
+from typing import Literal
+
+from rig.config import RigConfig
+from sim.scene import Scene, scene_from_dict
+
+__all__ = ["DEFAULT_DISTORTION", "TARGETS", "target_scene"]
+
+TARGETS = ("cameras",)
+DEFAULT_DISTORTION = (-0.08, 0.05, 0.0004, -0.0003, 0.0)
+_FRAME_TIMEOUT_S = 120.0
+_WHITE = {"albedo": {"kind": "constant", "rgb": [0.85, 0.85, 0.85]}}
+
+
+def target_scene(
+    target: Literal["cameras"], config: RigConfig, *, scale: float = 0.5, supersample: int = 4
+) -> Scene:
+    """The simulated rig ``config`` with ``target``'s calibration part on the turntable.
+
+    ``supersample`` anti-aliases the printed board (4: corners within ~0.1 px).
+    Cameras with zero distortion get ``DEFAULT_DISTORTION``.
+    """
+    if target not in TARGETS:
+        raise ValueError(f"no simulated target for {target!r}; valid are {list(TARGETS)}")
+    rig = config.model_dump(mode="json")
+    lens = next((tuple(c.dist) for c in config.camera_arc.cameras if any(c.dist)), None)
+    for camera in rig["camera_arc"]["cameras"]:
+        if lens is None:
+            camera["dist"] = list(DEFAULT_DISTORTION)
+        # a supersampled frame takes seconds to render: wait for it
+        camera["connection"]["retry"]["timeout_s"] = _FRAME_TIMEOUT_S
+    lens = lens or DEFAULT_DISTORTION
+    data = {
+        "name": f"calibration-{target}",
+        "effects": ["noise", "lens_distortion", "vignetting"],
+        "sample": {
+            "generator": "charuco_wedge",
+            "depth_mm": 5.0,
+            "params": config.targets.charuco.model_dump(mode="json"),
+        },
+        "materials": {"default": _WHITE},
+        "rig": {"overrides": rig},
+        "render": {"scale": scale, "supersample": supersample},
+        "lens_distortion": {"coefficients": list(lens)},
+    }
+    return scene_from_dict(data, source=f"calibration target {target!r}")
