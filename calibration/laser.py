@@ -18,9 +18,19 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from processing.mdf import frame_intensity, peak_offset
+from rig.camera import PinholeCamera
 from rig.errors import RigError
+from rig.targets import LaserStepTarget
 
-__all__ = ["LaserAngle", "LaserCalibrationError", "laser_plane_angle", "strip_offset_mm"]
+__all__ = [
+    "LaserAngle",
+    "LaserCalibrationError",
+    "band_offsets",
+    "laser_plane_angle",
+    "strip_offset_mm",
+    "strip_pixels",
+]
 
 
 class LaserCalibrationError(RigError):
@@ -117,3 +127,70 @@ def laser_plane_angle(
     # dα/ds = −1/(1+s²) in radians
     angle_std = float(np.rad2deg(slope_std / (1.0 + slope * slope)))
     return LaserAngle(angle, residual, angle_std, len(h))
+
+
+def strip_pixels(frame, *, profile_axis: int, threshold: float = 0.3) -> np.ndarray:
+    """(n, 2) sub-pixel (x, y) of the laser strip in a laser-only frame.
+
+    Each image line across the strip (columns for ``profile_axis`` 0, rows for
+    1) contributes its brightest sample, when above ``threshold`` × the frame's
+    peak, refined by a Gaussian fit to it and its neighbours.
+    """
+    img = frame_intensity(frame).astype(np.float64)
+    if profile_axis == 1:
+        img = img.T
+    peak = float(img.max())
+    if not peak > 0:
+        raise LaserCalibrationError("the laser frame is dark: no strip to find")
+    rows = np.argmax(img, axis=0)
+    cols = np.arange(img.shape[1])
+    inside = (rows >= 1) & (rows < img.shape[0] - 1) & (img[rows, cols] > threshold * peak)
+    rows, cols = rows[inside], cols[inside]
+    window = np.stack([img[rows - 1, cols], img[rows, cols], img[rows + 1, cols]])
+    offset, ok = peak_offset(window, method="gaussian")
+    along, across = cols[ok].astype(np.float64), rows[ok] + offset[ok]
+    xy = np.column_stack([along, across]) if profile_axis == 0 else np.column_stack([across, along])
+    return xy
+
+
+def band_offsets(
+    pixels,
+    camera: PinholeCamera,
+    steps: LaserStepTarget,
+    *,
+    sample_mm: float,
+    margin_mm: float = 3.0,
+    min_points: int = 10,
+) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Strip offsets on each band of the step target, from strip pixels.
+
+    Each pixel's ray meets band *i*'s plane z = h_i; the point counts for band
+    *i* when it lies inside that band (``margin_mm`` clear of its edges, where
+    the walls are). The strip's direction is fitted to all points together,
+    and each band's offset is its points' mean across that direction.
+
+    Returns ``(heights_mm, offsets_mm, direction)`` of the bands that hold at
+    least ``min_points`` points.
+    """
+    origin, dirs = camera.rays(np.asarray(pixels, dtype=np.float64).reshape(-1, 2))
+    edges = steps.band_edges_mm(sample_mm)
+    heights, groups = [], []
+    for h, y0, y1 in zip(steps.heights_mm, edges[:-1], edges[1:], strict=True):
+        with np.errstate(divide="ignore", invalid="ignore"):
+            t = (h - origin[2]) / dirs[:, 2]
+        points = origin[None, :] + t[:, None] * dirs
+        keep = np.isfinite(t) & (t > 0) & (points[:, 1] > y0 + margin_mm)
+        keep &= (points[:, 1] < y1 - margin_mm) & (np.abs(points[:, 0]) < sample_mm / 2)
+        if keep.sum() >= min_points:
+            heights.append(h)
+            groups.append(points[keep, :2])
+    if len(groups) < 2:
+        raise LaserCalibrationError(
+            f"the strip crosses {len(groups)} band(s) of the step target with ≥ {min_points} "
+            "points each; at least 2 are needed (is the strip across the bands and in view?)"
+        )
+    centred = np.vstack([g - g.mean(axis=0) for g in groups])
+    _, _, vt = np.linalg.svd(centred, full_matrices=False)
+    direction = vt[0] if vt[0][1] >= 0 else -vt[0]
+    offsets = np.array([strip_offset_mm(g, direction) for g in groups])
+    return np.array(heights), offsets, direction

@@ -3,7 +3,9 @@
 A calibration is captured like any session — a plan the daemon runs into an
 archive — so it can be resumed, replayed and re-computed later. The plans use
 ``[captures.fixed]`` shots at given turntable and arc angles: a camera
-calibration is every camera at several turntable angles under one lamp.
+calibration is every camera at several turntable angles under one lamp. A
+laser calibration is a laser scan of the step block from each mount, seen by
+the zenith camera.
 """
 
 from __future__ import annotations
@@ -14,7 +16,7 @@ import tomli_w
 from rig.config import RigConfig
 from rig.errors import ConfigError
 
-__all__ = ["camera_plan", "turntable_angles"]
+__all__ = ["camera_plan", "laser_plan", "turntable_angles"]
 
 
 def turntable_angles(poses: int) -> np.ndarray:
@@ -40,6 +42,29 @@ def camera_plan(
         "sample": {"name": "calibration-cameras", "description": "ChArUco wedge, rig calibrate"},
         "captures": {"fixed": fixed},
         "exposure": {"exposure_s": exposure_s},
+        "output": {"archive": archive},
+    }
+    return tomli_w.dumps(plan)
+
+
+def laser_plan(
+    config: RigConfig, *, archive: str, scan_step_deg: float = 0.1, camera: str | None = None
+) -> str:
+    """Plan TOML: the step block scanned from every laser mount (arc at 0°), seen by
+    ``camera`` (default: the camera nearest the zenith)."""
+    spec = (
+        config.camera(camera)
+        if camera is not None
+        else min(config.camera_arc.cameras, key=lambda c: abs(c.theta_deg))
+    )
+    far_side = 180.0 if spec.theta_deg < 0 else 0.0
+    view = [abs(spec.theta_deg), (config.camera_arc.azimuth_deg + far_side) % 360.0]
+    locations = [[abs(t), 180.0 if t < 0 else 0.0] for t in config.laser.mount_theta_deg]
+    plan = {
+        "sample": {"name": "calibration-laser", "description": "laser step block, rig calibrate"},
+        "captures": {
+            "mdf": {"views": [view], "laser_locations": locations, "scan_step_deg": scan_step_deg}
+        },
         "output": {"archive": archive},
     }
     return tomli_w.dumps(plan)

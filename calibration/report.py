@@ -7,8 +7,9 @@ from pathlib import Path
 import numpy as np
 
 from calibration.cameras import TurntableCamera
+from rig.calfile import LaserResult
 
-__all__ = ["camera_report", "plot_camera_residuals"]
+__all__ = ["camera_report", "laser_report", "plot_camera_residuals"]
 
 
 def camera_report(cameras: dict[str, TurntableCamera], failed: dict[str, str]) -> str:
@@ -48,3 +49,22 @@ def plot_camera_residuals(cameras: dict[str, TurntableCamera], path: str | Path)
     fig.savefig(path)
     plt.close(fig)
     return path
+
+
+def laser_report(results: dict[int, LaserResult], frames) -> str:
+    """Per mount the sheet angle (at the frame nearest tilt 0), its uncertainty and
+    residual, and how many scan frames gave an angle."""
+    lines = ["mount  angle °    ± °     residual mm  heights  tilt °  frames used"]
+    for mount in sorted({f.mount for f in frames}):
+        mine = [f for f in frames if f.mount == mount]
+        used = sum(f.angle is not None for f in mine)
+        r = results.get(mount)
+        if r is None:
+            reason = next((f.reason for f in mine if f.reason), "no frames")
+            lines.append(f"{mount:<5}  not calibrated: {reason}")
+            continue
+        lines.append(
+            f"{mount:<5}  {r.angle_deg:8.3f}  {r.angle_std_deg:6.3f}  {r.residual_mm:11.4f}  "
+            f"{r.heights:7d}  {r.tilt_deg:6.2f}  {used}/{len(mine)}"
+        )
+    return "\n".join(lines)

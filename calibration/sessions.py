@@ -10,9 +10,11 @@ from __future__ import annotations
 from collections import defaultdict
 from collections.abc import Callable
 from contextlib import contextmanager
+from dataclasses import dataclass
 from pathlib import Path
 
 import cv2
+import numpy as np
 
 from calibration.cameras import (
     CameraCalibrationError,
@@ -20,11 +22,20 @@ from calibration.cameras import (
     calibrate_turntable_camera,
     detect_charuco,
 )
+from calibration.laser import (
+    LaserAngle,
+    LaserCalibrationError,
+    band_offsets,
+    laser_plane_angle,
+    strip_pixels,
+)
+from processing.mdf import profile_axis_for
+from processing.offline import frame_camera
 from rig.archive import Archive
-from rig.calfile import CameraResult
+from rig.calfile import CameraResult, LaserResult
 from rig.config import RigConfig
 
-__all__ = ["calibrate_cameras", "camera_result"]
+__all__ = ["LaserFrame", "calibrate_cameras", "calibrate_laser", "camera_result"]
 
 Progress = Callable[[str], None]
 
@@ -85,3 +96,58 @@ def camera_result(camera: TurntableCamera) -> CameraResult:
         rejected={str(i): why for i, why in camera.rejected.items()},
         axis_tilt_deg=camera.axis_tilt_deg,
     )  # fmt: skip
+
+
+@dataclass(frozen=True)
+class LaserFrame:
+    """One scan frame of the step block: the sheet's tilt and the fitted angle (or why not)."""
+
+    mount: int
+    tilt_deg: float
+    angle: LaserAngle | None
+    reason: str = ""
+
+
+def calibrate_laser(archive_path: str | Path) -> tuple[dict[int, LaserResult], list[LaserFrame]]:
+    """The laser sheet's angle to the reference plane per mount, from a
+    ``rig calibrate laser`` session; the cameras are the archive's calibrated
+    ones where it has them (``processing.offline.frame_camera``).
+
+    Every frame whose strip crosses ≥ 2 bands gives an angle; a mount's result
+    is the frame nearest tilt 0 (the sheet's rest position).
+    """
+    frames: list[LaserFrame] = []
+    with Archive.open(archive_path, mode="r") as archive:
+        config = RigConfig.model_validate(archive.rig_config)
+        steps = config.targets.laser
+        tilts = {e.payload["step"]: e.payload["tilts_deg"] for e in archive.events("scan")}
+        for record in archive.step_table():
+            if record.kind != "mdf":
+                continue
+            arc = record.actuators["arc_deg"]
+            strip = [-np.sin(np.deg2rad(arc)), np.cos(np.deg2rad(arc))]
+            for camera_id in record.cameras:
+                camera = frame_camera(archive, config, camera_id, record.actuators["turntable_deg"])
+                axis = profile_axis_for(camera, strip)
+                for sub, tilt in enumerate(tilts[record.index]):
+                    image = archive.read_frame(record.index, camera_id, sub)
+                    try:
+                        pixels = strip_pixels(image, profile_axis=axis)
+                        heights, offsets, _ = band_offsets(
+                            pixels, camera, steps, sample_mm=config.holder.sample_mm
+                        )
+                        angle = laser_plane_angle(heights, offsets)
+                        frames.append(LaserFrame(int(record.laser), float(tilt), angle))
+                    except LaserCalibrationError as err:
+                        frames.append(LaserFrame(int(record.laser), float(tilt), None, str(err)))
+    results = {}
+    for mount in sorted({f.mount for f in frames}):
+        good = [f for f in frames if f.mount == mount and f.angle is not None]
+        if good:
+            best = min(good, key=lambda f: abs(f.tilt_deg))
+            a = best.angle
+            results[mount] = LaserResult(
+                angle_deg=a.angle_deg, angle_std_deg=a.angle_std_deg, residual_mm=a.residual_mm,
+                heights=a.heights, tilt_deg=best.tilt_deg,
+            )  # fmt: skip
+    return results, frames

@@ -100,7 +100,11 @@ class LampResult(_Closed):
 
 
 class LaserResult(_Closed):
+    """A laser mount's sheet angle to the reference plane at the sheet tilt
+    ``tilt_deg`` (seed 001 §3.2), with arc and turntable at the session's."""
+
     angle_deg: float = Field(gt=0, lt=180)
+    tilt_deg: float = 0.0
     angle_std_deg: float = Field(ge=0)
     residual_mm: float = Field(ge=0)
     heights: int = Field(ge=2)

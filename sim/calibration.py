@@ -13,18 +13,23 @@ from sim.scene import Scene, scene_from_dict
 
 __all__ = ["DEFAULT_DISTORTION", "TARGETS", "target_scene"]
 
-TARGETS = ("cameras",)
+TARGETS = ("cameras", "laser")
 DEFAULT_DISTORTION = (-0.08, 0.05, 0.0004, -0.0003, 0.0)
 _FRAME_TIMEOUT_S = 120.0
 _WHITE = {"albedo": {"kind": "constant", "rgb": [0.85, 0.85, 0.85]}}
 
 
 def target_scene(
-    target: Literal["cameras"], config: RigConfig, *, scale: float = 0.5, supersample: int = 4
+    target: Literal["cameras", "laser"],
+    config: RigConfig,
+    *,
+    scale: float = 0.5,
+    supersample: int = 4,
 ) -> Scene:
     """The simulated rig ``config`` with ``target``'s calibration part on the turntable.
 
-    ``supersample`` anti-aliases the printed board (4: corners within ~0.1 px).
+    ``cameras``: the ChArUco wedge; ``laser``: the step block, with the laser.
+    ``supersample`` anti-aliases the printed board (4: corners within ~0.05 px).
     Cameras with zero distortion get ``DEFAULT_DISTORTION``.
     """
     if target not in TARGETS:
@@ -37,17 +42,20 @@ def target_scene(
         # a supersampled frame takes seconds to render: wait for it
         camera["connection"]["retry"]["timeout_s"] = _FRAME_TIMEOUT_S
     lens = lens or DEFAULT_DISTORTION
+    targets = config.targets
+    sample, effects = {
+        "cameras": ({"generator": "charuco_wedge", "params": targets.charuco}, []),
+        "laser": ({"generator": "laser_steps", "params": targets.laser}, ["laser"]),
+    }[target]
     data = {
         "name": f"calibration-{target}",
-        "effects": ["noise", "lens_distortion", "vignetting"],
-        "sample": {
-            "generator": "charuco_wedge",
-            "depth_mm": 5.0,
-            "params": config.targets.charuco.model_dump(mode="json"),
-        },
+        "effects": ["noise", "lens_distortion", "vignetting", *effects],
+        "sample": {**sample, "depth_mm": 5.0, "params": sample["params"].model_dump(mode="json")},
         "materials": {"default": _WHITE},
         "rig": {"overrides": rig},
         "render": {"scale": scale, "supersample": supersample},
         "lens_distortion": {"coefficients": list(lens)},
     }
+    if target == "laser":
+        data["laser"] = {"power_w": 0.1}  # the line near half of full scale at 5 ms
     return scene_from_dict(data, source=f"calibration target {target!r}")

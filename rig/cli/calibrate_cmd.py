@@ -19,7 +19,7 @@ from rig.errors import ConfigError
 
 __all__ = ["register"]
 
-_BUILT = ("cameras",)
+_BUILT = ("cameras", "laser")
 
 
 def register(app: typer.Typer) -> None:
@@ -37,8 +37,12 @@ def register(app: typer.Typer) -> None:
             typer.Option("--from", help="compute from this recorded session instead of capturing"),
         ] = None,
         archive: Annotated[
-            Path, typer.Option("--archive", help="where the calibration session is recorded")
-        ] = Path("calibration/cameras.zarr"),
+            Path | None,
+            typer.Option(
+                "--archive",
+                help="where the calibration session is recorded (default calibration/TARGET.zarr)",
+            ),
+        ] = None,
         out: Annotated[
             Path | None,
             typer.Option(
@@ -47,9 +51,10 @@ def register(app: typer.Typer) -> None:
                 "else calibration/calibration.toml)",
             ),
         ] = None,
-        poses: Annotated[int, typer.Option(min=3, help="turntable angles per camera")] = 12,
+        poses: Annotated[int, typer.Option(min=3, help="cameras: turntable angles")] = 12,
         cameras: Annotated[
-            str | None, typer.Option("--cameras", help="comma-separated camera ids (default all)")
+            str | None,
+            typer.Option("--cameras", help="cameras: comma-separated ids (default all)"),
         ] = None,
         scale: Annotated[
             float, typer.Option(min=0.05, max=1.0, help="--sim: image size factor")
@@ -72,24 +77,32 @@ def register(app: typer.Typer) -> None:
             rig = load_config_option(config)
             ids = None if cameras is None else [c.strip() for c in cameras.split(",") if c.strip()]
             if from_archive is None:
-                _capture(rig, archive, sim=sim, poses=poses, cameras=ids, scale=scale)
-                source = archive
+                source = archive or Path(f"calibration/{target}.zarr")
+                plan = _plan(target, rig, source, poses=poses, cameras=ids)
+                _capture(target, rig, plan, source, sim=sim, scale=scale)
             else:
                 source = from_archive
-            failed = _compute(source, rig, out, apply or [])
+            failed = _compute(target, source, rig, out, apply or [])
         if failed:
             raise typer.Exit(EXIT_FAILURE)
 
 
-def _capture(rig, archive: Path, *, sim: bool, poses: int, cameras, scale: float) -> None:
-    from calibration.plans import camera_plan
+def _plan(target: str, rig, archive: Path, *, poses: int, cameras) -> str:
+    from calibration.plans import camera_plan, laser_plan
+
+    if target == "cameras":
+        return camera_plan(rig, poses=poses, cameras=cameras, archive=str(archive))
+    return laser_plan(rig, archive=str(archive), camera=cameras[0] if cameras else None)
+
+
+def _capture(target: str, rig, plan: str, archive: Path, *, sim: bool, scale: float) -> None:
     from rig.daemon import run_local
 
     if archive.exists():
         raise ConfigError(f"--archive {archive} exists; give a new path or use --from {archive}")
     archive.parent.mkdir(parents=True, exist_ok=True)
     plan_path = archive.with_suffix(".plan.toml")
-    plan_path.write_text(camera_plan(rig, poses=poses, cameras=cameras, archive=str(archive)))
+    plan_path.write_text(plan)
     console.print(f"plan: {plan_path}")
     if sim:
         from rig.clock import VirtualClock
@@ -97,7 +110,7 @@ def _capture(rig, archive: Path, *, sim: bool, poses: int, cameras, scale: float
         from sim.rig import SimulatedRig
 
         clock = VirtualClock()
-        scene = target_scene("cameras", rig, scale=scale)
+        scene = target_scene(target, rig, scale=scale)
         with SimulatedRig(scene, clock=clock) as simulated, SessionProgress() as view:
             final = run_local(plan_path, simulated.rig_config(), archive=archive, on_event=view,
                               clock=clock)  # fmt: skip
@@ -108,27 +121,47 @@ def _capture(rig, archive: Path, *, sim: bool, poses: int, cameras, scale: float
         raise ConfigError(f"the calibration session ended {final.get('state')}: {final}")
 
 
-def _compute(source: Path, rig, out: Path | None, apply: list[Path]) -> dict[str, str]:
-    from calibration.report import camera_report, plot_camera_residuals
-    from calibration.sessions import calibrate_cameras, camera_result
+def _compute(target: str, source: Path, rig, out: Path | None, apply: list[Path]) -> dict:
+    """Compute ``target`` from ``source``, update the calibration file; what failed."""
     from rig.archive import Archive, software_versions
     from rig.calfile import CalibrationFile, Provenance, load_calibration, write_calibration
+
+    path = out or Path(rig.calibration or "calibration/calibration.toml")
+    section, failed = (_cameras if target == "cameras" else _laser)(source, path)
+    current = load_calibration(path) if path.exists() else CalibrationFile(rig=rig.name)
+    provenance = Provenance.now(source.resolve(), software_versions())
+    updated = current.with_section(target, section, provenance)
+    write_calibration(updated, path)
+    console.print(f"calibration: {path} ({target})")
+    for session in apply:
+        with Archive.open(session, mode="a") as recorded:
+            version = recorded.set_calibration(updated.model_dump(mode="json", exclude_none=True))
+        console.print(f"{session}: calibration version {version}")
+    return failed
+
+
+def _cameras(source: Path, path: Path):
+    from calibration.report import camera_report, plot_camera_residuals
+    from calibration.sessions import calibrate_cameras, camera_result
 
     found, failed = calibrate_cameras(source, progress=console.print)
     if not found:
         raise ConfigError(f"no camera could be calibrated from {source}: {failed}")
-    path = out or Path(rig.calibration or "calibration/calibration.toml")
-    current = load_calibration(path) if path.exists() else CalibrationFile(rig=rig.name)
-    section = {camera_id: camera_result(cam) for camera_id, cam in found.items()}
-    updated = current.with_section(
-        "cameras", section, Provenance.now(source.resolve(), software_versions())
-    )
-    write_calibration(updated, path)
     console.print(camera_report(found, failed))
-    plot = plot_camera_residuals(found, path.with_suffix(".cameras.png"))
-    console.print(f"calibration: {path} (cameras), plot: {plot}")
-    for target in apply:
-        with Archive.open(target, mode="a") as session:
-            version = session.set_calibration(updated.model_dump(mode="json", exclude_none=True))
-        console.print(f"{target}: calibration version {version}")
-    return failed
+    console.print(f"plot: {plot_camera_residuals(found, path.with_suffix('.cameras.png'))}")
+    return {camera_id: camera_result(cam) for camera_id, cam in found.items()}, failed
+
+
+def _laser(source: Path, path: Path):
+    from calibration.report import laser_report
+    from calibration.sessions import calibrate_laser
+
+    results, frames = calibrate_laser(source)
+    console.print(laser_report(results, frames))
+    failed = {
+        f"mount{m}": "no frame's strip crossed two bands"
+        for m in sorted({f.mount for f in frames}) if m not in results
+    }  # fmt: skip
+    if not results:
+        raise ConfigError(f"no laser mount could be calibrated from {source}: {failed}")
+    return {f"mount{m}": r for m, r in results.items()}, failed
