@@ -130,8 +130,8 @@ def height_field_geometry(
     top, bottom = float(z.max()), float(z.min())
     if top > top_mm + 1e-9 or bottom < -depth_mm - 1e-9:
         raise ConfigError(
-            f"the sample surface spans z = {bottom:.3f} … {top:.3f} mm but must lie in "
-            f"−{depth_mm} ≤ z ≤ {top_mm:g}: lower the amplitude or deepen depth_mm"
+            f"the sample surface spans z = {bottom:.3f} … {top:.3f} mm but must lie in the "
+            f"recess, −{depth_mm} ≤ z ≤ {top_mm:g}: lower the amplitude or deepen depth_mm"
         )
     normals = height_normals(height, x, y)
     i = np.arange(grid * grid).reshape(grid, grid)
