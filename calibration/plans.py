@@ -16,7 +16,10 @@ import tomli_w
 from rig.config import RigConfig
 from rig.errors import ConfigError
 
-__all__ = ["camera_plan", "laser_plan", "turntable_angles"]
+__all__ = ["BRACKET", "camera_plan", "laser_plan", "response_plan", "turntable_angles"]
+
+
+BRACKET = (1 / 16, 1 / 8, 1 / 4, 1 / 2, 1.0, 2.0)  # exposure multipliers: 5 stops
 
 
 def turntable_angles(poses: int) -> np.ndarray:
@@ -65,6 +68,33 @@ def laser_plan(
         "captures": {
             "mdf": {"views": [view], "laser_locations": locations, "scan_step_deg": scan_step_deg}
         },
+        "output": {"archive": archive},
+    }
+    return tomli_w.dumps(plan)
+
+
+def response_plan(
+    config: RigConfig,
+    *,
+    archive: str,
+    camera: str | None = None,
+    exposure_s: float = 0.05,
+    bracket=BRACKET,
+) -> str:
+    """Plan TOML: an exposure bracket of the ChArUco wedge (black, white and every
+    shade of their edges and the lamp's fall-off) from ``camera`` (default: the
+    camera nearest the zenith), at two turntable angles."""
+    spec = (
+        config.camera(camera)
+        if camera is not None
+        else min(config.camera_arc.cameras, key=lambda c: abs(c.theta_deg))
+    )
+    lamp = min(config.light_arc.lamps, key=lambda lamp: abs(lamp.theta_deg)).id
+    fixed = [{"turntable_deg": a, "lamp": lamp, "cameras": [spec.id]} for a in (15.0, 105.0)]
+    plan = {
+        "sample": {"name": "calibration-response", "description": "HDR bracket, rig calibrate"},
+        "captures": {"fixed": fixed},
+        "exposure": {"exposure_s": exposure_s, "hdr_brackets": [float(m) for m in bracket]},
         "output": {"archive": archive},
     }
     return tomli_w.dumps(plan)

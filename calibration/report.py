@@ -7,9 +7,16 @@ from pathlib import Path
 import numpy as np
 
 from calibration.cameras import TurntableCamera
+from calibration.response import ResponseCurve
 from rig.calfile import LaserResult
 
-__all__ = ["camera_report", "laser_report", "plot_camera_residuals"]
+__all__ = [
+    "camera_report",
+    "laser_report",
+    "plot_camera_residuals",
+    "plot_response",
+    "response_report",
+]
 
 
 def camera_report(cameras: dict[str, TurntableCamera], failed: dict[str, str]) -> str:
@@ -29,11 +36,7 @@ def camera_report(cameras: dict[str, TurntableCamera], failed: dict[str, str]) -
 
 def plot_camera_residuals(cameras: dict[str, TurntableCamera], path: str | Path) -> Path:
     """PNG: each camera's per-image reprojection RMS (kept images)."""
-    import matplotlib
-
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
+    plt = _pyplot()
     fig, ax = plt.subplots(figsize=(8, 4), dpi=100)
     for k, cam in enumerate(cameras.values()):
         errors = np.array(list(cam.per_image_rms_px.values()))
@@ -68,3 +71,46 @@ def laser_report(results: dict[int, LaserResult], frames) -> str:
             f"{r.heights:7d}  {r.tilt_deg:6.2f}  {used}/{len(mine)}"
         )
     return "\n".join(lines)
+
+
+def response_report(curves: dict[str, ResponseCurve], failed: dict[str, str]) -> str:
+    """Per camera: the relative exposure at a few values (1 at 128) and the
+    curve's gamma-equivalent slope in log–log between values 32 and 224."""
+    lines = ["camera   E(32)    E(64)    E(192)   E(224)   log-log slope 32…224"]
+    for camera_id, curve in curves.items():
+        e = curve.curve.mean(axis=1).astype(np.float64)
+        slope = np.log(e[224] / e[32]) / np.log(224 / 32)
+        lines.append(
+            f"{camera_id:<8} {e[32]:.4f}   {e[64]:.4f}   {e[192]:.4f}   {e[224]:.4f}   {slope:.3f}"
+        )
+    lines += [f"{camera_id:<8} not calibrated: {why}" for camera_id, why in failed.items()]
+    return "\n".join(lines)
+
+
+def plot_response(curves: dict[str, ResponseCurve], path: str | Path) -> Path:
+    """PNG: each camera's fitted inverse response, per channel, log scale."""
+    plt = _pyplot()
+    fig, ax = plt.subplots(figsize=(6, 4), dpi=100)
+    values = np.arange(256)
+    for camera_id, curve in curves.items():
+        for c, colour in zip(range(curve.curve.shape[1]), ("r", "g", "b"), strict=False):
+            label = f"{camera_id} {colour}"
+            ax.semilogy(values, curve.curve[:, c], color=colour, lw=1, label=label)
+    ax.set_xlabel("pixel value")
+    ax.set_ylabel("relative exposure (1 at 128)")
+    ax.set_title("radiometric response (Debevec & Malik)")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
+def _pyplot():
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    return plt

@@ -29,13 +29,20 @@ from calibration.laser import (
     laser_plane_angle,
     strip_pixels,
 )
+from calibration.response import ResponseCurve, ResponseError, calibrate_response
 from processing.mdf import profile_axis_for
 from processing.offline import frame_camera
 from rig.archive import Archive
 from rig.calfile import CameraResult, LaserResult
 from rig.config import RigConfig
 
-__all__ = ["LaserFrame", "calibrate_cameras", "calibrate_laser", "camera_result"]
+__all__ = [
+    "LaserFrame",
+    "calibrate_cameras",
+    "calibrate_laser",
+    "calibrate_responses",
+    "camera_result",
+]
 
 Progress = Callable[[str], None]
 
@@ -151,3 +158,32 @@ def calibrate_laser(archive_path: str | Path) -> tuple[dict[int, LaserResult], l
                 heights=a.heights, tilt_deg=best.tilt_deg,
             )  # fmt: skip
     return results, frames
+
+
+def calibrate_responses(archive_path: str | Path) -> tuple[dict[str, ResponseCurve], int, dict]:
+    """Each camera's inverse response curve from a ``rig calibrate response``
+    session (Debevec & Malik over all its brackets together), the exposures per
+    bracket, and the cameras that failed with the reason."""
+    curves, failed = {}, {}
+    with Archive.open(archive_path, mode="r") as archive:
+        brackets = defaultdict(list)  # camera → [(images, exposures)] per step
+        for record in archive.step_table():
+            if len(record.exposures_s) < 2:
+                continue
+            for camera_id in record.cameras:
+                images = [archive.read_frame(record.index, camera_id, sub)
+                          for sub in range(len(record.exposures_s))]  # fmt: skip
+                brackets[camera_id].append((images, record.exposures_s))
+    for camera_id, sets in sorted(brackets.items()):
+        # One bracket's images side by side: Debevec samples all of them.
+        images = [np.concatenate([imgs[k] for imgs, _ in sets], axis=1)
+                  for k in range(len(sets[0][0]))]  # fmt: skip
+        try:
+            curves[camera_id] = calibrate_response(images, sets[0][1])
+        except ResponseError as err:
+            failed[camera_id] = str(err)
+    if not brackets:
+        failed["*"] = "the session holds no exposure bracket (steps with ≥ 2 exposures)"
+        return curves, 0, failed
+    exposures = len(next(iter(brackets.values()))[0][1])
+    return curves, exposures, failed

@@ -111,6 +111,9 @@ class LaserResult(_Closed):
 
 
 class ResponseResult(_Closed):
+    """A camera's inverse response: ``curve[v][c]`` is the relative exposure that
+    gives value v in channel c (1 at v = 128)."""
+
     curve: tuple[tuple[float, ...], ...] = Field(description="256 rows: exposure per value")
     exposures: int = Field(ge=2)
 
@@ -124,7 +127,7 @@ class CalibrationFile(_Closed):
     lamps_provenance: Provenance | None = None
     laser: dict[str, LaserResult] = Field(default_factory=dict, description="per laser mount")
     laser_provenance: Provenance | None = None
-    response: ResponseResult | None = None
+    response: dict[str, ResponseResult] = Field(default_factory=dict, description="per camera")
     response_provenance: Provenance | None = None
 
     def with_section(self, name: str, value, provenance: Provenance) -> CalibrationFile:

@@ -46,6 +46,7 @@ __all__ = [
     "NoiseParams",
     "Radiometry",
     "RenderSpec",
+    "ResponseParams",
     "RigSpec",
     "SampleSpec",
     "Scene",
@@ -66,6 +67,7 @@ EFFECTS = (
     "lens_distortion",
     "interreflection",
     "motion_timing",
+    "response",
 )
 Effect = Literal[
     "shadows",
@@ -77,6 +79,7 @@ Effect = Literal[
     "lens_distortion",
     "interreflection",
     "motion_timing",
+    "response",
 ]
 
 
@@ -146,6 +149,12 @@ class LensDistortionParams(_Closed):
     )
 
 
+class ResponseParams(_Closed):
+    """The camera's tone curve: value = full_scale · (linear / full_scale)^(1/gamma)."""
+
+    gamma: float = Field(2.2, gt=0.2, le=5, description="1 is a linear camera")
+
+
 class InterreflectionParams(_Closed):
     samples_per_pixel: int = Field(16, ge=1, le=4096)
     max_depth: int = Field(4, ge=3, le=32, description="path length (3 = one extra bounce)")
@@ -158,6 +167,7 @@ _PARAMS = {
     "vignetting": VignettingParams,
     "lens_distortion": LensDistortionParams,
     "interreflection": InterreflectionParams,
+    "response": ResponseParams,
 }
 
 
@@ -177,6 +187,7 @@ class SceneSpec(_Closed):
     vignetting: VignettingParams | None = None
     lens_distortion: LensDistortionParams | None = None
     interreflection: InterreflectionParams | None = None
+    response: ResponseParams | None = None
     faults: dict[str, dict[str, Any]] = Field(
         default_factory=dict,
         description="per peer (turntable, lamp_bank, light_arc, laser, cameras) its fault table",

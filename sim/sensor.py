@@ -1,7 +1,8 @@
 """The camera's lens and sensor, applied to the rendered optical image.
 
 Pure functions of arrays, one per effect: vignetting, Brown–Conrady lens
-distortion, shot + read noise, saturation, quantisation. Units: the signal is
+distortion, shot + read noise, saturation, the camera's tone curve
+(response), quantisation. Units: the signal is
 in digital numbers (DN) of the camera's bit depth, full scale ``2**bits − 1``.
 """
 
@@ -14,9 +15,11 @@ from rig.camera import PinholeCamera
 
 __all__ = [
     "add_noise",
+    "apply_response",
     "distort",
     "distortion_maps",
     "full_scale",
+    "inverse_response",
     "quantize",
     "vignetting_factor",
 ]
@@ -92,3 +95,17 @@ def quantize(signal_dn: np.ndarray, dtype: np.dtype) -> np.ndarray:
     """Round to integers and clip to the storage type's range (never wraps)."""
     info = np.iinfo(dtype)
     return np.clip(np.rint(signal_dn), info.min, info.max).astype(dtype)
+
+
+def apply_response(signal_dn: np.ndarray, *, bit_depth: int, gamma: float) -> np.ndarray:
+    """The camera's tone curve on a linear signal (DN), clipped to full scale first:
+    ``full_scale · (signal / full_scale)^(1/gamma)``; float64."""
+    top = full_scale(bit_depth)
+    linear = np.clip(np.asarray(signal_dn, dtype=np.float64), 0, top) / top
+    return top * linear ** (1.0 / gamma)
+
+
+def inverse_response(values_dn, *, bit_depth: int, gamma: float) -> np.ndarray:
+    """The linear signal (DN) that the tone curve maps to ``values_dn``."""
+    top = full_scale(bit_depth)
+    return top * (np.asarray(values_dn, dtype=np.float64) / top) ** gamma

@@ -32,7 +32,15 @@ from sim.illumination import direct_radiance, visible_from
 from sim.model import SceneModel
 from sim.raster import IdRasterizer
 from sim.scene import Scene, load_scene
-from sim.sensor import add_noise, distort, distortion_maps, full_scale, quantize, vignetting_factor
+from sim.sensor import (
+    add_noise,
+    apply_response,
+    distort,
+    distortion_maps,
+    full_scale,
+    quantize,
+    vignetting_factor,
+)
 from sim.shading import SurfaceHits
 from sim.timing import CaptureTiming, capture_timing
 from sim.truth import (
@@ -58,7 +66,8 @@ class Frame:
 
     image : (H, W) or (H, W, 3), uint8 (8-bit cameras) or uint16 (10–16 bit),
         values in 0 … 2**bit_depth − 1 (clipped to the dtype's range)
-    signal : same shape, float32 — the value before quantisation, in DN
+    signal : same shape, float32 — the value before quantisation, in DN (after
+        the tone curve when the scene has ``response``)
     timing : how long the capture took (move, settle, exposure, readout)
     """
 
@@ -179,6 +188,10 @@ class Simulator:
             if self.scene.has("saturation"):
                 self.counters["stage.saturation"] += 1
                 signal = np.clip(signal, 0, full_scale(spec.bit_depth))
+            if self.scene.has("response"):
+                self.counters["stage.response"] += 1
+                gamma = self.scene.spec.params("response").gamma
+                signal = apply_response(signal, bit_depth=spec.bit_depth, gamma=gamma)
             self.counters["frames"] += 1
         dtype = np.uint8 if spec.bit_depth == 8 else np.uint16
         return Frame(

@@ -57,7 +57,7 @@ AREAS: dict[str, tuple[str, int, Callable]] = {
     "ps": ("processing.photometric.bench", 6, _ps),
     "btf": ("processing.btf.bench", 7, _btf),
     "mdf": ("processing.mdf.bench", 8, _plain),
-    "calibration": ("calibration.bench", 9, _plain),
+    "calibration": ("sim.calibration", 9, _plain),
 }
 
 app = typer.Typer(no_args_is_help=True, help="Benchmarks: accuracy against time, per area.")

@@ -19,7 +19,7 @@ from rig.errors import ConfigError
 
 __all__ = ["register"]
 
-_BUILT = ("cameras", "laser")
+_BUILT = ("cameras", "laser", "response")
 
 
 def register(app: typer.Typer) -> None:
@@ -88,11 +88,12 @@ def register(app: typer.Typer) -> None:
 
 
 def _plan(target: str, rig, archive: Path, *, poses: int, cameras) -> str:
-    from calibration.plans import camera_plan, laser_plan
+    from calibration.plans import camera_plan, laser_plan, response_plan
 
     if target == "cameras":
         return camera_plan(rig, poses=poses, cameras=cameras, archive=str(archive))
-    return laser_plan(rig, archive=str(archive), camera=cameras[0] if cameras else None)
+    make = laser_plan if target == "laser" else response_plan
+    return make(rig, archive=str(archive), camera=cameras[0] if cameras else None)
 
 
 def _capture(target: str, rig, plan: str, archive: Path, *, sim: bool, scale: float) -> None:
@@ -127,7 +128,8 @@ def _compute(target: str, source: Path, rig, out: Path | None, apply: list[Path]
     from rig.calfile import CalibrationFile, Provenance, load_calibration, write_calibration
 
     path = out or Path(rig.calibration or "calibration/calibration.toml")
-    section, failed = (_cameras if target == "cameras" else _laser)(source, path)
+    compute = {"cameras": _cameras, "laser": _laser, "response": _response}[target]
+    section, failed = compute(source, path)
     current = load_calibration(path) if path.exists() else CalibrationFile(rig=rig.name)
     provenance = Provenance.now(source.resolve(), software_versions())
     updated = current.with_section(target, section, provenance)
@@ -165,3 +167,20 @@ def _laser(source: Path, path: Path):
     if not results:
         raise ConfigError(f"no laser mount could be calibrated from {source}: {failed}")
     return {f"mount{m}": r for m, r in results.items()}, failed
+
+
+def _response(source: Path, path: Path):
+    from calibration.report import plot_response, response_report
+    from calibration.sessions import calibrate_responses
+    from rig.calfile import ResponseResult
+
+    curves, exposures, failed = calibrate_responses(source)
+    if not curves:
+        raise ConfigError(f"no response curve could be calibrated from {source}: {failed}")
+    console.print(response_report(curves, failed))
+    console.print(f"plot: {plot_response(curves, path.with_suffix('.response.png'))}")
+    section = {
+        camera_id: ResponseResult(curve=curve.curve.tolist(), exposures=exposures)
+        for camera_id, curve in curves.items()
+    }
+    return section, failed

@@ -124,6 +124,6 @@ def test_processing_uses_the_applied_calibration(session, tmp_path):
 
 
 def test_targets_not_built_yet_say_so():
-    result = CliRunner().invoke(app, ["calibrate", "response"])
+    result = CliRunner().invoke(app, ["calibrate", "lamps"])
     assert result.exit_code == 3
     assert "not built yet" in result.output
