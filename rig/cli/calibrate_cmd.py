@@ -40,7 +40,7 @@ def register(app: typer.Typer) -> None:
             Path | None,
             typer.Option(
                 "--archive",
-                help="where the calibration session is recorded (default calibration/TARGET.zarr)",
+                help="where the calibration session is recorded (default calibrations/TARGET.zarr)",
             ),
         ] = None,
         out: Annotated[
@@ -48,7 +48,7 @@ def register(app: typer.Typer) -> None:
             typer.Option(
                 "--out",
                 help="calibration file to update (default: the config's, "
-                "else calibration/calibration.toml)",
+                "else calibrations/calibration.toml)",
             ),
         ] = None,
         poses: Annotated[int, typer.Option(min=3, help="cameras: turntable angles")] = 12,
@@ -77,7 +77,7 @@ def register(app: typer.Typer) -> None:
             rig = load_config_option(config)
             ids = None if cameras is None else [c.strip() for c in cameras.split(",") if c.strip()]
             if from_archive is None:
-                source = archive or Path(f"calibration/{target}.zarr")
+                source = archive or Path(f"calibrations/{target}.zarr")
                 plan = _plan(target, rig, source, poses=poses, cameras=ids)
                 _capture(target, rig, plan, source, sim=sim, scale=scale)
             else:
@@ -127,7 +127,7 @@ def _compute(target: str, source: Path, rig, out: Path | None, apply: list[Path]
     from rig.archive import Archive, software_versions
     from rig.calfile import CalibrationFile, Provenance, load_calibration, write_calibration
 
-    path = out or Path(rig.calibration or "calibration/calibration.toml")
+    path = out or Path(rig.calibration or "calibrations/calibration.toml")
     compute = {"cameras": _cameras, "laser": _laser, "response": _response}[target]
     section, failed = compute(source, path)
     current = load_calibration(path) if path.exists() else CalibrationFile(rig=rig.name)
