@@ -16,9 +16,19 @@ import tomli_w
 from rig.config import RigConfig
 from rig.errors import ConfigError
 
-__all__ = ["BRACKET", "camera_plan", "laser_plan", "response_plan", "turntable_angles"]
+__all__ = [
+    "BRACKET",
+    "HIGHLIGHT",
+    "camera_plan",
+    "lamp_plan",
+    "laser_plan",
+    "response_plan",
+    "turntable_angles",
+    "white_plan",
+]
 
 
+HIGHLIGHT = 0.008  # the highlight's exposure, × the outline's: unclipped on chrome
 BRACKET = (1 / 16, 1 / 8, 1 / 4, 1 / 2, 1.0, 2.0)  # exposure multipliers: 5 stops
 
 
@@ -95,6 +105,56 @@ def response_plan(
         "sample": {"name": "calibration-response", "description": "HDR bracket, rig calibrate"},
         "captures": {"fixed": fixed},
         "exposure": {"exposure_s": exposure_s, "hdr_brackets": [float(m) for m in bracket]},
+        "output": {"archive": archive},
+    }
+    return tomli_w.dumps(plan)
+
+
+def lamp_plan(
+    config: RigConfig,
+    *,
+    archive: str,
+    cameras=None,
+    turntables=(0.0, 90.0, 180.0, 270.0),
+    exposure_s: float = 0.05,
+) -> str:
+    """Plan TOML: the mirror sphere under each lamp (arc at 0°) at ``turntables``
+    angles — the sphere's places, the baseline for near lamps — from every camera
+    (or those named), each shot twice: a long exposure that lights the plate
+    round the ball (its outline), a short one for the highlight."""
+    ids = None if cameras is None else [config.camera(c).id for c in cameras]
+    fixed = [
+        {"turntable_deg": float(a), "lamp": lamp.id, **({"cameras": ids} if ids else {})}
+        for lamp in config.light_arc.lamps
+        for a in turntables
+    ]
+    plan = {
+        "sample": {"name": "calibration-lamps", "description": "mirror sphere, rig calibrate"},
+        "captures": {"fixed": fixed},
+        "exposure": {"exposure_s": exposure_s, "hdr_brackets": [1.0, HIGHLIGHT]},
+        "output": {"archive": archive},
+    }
+    return tomli_w.dumps(plan)
+
+
+def white_plan(
+    config: RigConfig, *, archive: str, camera: str | None = None, exposure_s: float = 0.02
+) -> str:
+    """Plan TOML: the white target under each lamp (arc at 0°), from ``camera``
+    (default: the camera nearest the zenith)."""
+    spec = (
+        config.camera(camera)
+        if camera is not None
+        else min(config.camera_arc.cameras, key=lambda c: abs(c.theta_deg))
+    )
+    fixed = [
+        {"turntable_deg": 0.0, "lamp": lamp.id, "cameras": [spec.id]}
+        for lamp in config.light_arc.lamps
+    ]
+    plan = {
+        "sample": {"name": "calibration-white", "description": "white target, rig calibrate"},
+        "captures": {"fixed": fixed},
+        "exposure": {"exposure_s": exposure_s},
         "output": {"archive": archive},
     }
     return tomli_w.dumps(plan)

@@ -8,12 +8,15 @@ import numpy as np
 
 from calibration.cameras import TurntableCamera
 from calibration.response import ResponseCurve
-from rig.calfile import LaserResult
+from rig.calfile import LampResult, LaserResult
+from rig.geometry import direction_angles
 
 __all__ = [
     "camera_report",
+    "lamp_report",
     "laser_report",
     "plot_camera_residuals",
+    "plot_lamps",
     "plot_response",
     "response_report",
 ]
@@ -114,3 +117,46 @@ def _pyplot():
     import matplotlib.pyplot as plt
 
     return plt
+
+
+def lamp_report(results: dict[str, LampResult], run, failed: dict[str, str]) -> str:
+    """Per lamp: direction (θ, φ) and distance or the direction alone, intensity,
+    residual, rays used and clipped, shots that gave none."""
+    lines = ["lamp      θ °      φ °     distance mm  intensity  residual  rays  clipped  no ray"]
+    for lamp, r in results.items():
+        vector = np.array(r.position_mm if r.position_mm is not None else r.direction)
+        theta, phi = direction_angles(vector)
+        near = r.position_mm is not None
+        distance = f"{np.linalg.norm(vector):11.1f}" if near else f"{'∞':>11}"
+        intensity = f"{r.intensity:9.4f}" if r.intensity is not None else f"{'–':>9}"
+        unit = "mm" if near else "° "
+        lines.append(
+            f"{lamp:<8} {float(theta):6.2f}  {float(phi):7.2f}  {distance}  {intensity}  "
+            f"{r.residual:6.3f}{unit}  {r.observations:4d}  {r.clipped:7d}  "
+            f"{len(run.skipped.get(lamp, [])):6d}"
+        )
+    lines += [f"{lamp:<8} not calibrated: {why}" for lamp, why in failed.items()]
+    return "\n".join(lines)
+
+
+def plot_lamps(results: dict[str, LampResult], path: str | Path) -> Path:
+    """PNG: the lamps on the hemisphere seen from above (polar plot: radius θ,
+    angle φ); near lamps filled, distant ones open; labels carry the intensity."""
+    plt = _pyplot()
+    fig = plt.figure(figsize=(5, 5), dpi=100)
+    ax = fig.add_subplot(projection="polar")
+    for lamp, r in results.items():
+        near = r.position_mm is not None
+        theta, phi = direction_angles(np.array(r.position_mm if near else r.direction))
+        ax.scatter(np.deg2rad(float(phi)), float(theta), s=40,
+                   facecolors="C0" if near else "none", edgecolors="C0")  # fmt: skip
+        label = lamp if r.intensity is None else f"{lamp} ({r.intensity:.3f})"
+        ax.annotate(label, (np.deg2rad(float(phi)), float(theta)), fontsize=7,
+                    xytext=(4, 4), textcoords="offset points")  # fmt: skip
+    ax.set_rmax(90)
+    ax.set_title("lamps on the hemisphere (θ from the zenith)", fontsize=9)
+    fig.tight_layout()
+    path = Path(path)
+    fig.savefig(path)
+    plt.close(fig)
+    return path

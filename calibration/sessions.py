@@ -22,6 +22,14 @@ from calibration.cameras import (
     calibrate_turntable_camera,
     detect_charuco,
 )
+from calibration.lamps import (
+    LampCalibrationError,
+    SphereShot,
+    lamp_direction,
+    lamp_intensities,
+    lamp_position,
+    sphere_ray,
+)
 from calibration.laser import (
     LaserAngle,
     LaserCalibrationError,
@@ -33,12 +41,14 @@ from calibration.response import ResponseCurve, ResponseError, calibrate_respons
 from processing.mdf import profile_axis_for
 from processing.offline import frame_camera
 from rig.archive import Archive
-from rig.calfile import CameraResult, LaserResult
+from rig.calfile import CameraResult, LampResult, LaserResult
 from rig.config import RigConfig
 
 __all__ = [
+    "LampRun",
     "LaserFrame",
     "calibrate_cameras",
+    "calibrate_lamps",
     "calibrate_laser",
     "calibrate_responses",
     "camera_result",
@@ -187,3 +197,109 @@ def calibrate_responses(archive_path: str | Path) -> tuple[dict[str, ResponseCur
         return curves, 0, failed
     exposures = len(next(iter(brackets.values()))[0][1])
     return curves, exposures, failed
+
+
+@dataclass(frozen=True)
+class LampRun:
+    """What a lamp calibration used and left out: per lamp the shots that gave a
+    ray, and the reasons of those that did not."""
+
+    rays: dict[str, int]
+    skipped: dict[str, list[str]]
+
+
+def calibrate_lamps(
+    sphere_archive: str | Path, white_archive: str | Path | None = None
+) -> tuple[dict[str, LampResult], LampRun, dict[str, str]]:
+    """Lamp directions (distant lamps) or positions (near ones) from a mirror-sphere
+    session, and relative intensities from a white-target session if given.
+
+    Results are in the light arc's frame at arc 0°. The cameras are the sphere
+    archive's calibrated ones where it has them. Returns the results, what was
+    used, and the lamps that failed with the reason.
+    """
+    rays, skipped, failed, results = defaultdict(list), defaultdict(list), {}, {}
+    with Archive.open(sphere_archive, mode="r") as archive:
+        config = RigConfig.model_validate(archive.rig_config)
+        sphere = config.targets.sphere
+        for record in archive.step_table():
+            if record.lamp is None or len(record.exposures_s) < 2:
+                continue
+            outline_sub = int(np.argmax(record.exposures_s))
+            highlight_sub = int(np.argmin(record.exposures_s))
+            turntable = record.actuators["turntable_deg"]
+            for camera_id in record.cameras:
+                shot = SphereShot(
+                    lamp=str(record.lamp), camera_id=camera_id,
+                    camera=frame_camera(archive, config, camera_id, 0.0),
+                    image=archive.read_frame(record.index, camera_id, highlight_sub),
+                    turntable_deg=turntable,
+                    silhouette=archive.read_frame(record.index, camera_id, outline_sub),
+                    frame=f"step {record.index}",
+                )  # fmt: skip
+                try:
+                    rays[shot.lamp].append(
+                        sphere_ray(shot, sphere, saturation_level=_full_scale(shot.image))
+                    )
+                except LampCalibrationError as err:
+                    skipped[shot.lamp].append(str(err))
+    for lamp in config.light_arc.lamps:
+        mine = rays.get(lamp.id, [])
+        try:
+            if lamp.kind == "directional":
+                found = lamp_direction(mine)
+                results[lamp.id] = LampResult(
+                    direction=found.direction.tolist(), residual=found.spread_deg,
+                    observations=found.rays, clipped=found.clipped,
+                )  # fmt: skip
+            else:
+                found = lamp_position(mine)
+                results[lamp.id] = LampResult(
+                    position_mm=found.position_mm.tolist(), residual=found.rms_distance_mm,
+                    observations=found.rays, clipped=found.clipped,
+                )  # fmt: skip
+        except LampCalibrationError as err:
+            failed[lamp.id] = f"{err} ({len(skipped.get(lamp.id, []))} shot(s) gave no ray)"
+    if white_archive is not None:
+        results = _with_intensities(results, white_archive, failed)
+    run = LampRun({k: len(v) for k, v in rays.items()}, dict(skipped))
+    return results, run, failed
+
+
+def _with_intensities(results: dict, white_archive, failed: dict) -> dict:
+    """Add relative intensities, per kind (near lamps' radiant intensities and
+    distant lamps' irradiances are not comparable)."""
+    with Archive.open(white_archive, mode="r") as archive:
+        config = RigConfig.model_validate(archive.rig_config)
+        images = {}
+        for record in archive.step_table():
+            if record.lamp in results:
+                camera_id = record.cameras[0]
+                images[str(record.lamp)] = archive.read_frame(record.index, camera_id, 0)
+        if not images:
+            failed["intensities"] = "the white-target session has no frame of a calibrated lamp"
+            return results
+        camera = frame_camera(archive, config, camera_id, 0.0)
+    target_z = config.targets.white.height_mm
+    for near in (True, False):
+        ids = [k for k in images if (results[k].position_mm is not None) == near]
+        if not ids:
+            continue
+        where = {"positions_mm": [results[k].position_mm for k in ids]} if near else {
+            "directions": [results[k].direction for k in ids]}  # fmt: skip
+        stack = [images[k] for k in ids]
+        try:
+            relative = lamp_intensities(
+                camera, stack, saturation_level=_full_scale(stack[0]), target_z_mm=target_z,
+                **where,
+            )  # fmt: skip
+        except LampCalibrationError as err:
+            failed["intensities"] = str(err)
+            continue
+        for k, value in zip(ids, relative, strict=True):
+            results[k] = results[k].model_copy(update={"intensity": float(value)})
+    return results
+
+
+def _full_scale(image) -> float:
+    return float(np.iinfo(image.dtype).max) if image.dtype.kind == "u" else float(image.max())

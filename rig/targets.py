@@ -84,7 +84,10 @@ class MirrorSphere(_Closed):
     """A chrome ball resting on the reference plane."""
 
     radius_mm: float = Field(25.0, gt=0)
-    offset_mm: float = Field(25.0, ge=0, description="centre's distance from the turntable axis")
+    offset_mm: float = Field(
+        40.0, ge=0, description="centre's distance from the turntable axis: the baseline of a "
+        "near lamp's triangulation (25 mm gives ~1 % of its distance, 40 mm better)"
+    )
 
     def centre_mm(self, turntable_deg: float = 0.0) -> np.ndarray:
         """The ball's centre in the world frame with the turntable at an angle."""
@@ -96,6 +99,7 @@ class WhiteTarget(_Closed):
     """A flat diffuse (Lambertian) target on the reference plane."""
 
     reflectance: float = Field(0.8, gt=0, le=1)
+    height_mm: float = Field(-0.5, ge=-100, lt=0, description="its surface's z: in the recess")
 
 
 class LaserStepTarget(_Closed):

@@ -12,14 +12,13 @@ from rig.cli.common import (
     SessionProgress,
     console,
     load_config_option,
-    not_built,
     reporting_errors,
 )
 from rig.errors import ConfigError
 
 __all__ = ["register"]
 
-_BUILT = ("cameras", "laser", "response")
+_TARGETS = ("cameras", "lamps", "laser", "response")
 
 
 def register(app: typer.Typer) -> None:
@@ -54,7 +53,11 @@ def register(app: typer.Typer) -> None:
         poses: Annotated[int, typer.Option(min=3, help="cameras: turntable angles")] = 12,
         cameras: Annotated[
             str | None,
-            typer.Option("--cameras", help="cameras: comma-separated ids (default all)"),
+            typer.Option(
+                "--cameras",
+                help="comma-separated camera ids: cameras, lamps use them (default all); "
+                "laser, response the first (default the one nearest the zenith)",
+            ),
         ] = None,
         scale: Annotated[
             float, typer.Option(min=0.05, max=1.0, help="--sim: image size factor")
@@ -71,15 +74,19 @@ def register(app: typer.Typer) -> None:
         TARGET section, with date, software and residuals), a report and plots.
         --from ARCHIVE recomputes from a recorded (or replayed) session.
         """
-        if target not in _BUILT:
-            not_built(f"calibrate {target}", 9, f"{target} calibration sessions")
         with reporting_errors():
+            if target not in _TARGETS:
+                raise ConfigError(f"unknown target {target!r}; valid are {', '.join(_TARGETS)}")
             rig = load_config_option(config)
             ids = None if cameras is None else [c.strip() for c in cameras.split(",") if c.strip()]
             if from_archive is None:
                 source = archive or Path(f"calibrations/{target}.zarr")
                 plan = _plan(target, rig, source, poses=poses, cameras=ids)
                 _capture(target, rig, plan, source, sim=sim, scale=scale)
+                if target == "lamps":  # the white target: a second session
+                    white = _white_archive(source)
+                    plan = _plan("white", rig, white, poses=poses, cameras=ids)
+                    _capture("white", rig, plan, white, sim=sim, scale=scale)
             else:
                 source = from_archive
             failed = _compute(target, source, rig, out, apply or [])
@@ -87,12 +94,19 @@ def register(app: typer.Typer) -> None:
             raise typer.Exit(EXIT_FAILURE)
 
 
+def _white_archive(lamps_archive: Path) -> Path:
+    """The white-target session that goes with a mirror-sphere session."""
+    return lamps_archive.with_name(lamps_archive.stem + "-white.zarr")
+
+
 def _plan(target: str, rig, archive: Path, *, poses: int, cameras) -> str:
-    from calibration.plans import camera_plan, laser_plan, response_plan
+    from calibration.plans import camera_plan, lamp_plan, laser_plan, response_plan, white_plan
 
     if target == "cameras":
         return camera_plan(rig, poses=poses, cameras=cameras, archive=str(archive))
-    make = laser_plan if target == "laser" else response_plan
+    if target == "lamps":
+        return lamp_plan(rig, archive=str(archive), cameras=cameras)
+    make = {"laser": laser_plan, "response": response_plan, "white": white_plan}[target]
     return make(rig, archive=str(archive), camera=cameras[0] if cameras else None)
 
 
@@ -128,8 +142,8 @@ def _compute(target: str, source: Path, rig, out: Path | None, apply: list[Path]
     from rig.calfile import CalibrationFile, Provenance, load_calibration, write_calibration
 
     path = out or Path(rig.calibration or "calibrations/calibration.toml")
-    compute = {"cameras": _cameras, "laser": _laser, "response": _response}[target]
-    section, failed = compute(source, path)
+    compute = {"cameras": _cameras, "laser": _laser, "response": _response, "lamps": _lamps}
+    section, failed = compute[target](source, path)
     current = load_calibration(path) if path.exists() else CalibrationFile(rig=rig.name)
     provenance = Provenance.now(source.resolve(), software_versions())
     updated = current.with_section(target, section, provenance)
@@ -184,3 +198,16 @@ def _response(source: Path, path: Path):
         for camera_id, curve in curves.items()
     }
     return section, failed
+
+
+def _lamps(source: Path, path: Path):
+    from calibration.report import lamp_report, plot_lamps
+    from calibration.sessions import calibrate_lamps
+
+    white = _white_archive(source)
+    results, run, failed = calibrate_lamps(source, white if white.exists() else None)
+    if not results:
+        raise ConfigError(f"no lamp could be calibrated from {source}: {failed}")
+    console.print(lamp_report(results, run, failed))
+    console.print(f"plot: {plot_lamps(results, path.with_suffix('.lamps.png'))}")
+    return results, failed

@@ -1,6 +1,6 @@
 """Sample generators: height fields, the weave, calibration targets, and a registry."""
 
-from sim.samples import heightfields, targets, weave
+from sim.samples import heightfields, sphere, targets, weave
 from sim.samples.base import (
     Generator,
     SampleGeometry,
@@ -20,6 +20,7 @@ __all__ = [
     "height_normals",
     "heightfields",
     "register_sample",
+    "sphere",
     "targets",
     "weave",
 ]

@@ -123,7 +123,7 @@ def test_processing_uses_the_applied_calibration(session, tmp_path):
     np.testing.assert_allclose(centre, rotate_z(cameras["cam0"].centre_mm, -30.0), atol=1e-9)
 
 
-def test_targets_not_built_yet_say_so():
-    result = CliRunner().invoke(app, ["calibrate", "lamps"])
-    assert result.exit_code == 3
-    assert "not built yet" in result.output
+def test_an_unknown_target_is_refused_with_the_valid_ones():
+    result = CliRunner().invoke(app, ["calibrate", "lens"])
+    assert result.exit_code == 2
+    assert "cameras, lamps, laser, response" in result.output
