@@ -32,6 +32,28 @@ HIGHLIGHT = 0.008  # the highlight's exposure, × the outline's: unclipped on ch
 BRACKET = (1 / 16, 1 / 8, 1 / 4, 1 / 2, 1.0, 2.0)  # exposure multipliers: 5 stops
 
 
+def _camera(config: RigConfig, camera: str | None):
+    """The camera named, or the one nearest the zenith."""
+    if camera is not None:
+        return config.camera(camera)
+    return min(config.camera_arc.cameras, key=lambda c: abs(c.theta_deg))
+
+
+def _zenith_lamp(config: RigConfig) -> str:
+    return min(config.light_arc.lamps, key=lambda lamp: abs(lamp.theta_deg)).id
+
+
+def _plan(name: str, description: str, captures: dict, archive: str, **exposure) -> str:
+    plan = {
+        "sample": {"name": f"calibration-{name}", "description": f"{description}, rig calibrate"},
+        "captures": captures,
+        "output": {"archive": archive},
+    }
+    if exposure:
+        plan["exposure"] = exposure
+    return tomli_w.dumps(plan)
+
+
 def turntable_angles(poses: int) -> np.ndarray:
     """``poses`` turntable angles around a full turn, offset by half a step so no
     board edge lines up with the pixel grid (which biases corner positions)."""
@@ -45,19 +67,10 @@ def camera_plan(
 ) -> str:
     """Plan TOML: every camera (or those named) sees the ChArUco wedge at ``poses``
     turntable angles, lit by the lamp nearest the zenith with the arc at 0°."""
-    ids = None if cameras is None else [config.camera(c).id for c in cameras]
-    lamp = min(config.light_arc.lamps, key=lambda lamp: abs(lamp.theta_deg)).id
-    fixed = [{"turntable_deg": float(a), "lamp": lamp} for a in turntable_angles(poses)]
-    if ids is not None:
-        for shot in fixed:
-            shot["cameras"] = ids
-    plan = {
-        "sample": {"name": "calibration-cameras", "description": "ChArUco wedge, rig calibrate"},
-        "captures": {"fixed": fixed},
-        "exposure": {"exposure_s": exposure_s},
-        "output": {"archive": archive},
-    }
-    return tomli_w.dumps(plan)
+    ids = {} if cameras is None else {"cameras": [config.camera(c).id for c in cameras]}
+    lamp = _zenith_lamp(config)
+    fixed = [{"turntable_deg": float(a), "lamp": lamp, **ids} for a in turntable_angles(poses)]
+    return _plan("cameras", "ChArUco wedge", {"fixed": fixed}, archive, exposure_s=exposure_s)
 
 
 def laser_plan(
@@ -65,22 +78,12 @@ def laser_plan(
 ) -> str:
     """Plan TOML: the step block scanned from every laser mount (arc at 0°), seen by
     ``camera`` (default: the camera nearest the zenith)."""
-    spec = (
-        config.camera(camera)
-        if camera is not None
-        else min(config.camera_arc.cameras, key=lambda c: abs(c.theta_deg))
-    )
+    spec = _camera(config, camera)
     far_side = 180.0 if spec.theta_deg < 0 else 0.0
     view = [abs(spec.theta_deg), (config.camera_arc.azimuth_deg + far_side) % 360.0]
     locations = [[abs(t), 180.0 if t < 0 else 0.0] for t in config.laser.mount_theta_deg]
-    plan = {
-        "sample": {"name": "calibration-laser", "description": "laser step block, rig calibrate"},
-        "captures": {
-            "mdf": {"views": [view], "laser_locations": locations, "scan_step_deg": scan_step_deg}
-        },
-        "output": {"archive": archive},
-    }
-    return tomli_w.dumps(plan)
+    mdf = {"views": [view], "laser_locations": locations, "scan_step_deg": scan_step_deg}
+    return _plan("laser", "laser step block", {"mdf": mdf}, archive)
 
 
 def response_plan(
@@ -94,20 +97,10 @@ def response_plan(
     """Plan TOML: an exposure bracket of the ChArUco wedge (black, white and every
     shade of their edges and the lamp's fall-off) from ``camera`` (default: the
     camera nearest the zenith), at two turntable angles."""
-    spec = (
-        config.camera(camera)
-        if camera is not None
-        else min(config.camera_arc.cameras, key=lambda c: abs(c.theta_deg))
-    )
-    lamp = min(config.light_arc.lamps, key=lambda lamp: abs(lamp.theta_deg)).id
+    spec, lamp = _camera(config, camera), _zenith_lamp(config)
     fixed = [{"turntable_deg": a, "lamp": lamp, "cameras": [spec.id]} for a in (15.0, 105.0)]
-    plan = {
-        "sample": {"name": "calibration-response", "description": "HDR bracket, rig calibrate"},
-        "captures": {"fixed": fixed},
-        "exposure": {"exposure_s": exposure_s, "hdr_brackets": [float(m) for m in bracket]},
-        "output": {"archive": archive},
-    }
-    return tomli_w.dumps(plan)
+    return _plan("response", "HDR bracket", {"fixed": fixed}, archive, exposure_s=exposure_s,
+                 hdr_brackets=[float(m) for m in bracket])  # fmt: skip
 
 
 def lamp_plan(
@@ -122,19 +115,14 @@ def lamp_plan(
     angles — the sphere's places, the baseline for near lamps — from every camera
     (or those named), each shot twice: a long exposure that lights the plate
     round the ball (its outline), a short one for the highlight."""
-    ids = None if cameras is None else [config.camera(c).id for c in cameras]
+    ids = {} if cameras is None else {"cameras": [config.camera(c).id for c in cameras]}
     fixed = [
-        {"turntable_deg": float(a), "lamp": lamp.id, **({"cameras": ids} if ids else {})}
+        {"turntable_deg": float(a), "lamp": lamp.id, **ids}
         for lamp in config.light_arc.lamps
         for a in turntables
     ]
-    plan = {
-        "sample": {"name": "calibration-lamps", "description": "mirror sphere, rig calibrate"},
-        "captures": {"fixed": fixed},
-        "exposure": {"exposure_s": exposure_s, "hdr_brackets": [1.0, HIGHLIGHT]},
-        "output": {"archive": archive},
-    }
-    return tomli_w.dumps(plan)
+    return _plan("lamps", "mirror sphere", {"fixed": fixed}, archive, exposure_s=exposure_s,
+                 hdr_brackets=[1.0, HIGHLIGHT])  # fmt: skip
 
 
 def white_plan(
@@ -142,19 +130,9 @@ def white_plan(
 ) -> str:
     """Plan TOML: the white target under each lamp (arc at 0°), from ``camera``
     (default: the camera nearest the zenith)."""
-    spec = (
-        config.camera(camera)
-        if camera is not None
-        else min(config.camera_arc.cameras, key=lambda c: abs(c.theta_deg))
-    )
+    spec = _camera(config, camera)
     fixed = [
         {"turntable_deg": 0.0, "lamp": lamp.id, "cameras": [spec.id]}
         for lamp in config.light_arc.lamps
     ]
-    plan = {
-        "sample": {"name": "calibration-white", "description": "white target, rig calibrate"},
-        "captures": {"fixed": fixed},
-        "exposure": {"exposure_s": exposure_s},
-        "output": {"archive": archive},
-    }
-    return tomli_w.dumps(plan)
+    return _plan("white", "white target", {"fixed": fixed}, archive, exposure_s=exposure_s)

@@ -13,7 +13,6 @@ Units: pixels, mm, degrees. Camera poses map world to camera:
 
 from __future__ import annotations
 
-import tomllib
 from datetime import UTC, datetime
 from pathlib import Path
 
@@ -22,7 +21,7 @@ import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from rig.camera import PinholeCamera
-from rig.config import format_validation_error
+from rig.config import format_validation_error, read_toml
 from rig.errors import ConfigError
 
 __all__ = [
@@ -154,14 +153,7 @@ class CalibrationFile(_Closed):
 
 def load_calibration(path: str | Path) -> CalibrationFile:
     """Read and validate a calibration file; errors name the field."""
-    path = Path(path)
-    try:
-        data = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise ConfigError(f"calibration file {path} does not exist") from None
-    except tomllib.TOMLDecodeError as err:
-        raise ConfigError(f"calibration file {path} is not valid TOML: {err}") from err
-    return CalibrationFile.from_dict(data, source=str(path))
+    return CalibrationFile.from_dict(read_toml(path, "calibration file"), source=str(path))
 
 
 def write_calibration(calibration: CalibrationFile, path: str | Path) -> Path:

@@ -42,6 +42,7 @@ __all__ = [
     "default_rig_config",
     "format_validation_error",
     "load_rig_config",
+    "read_toml",
     "write_rig_config",
 ]
 
@@ -442,15 +443,21 @@ def format_validation_error(
     return lines
 
 
+def read_toml(path: str | Path, what: str) -> dict:
+    """The data of TOML file ``path``; a ``ConfigError`` naming ``what`` and the
+    file when it is missing or not TOML."""
+    try:
+        return tomllib.loads(Path(path).read_text())
+    except FileNotFoundError:
+        raise ConfigError(f"{what} {path} does not exist") from None
+    except tomllib.TOMLDecodeError as err:
+        raise ConfigError(f"{what} {path} is not valid TOML: {err}") from err
+
+
 def load_rig_config(path: str | Path) -> RigConfig:
     """Read and validate a rig config TOML file; errors name file and fields."""
     path = Path(path)
-    try:
-        data = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise ConfigError(f"rig config {path} does not exist") from None
-    except tomllib.TOMLDecodeError as err:
-        raise ConfigError(f"rig config {path} is not valid TOML: {err}") from err
+    data = read_toml(path, "rig config")
     try:
         return RigConfig.model_validate(data)
     except ValidationError as err:

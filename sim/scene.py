@@ -33,7 +33,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from rig.config import RigConfig, default_rig_config, format_validation_error
+from rig.config import RigConfig, default_rig_config, format_validation_error, read_toml
 from rig.errors import ConfigError
 from sim.materials import ImageAlbedo, MaterialSpec
 from sim.samples import generator
@@ -360,10 +360,4 @@ def load_scene(path: str | Path) -> Scene:
         problem as ``field: what is wrong (got value)``.
     """
     path = Path(path)
-    try:
-        data = tomllib.loads(path.read_text())
-    except FileNotFoundError:
-        raise ConfigError(f"scene {path} does not exist") from None
-    except tomllib.TOMLDecodeError as err:
-        raise ConfigError(f"scene {path} is not valid TOML: {err}") from err
-    return scene_from_dict(data, source=str(path), base_dir=path.parent)
+    return scene_from_dict(read_toml(path, "scene"), source=str(path), base_dir=path.parent)
