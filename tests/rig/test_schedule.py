@@ -80,3 +80,24 @@ def test_unreachable_directions_report_residuals():
     plan = parse_plan('[sample]\nname="s"\n[captures.btf]\nviews="H1"\nlights="H1"')
     s = compile_plan(plan, CONFIG)
     assert_allclose(s.max_view_residual_deg, 10.0, atol=1e-6)  # 85° ring → 75° camera
+
+
+def test_fixed_shots_go_where_they_say_and_bad_ids_are_named():
+    config = default_rig_config()
+    plan = parse_plan(
+        '[sample]\nname = "fixed"\n'
+        '[[captures.fixed]]\nturntable_deg = 30.0\nlamp = "lamp2"\ncameras = ["cam0", "cam3"]\n'
+        '[[captures.fixed]]\nturntable_deg = 200.0\narc_deg = 45.0\nlamp = "lamp0"\n'
+    )
+    steps = compile_plan(plan, config).steps
+    where = {(s.turntable_deg, s.arc_deg, s.source): s.cameras for s in steps}
+    assert where[(30.0, 0.0, "lamp2")] == ("cam0", "cam3")
+    assert len(where[(200.0, 45.0, "lamp0")]) == len(config.camera_arc.cameras)
+    bad = parse_plan(
+        '[sample]\nname = "fixed"\n'
+        '[[captures.fixed]]\nturntable_deg = 0.0\nlamp = "lamp99"\ncameras = ["cam9"]\n'
+    )
+    with pytest.raises(PlanError) as info:
+        compile_plan(bad, config)
+    assert "captures.fixed[0].lamp" in str(info.value)
+    assert "captures.fixed[0].cameras" in str(info.value)
