@@ -7,7 +7,8 @@ D_{v,l} on the texel grid (``processing.mdf.reconstruct_scan``: line in the
 reference region, space-time peaks, triangulation); the scans of a view are
 merged with the tetrahedron weights (``merge_scans``). The laser sheet's angle
 to the reference plane comes from the rig's kinematics at each recorded tilt
-(``rig.kinematics.laser_plane``) until a laser calibration is in the archive.
+(``rig.kinematics.laser_plane``), shifted by what the archive's laser
+calibration (``rig calibrate laser``) measured against the model, if it has one.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ from processing.mdf import (
 )
 from processing.offline.runner import View, frame_camera, views_of
 from rig.archive import Archive
+from rig.calfile import CalibrationFile
 from rig.config import RigConfig
 from rig.geometry import texel_centers_mm
 from rig.kinematics import laser_plane, laser_source_mm
@@ -61,8 +63,9 @@ class MdfStage:
             for index in item.steps:
                 record = records[index]
                 arc, turntable = record.actuators["arc_deg"], record.actuators["turntable_deg"]
+                correction = _calibrated_offset_deg(archive, config, record.laser, arc, turntable)
                 angles = [
-                    _sheet_angle_deg(config, arc, record.laser, tilt, turntable)
+                    _sheet_angle_deg(config, arc, record.laser, tilt, turntable) + correction
                     for tilt in tilts[index]
                 ]
                 source_mm = laser_source_mm(
@@ -97,3 +100,19 @@ def _sheet_angle_deg(config: RigConfig, arc: float, mount: int, tilt: float, tur
         config, arc_deg=arc, mount=mount, tilt_deg=tilt, turntable_deg=turntable
     )
     return float(np.degrees(np.arccos(np.clip(normal[2], -1.0, 1.0))))
+
+
+def _calibrated_offset_deg(archive: Archive, config: RigConfig, mount: int, arc, turntable):
+    """What the archive's laser calibration adds to the kinematic sheet angle of
+    ``mount`` (0 without one): measured minus modelled, at the calibrated tilt."""
+    if not archive.calibration:
+        return 0.0
+    source = f"{archive.path} (calibration v{archive.calibration_version})"
+    measured = CalibrationFile.from_dict(archive.calibration, source=source).laser.get(
+        f"mount{mount}"
+    )
+    if measured is None:
+        return 0.0
+    modelled = _sheet_angle_deg(config, arc, mount, measured.tilt_deg, turntable)
+    angle = min(measured.angle_deg, 180.0 - measured.angle_deg)  # to the plane, ≤ 90°
+    return angle - modelled

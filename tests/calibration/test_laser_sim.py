@@ -94,3 +94,20 @@ def test_nearly_equal_heights_are_refused():
 def test_a_dark_frame_is_refused():
     with pytest.raises(LaserCalibrationError, match="dark"):
         strip_pixels(np.zeros((20, 30, 3), np.uint8), profile_axis=0)
+
+
+def test_mdf_processing_takes_the_calibrated_angle(tmp_path):
+    from processing.offline.mdf import _calibrated_offset_deg
+    from rig.archive import FrameFormat
+    from rig.calfile import CalibrationFile, LaserResult
+
+    config = default_rig_config()
+    measured = LaserResult(angle_deg=45.3, angle_std_deg=0.01, residual_mm=0.0, heights=2,
+                           tilt_deg=1.0)  # fmt: skip
+    calibration = CalibrationFile(laser={"mount0": measured}).model_dump(mode="json")
+    formats = {"cam0": FrameFormat(8, 8, 3, "uint8")}
+    with Archive.create(tmp_path / "s.zarr", plan={}, rig_config={}, cameras=formats,
+                        calibration=calibration) as archive:  # fmt: skip
+        offset = _calibrated_offset_deg(archive, config, 0, 30.0, 10.0)
+        assert _calibrated_offset_deg(archive, config, 1, 30.0, 10.0) == 0.0  # no such mount
+    assert offset == pytest.approx(45.3 - _true_angle(config, 1.0), abs=1e-9)
