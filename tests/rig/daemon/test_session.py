@@ -151,3 +151,25 @@ def test_device_fault_fails_the_session_when_configured(config, rig, tmp_path):
         _submit(client, LAMP_PLAN, tmp_path / "y.zarr")
         wait_for_state(endpoints, ("done",), settled=True)
     _check_archive(tmp_path / "y.zarr", config, LAMP_PLAN)
+
+
+def test_the_rig_calibration_goes_into_the_archive(rig, tmp_path):
+    from rig.calfile import CalibrationFile, LaserResult, write_calibration
+
+    laser = LaserResult(angle_deg=44.9, angle_std_deg=0.01, residual_mm=0.0, heights=2)
+    cal = write_calibration(CalibrationFile(laser={"mount0": laser}), tmp_path / "cal.toml")
+    config = rig.config.model_copy(update={"calibration": str(cal)})
+    with running_daemon(config, rig) as endpoints, DaemonClient(endpoints) as client:
+        _submit(client, LAMP_PLAN, tmp_path / "s.zarr")
+        wait_for_state(endpoints, ("done",), settled=True)
+    with Archive.open(tmp_path / "s.zarr") as archive:
+        assert archive.calibration_version == 1
+        assert archive.calibration["laser"]["mount0"]["angle_deg"] == 44.9
+
+
+def test_a_missing_calibration_file_refuses_the_submit_by_name(config, rig, tmp_path):
+    missing = config.model_copy(update={"calibration": str(tmp_path / "none.toml")})
+    with running_daemon(missing, rig) as endpoints, DaemonClient(endpoints) as client:
+        with pytest.raises(DaemonRequestError, match=r"calibration file .*none\.toml"):
+            _submit(client, LAMP_PLAN, tmp_path / "s.zarr")
+        assert client.request("status")["state"] == "idle"  # the daemon goes on
