@@ -27,7 +27,7 @@ import numpy as np
 
 from processing.mdf import ReferenceRegion, frame_laser_line
 from processing.offline.ps import PsStage
-from processing.offline.runner import View
+from processing.offline.runner import View, archive_calibration, calibrated_camera
 from processing.registration import register_frame
 from rig.archive import Archive, StepRecord
 from rig.config import RigConfig
@@ -52,6 +52,7 @@ class LiveSession:
             self.plan_toml = archive.plan_toml
             self._scale = float(archive.plan.get("resolution", {}).get("scale", 1.0))
             self._steps = {s.index: s for s in archive.step_table()}
+            self._calibration = archive_calibration(archive)
         self._views: dict[int, View] | None = None
 
     def step(self, index: int) -> StepRecord:
@@ -64,9 +65,11 @@ class LiveSession:
 
     def lens(self, camera_id: str, turntable_deg: float = 0.0):
         """The camera of the archived frames: sample frame at ``turntable_deg``, intrinsics
-        at the plan's resolution (as ``processing.offline.frame_camera``)."""
-        model = self.config.camera_model(camera_id, turntable_deg=turntable_deg)
-        return model.scaled(self._scale)
+        at the plan's resolution, calibrated where the archive's calibration has it
+        (as ``processing.offline.frame_camera``)."""
+        return calibrated_camera(
+            self.config, self._calibration, camera_id, turntable_deg, scale=self._scale
+        )
 
     def ps_view_completed_by(self, step: int, camera: str) -> View | None:
         """The ps view whose last planned step is ``step`` (seen by ``camera``), if any."""

@@ -25,9 +25,8 @@ from processing.mdf import (
     reconstruct_scan,
     view_direction_deg,
 )
-from processing.offline.runner import View, frame_camera, views_of
+from processing.offline.runner import View, archive_calibration, frame_camera, views_of
 from rig.archive import Archive
-from rig.calfile import CalibrationFile
 from rig.config import RigConfig
 from rig.geometry import texel_centers_mm
 from rig.kinematics import laser_plane, laser_source_mm
@@ -105,12 +104,8 @@ def _sheet_angle_deg(config: RigConfig, arc: float, mount: int, tilt: float, tur
 def _calibrated_offset_deg(archive: Archive, config: RigConfig, mount: int, arc, turntable):
     """What the archive's laser calibration adds to the kinematic sheet angle of
     ``mount`` (0 without one): measured minus modelled, at the calibrated tilt."""
-    if not archive.calibration:
-        return 0.0
-    source = f"{archive.path} (calibration v{archive.calibration_version})"
-    measured = CalibrationFile.from_dict(archive.calibration, source=source).laser.get(
-        f"mount{mount}"
-    )
+    calibration = archive_calibration(archive)
+    measured = None if calibration is None else calibration.laser.get(f"mount{mount}")
     if measured is None:
         return 0.0
     modelled = _sheet_angle_deg(config, arc, mount, measured.tilt_deg, turntable)

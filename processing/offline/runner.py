@@ -26,7 +26,16 @@ from rig.calfile import CalibrationFile
 from rig.config import RigConfig
 from rig.errors import ConfigError
 
-__all__ = ["Stage", "StageRun", "View", "frame_camera", "run_stages", "views_of"]
+__all__ = [
+    "Stage",
+    "StageRun",
+    "View",
+    "archive_calibration",
+    "calibrated_camera",
+    "frame_camera",
+    "run_stages",
+    "views_of",
+]
 
 log = logging.getLogger(__name__)
 
@@ -82,10 +91,31 @@ def frame_camera(archive: Archive, config: RigConfig, camera_id: str, turntable_
     the rig config's nominal model.
     """
     scale = float(archive.plan.get("resolution", {}).get("scale", 1.0))
-    calibrated = None
-    if archive.calibration:
-        source = f"{archive.path} (calibration v{archive.calibration_version})"
-        calibrated = CalibrationFile.from_dict(archive.calibration, source=source).camera(camera_id)
+    return calibrated_camera(
+        config, archive_calibration(archive), camera_id, turntable_deg, scale=scale
+    )
+
+
+def archive_calibration(archive: Archive) -> CalibrationFile | None:
+    """The archive's calibration, validated, or None when it has none."""
+    if not archive.calibration:
+        return None
+    source = f"{archive.path} (calibration v{archive.calibration_version})"
+    return CalibrationFile.from_dict(archive.calibration, source=source)
+
+
+def calibrated_camera(
+    config: RigConfig,
+    calibration: CalibrationFile | None,
+    camera_id: str,
+    turntable_deg: float,
+    *,
+    scale: float,
+):
+    """A camera's calibrated model where ``calibration`` has it, else the nominal
+    one; in the sample frame at ``turntable_deg``, for frames read at ``scale`` ×
+    the camera's native size."""
+    calibrated = calibration.camera(camera_id) if calibration is not None else None
     if calibrated is None:
         return config.camera_model(camera_id, turntable_deg=turntable_deg).scaled(scale)
     width = max(1, round(config.camera(camera_id).width * scale))
