@@ -25,6 +25,7 @@ from calibration.cameras import (
 from calibration.lamps import (
     LampCalibrationError,
     SphereShot,
+    flat_fields,
     lamp_direction,
     lamp_intensities,
     lamp_position,
@@ -45,6 +46,7 @@ from rig.calfile import CameraResult, LampResult, LaserResult
 from rig.config import RigConfig
 
 __all__ = [
+    "FlatFieldMaps",
     "LampRun",
     "LaserFrame",
     "calibrate_cameras",
@@ -206,6 +208,17 @@ class LampRun:
 
     rays: dict[str, int]
     skipped: dict[str, list[str]]
+    flat_field: FlatFieldMaps | None = None
+
+
+@dataclass(frozen=True)
+class FlatFieldMaps:
+    """Each lamp's fall-off on the white target as ``camera`` sees it: ``falloff``
+    (L, H, W) float32, lamp ``lamps[i]``'s image over its value at the centre."""
+
+    camera: str
+    lamps: tuple[str, ...]
+    falloff: np.ndarray
 
 
 def calibrate_lamps(
@@ -260,15 +273,16 @@ def calibrate_lamps(
                 )  # fmt: skip
         except LampCalibrationError as err:
             failed[lamp.id] = f"{err} ({len(skipped.get(lamp.id, []))} shot(s) gave no ray)"
+    maps = None
     if white_archive is not None:
-        results = _with_intensities(results, white_archive, failed)
-    run = LampRun({k: len(v) for k, v in rays.items()}, dict(skipped))
+        results, maps = _with_intensities(results, white_archive, failed)
+    run = LampRun({k: len(v) for k, v in rays.items()}, dict(skipped), maps)
     return results, run, failed
 
 
-def _with_intensities(results: dict, white_archive, failed: dict) -> dict:
+def _with_intensities(results: dict, white_archive, failed: dict):
     """Add relative intensities, per kind (near lamps' radiant intensities and
-    distant lamps' irradiances are not comparable)."""
+    distant lamps' irradiances are not comparable); and each lamp's fall-off map."""
     with Archive.open(white_archive, mode="r") as archive:
         config = RigConfig.model_validate(archive.rig_config)
         images = {}
@@ -278,7 +292,7 @@ def _with_intensities(results: dict, white_archive, failed: dict) -> dict:
                 images[str(record.lamp)] = archive.read_frame(record.index, camera_id, 0)
         if not images:
             failed["intensities"] = "the white-target session has no frame of a calibrated lamp"
-            return results
+            return results, None
         camera = frame_camera(archive, config, camera_id, 0.0)
     target_z = config.targets.white.height_mm
     for near in (True, False):
@@ -298,7 +312,12 @@ def _with_intensities(results: dict, white_archive, failed: dict) -> dict:
             continue
         for k, value in zip(ids, relative, strict=True):
             results[k] = results[k].model_copy(update={"intensity": float(value)})
-    return results
+    try:
+        field = flat_fields([images[k] for k in images])
+    except LampCalibrationError as err:
+        failed["flat field"] = str(err)
+        return results, None
+    return results, FlatFieldMaps(camera_id, tuple(images), field.falloff)
 
 
 def _full_scale(image) -> float:

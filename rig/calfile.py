@@ -124,6 +124,9 @@ class CalibrationFile(_Closed):
     cameras_provenance: Provenance | None = None
     lamps: dict[str, LampResult] = Field(default_factory=dict)
     lamps_provenance: Provenance | None = None
+    lamps_flat_field: str | None = Field(
+        None, description="npz beside this file: each lamp's fall-off map (camera, lamps, falloff)"
+    )
     laser: dict[str, LaserResult] = Field(default_factory=dict, description="per laser mount")
     laser_provenance: Provenance | None = None
     response: dict[str, ResponseResult] = Field(default_factory=dict, description="per camera")

@@ -5,6 +5,7 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated
 
+import numpy as np
 import typer
 
 from rig.cli.common import (
@@ -143,10 +144,11 @@ def _compute(target: str, source: Path, rig, out: Path | None, apply: list[Path]
 
     path = out or Path(rig.calibration or "calibrations/calibration.toml")
     compute = {"cameras": _cameras, "laser": _laser, "response": _response, "lamps": _lamps}
-    section, failed = compute[target](source, path)
+    # each returns its section, what failed, and other fields of the file it sets
+    section, failed, fields = compute[target](source, path)
     current = load_calibration(path) if path.exists() else CalibrationFile(rig=rig.name)
     provenance = Provenance.now(source.resolve(), software_versions())
-    updated = current.with_section(target, section, provenance)
+    updated = current.with_section(target, section, provenance).model_copy(update=fields)
     write_calibration(updated, path)
     console.print(f"calibration: {path} ({target})")
     for session in apply:
@@ -165,7 +167,7 @@ def _cameras(source: Path, path: Path):
         raise ConfigError(f"no camera could be calibrated from {source}: {failed}")
     console.print(camera_report(found, failed))
     console.print(f"plot: {plot_camera_residuals(found, path.with_suffix('.cameras.png'))}")
-    return {camera_id: camera_result(cam) for camera_id, cam in found.items()}, failed
+    return {camera_id: camera_result(cam) for camera_id, cam in found.items()}, failed, {}
 
 
 def _laser(source: Path, path: Path):
@@ -180,7 +182,7 @@ def _laser(source: Path, path: Path):
     }  # fmt: skip
     if not results:
         raise ConfigError(f"no laser mount could be calibrated from {source}: {failed}")
-    return {f"mount{m}": r for m, r in results.items()}, failed
+    return {f"mount{m}": r for m, r in results.items()}, failed, {}
 
 
 def _response(source: Path, path: Path):
@@ -197,7 +199,7 @@ def _response(source: Path, path: Path):
         camera_id: ResponseResult(curve=curve.curve.tolist(), exposures=exposures)
         for camera_id, curve in curves.items()
     }
-    return section, failed
+    return section, failed, {}
 
 
 def _lamps(source: Path, path: Path):
@@ -210,4 +212,11 @@ def _lamps(source: Path, path: Path):
         raise ConfigError(f"no lamp could be calibrated from {source}: {failed}")
     console.print(lamp_report(results, run, failed))
     console.print(f"plot: {plot_lamps(results, path.with_suffix('.lamps.png'))}")
-    return results, failed
+    extra = {}
+    if run.flat_field is not None:
+        maps = path.with_suffix(".flatfield.npz")
+        np.savez_compressed(maps, camera=run.flat_field.camera, lamps=list(run.flat_field.lamps),
+                            falloff=run.flat_field.falloff)  # fmt: skip
+        console.print(f"flat fields: {maps} (seen by {run.flat_field.camera})")
+        extra = {"lamps_flat_field": maps.name}
+    return results, failed, extra

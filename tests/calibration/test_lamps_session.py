@@ -32,11 +32,11 @@ def calibrated(tmp_path_factory):
     # three cameras: the near lamps' distances to ~0.3 %, which their intensities need twice
     result = CliRunner().invoke(app, args)
     assert result.exit_code == 0, result.output
-    return config, load_calibration(cal), result.output
+    return config, load_calibration(cal), result.output, cal
 
 
 def test_distant_lamp_direction(calibrated):
-    config, cal, _ = calibrated
+    config, cal, *_ = calibrated
     truth = lamp_position_mm(config, "sun45", arc_deg=0.0, turntable_deg=0.0)
     found = np.array(cal.lamps["sun45"].direction)
     assert angular_distance_deg(found, truth) < 0.5  # the issue's tolerance
@@ -44,15 +44,27 @@ def test_distant_lamp_direction(calibrated):
 
 @pytest.mark.parametrize("lamp", ["near30", "near60"])
 def test_near_lamp_position(calibrated, lamp):
-    config, cal, _ = calibrated
+    config, cal, *_ = calibrated
     truth = lamp_position_mm(config, lamp, arc_deg=0.0, turntable_deg=0.0)
     found = np.array(cal.lamps[lamp].position_mm)
     assert np.linalg.norm(found - truth) < 0.01 * np.linalg.norm(truth)
 
 
 def test_near_lamp_intensities(calibrated):
-    _, cal, output = calibrated
+    _, cal, output, _ = calibrated
     ratio = cal.lamps["near30"].intensity / cal.lamps["near60"].intensity
     assert ratio == pytest.approx(0.8 / 1.2, rel=0.01)
     assert cal.lamps_provenance is not None
     assert "near60" in output and "not calibrated" not in output
+
+
+def test_flat_field_maps_are_written_beside_the_file(calibrated):
+    _, cal, _, path = calibrated
+    assert cal.lamps_flat_field is not None
+    with np.load(path.parent / cal.lamps_flat_field) as data:
+        falloff, lamps = data["falloff"], list(data["lamps"])
+    assert sorted(lamps) == sorted(lamp["id"] for lamp in LAMPS)
+    height, width = falloff.shape[1:]
+    assert np.all(np.isfinite(falloff))
+    centre = falloff[:, height // 2, width // 2]
+    assert np.allclose(centre, 1.0, atol=0.05)  # normalised at the target's centre
