@@ -21,6 +21,7 @@ call :meth:`render`.
 from __future__ import annotations
 
 import threading
+import zlib
 from collections import Counter, OrderedDict
 from dataclasses import dataclass, replace
 from pathlib import Path
@@ -134,7 +135,10 @@ class Simulator:
         self._shadows = _Lru(_SHADOW_CACHE)
         self._sensor: dict = {}
         noise = self.scene.spec.params("noise") if self.scene.has("noise") else None
-        self._noise_seeds = np.random.SeedSequence(noise.seed if noise else 0)
+        self._noise_seed = noise.seed if noise else 0
+        # One noise stream per camera: cameras capture in parallel threads, and a
+        # shared stream would give each frame the noise of whichever came first.
+        self._noise_streams: dict[str, np.random.SeedSequence] = {}
         self._reference = None
 
     # -- life cycle -------------------------------------------------------
@@ -180,7 +184,11 @@ class Simulator:
             if self.scene.has("noise"):
                 self.counters["stage.noise"] += 1
                 p = self.scene.spec.params("noise")
-                rng = np.random.default_rng(self._noise_seeds.spawn(1)[0])
+                stream = self._noise_streams.setdefault(
+                    camera_id,
+                    np.random.SeedSequence([self._noise_seed, zlib.crc32(camera_id.encode())]),
+                )
+                rng = np.random.default_rng(stream.spawn(1)[0])
                 signal = add_noise(
                     signal, bit_depth=spec.bit_depth, full_well_e=p.full_well_e,
                     read_noise_e=p.read_noise_e, rng=rng,
