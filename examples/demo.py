@@ -18,13 +18,13 @@ from pathlib import Path
 import cv2
 import numpy as np
 
+from orchestrator.cli.plan_cmd import print_estimate
+from orchestrator.cli.process_cmd import write_mdf_previews, write_ps_previews
+from orchestrator.daemon import replay_local, run_local
 from processing.offline import BtfStage, MdfStage, PsStage, run_stages
 from rig import compile_plan, load_plan
 from rig.archive import Archive
-from rig.cli.plan_cmd import print_estimate
-from rig.cli.process_cmd import write_mdf_previews, write_ps_previews
 from rig.clock import VirtualClock
-from rig.daemon import replay_local, run_local
 from sim.rig import SimulatedRig
 
 EXAMPLES = Path(__file__).parent

@@ -1,7 +1,8 @@
-"""btfrig's rig package: plans, rig geometry and kinematics, the session
-archive, and (in submodules that are not imported here) the daemon and CLI.
+"""btfrig's bottom layer: the rig's model, what a rig is and what it records.
 
-The names below are the data API that every other package may use.
+Config, geometry, kinematics, plans, schedule and timing, the session archive,
+the calibration file, the camera model, the clock and the errors. It imports
+nothing of btfrig's; every other package may use it.
 """
 
 from rig.camera import PinholeCamera, look_at

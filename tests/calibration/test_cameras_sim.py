@@ -13,12 +13,12 @@ from typer.testing import CliRunner
 
 from calibration.plans import camera_plan
 from calibration.sessions import calibrate_cameras
+from orchestrator.cli import app
+from orchestrator.daemon import replay_local, run_local
 from rig.archive import Archive, FrameFormat
 from rig.calfile import load_calibration
-from rig.cli import app
 from rig.clock import VirtualClock
 from rig.config import RigConfig, default_rig_config
-from rig.daemon import replay_local, run_local
 from rig.kinematics import rotate_z
 from sim.calibration import target_scene
 from sim.rig import SimulatedRig

@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+from orchestrator.cli import app
 from rig.calfile import load_calibration
-from rig.cli import app
 from rig.config import RigConfig, default_rig_config, write_rig_config
 from rig.geometry import angular_distance_deg
 from rig.kinematics import lamp_position_mm

@@ -12,11 +12,11 @@ import pytest
 from calibration.laser import LaserCalibrationError, band_offsets, laser_plane_angle, strip_pixels
 from calibration.plans import laser_plan
 from calibration.sessions import calibrate_laser
+from orchestrator.daemon import run_local
 from processing.mdf import profile_axis_for
 from rig.archive import Archive
 from rig.clock import VirtualClock
 from rig.config import RigConfig, default_rig_config
-from rig.daemon import run_local
 from rig.kinematics import laser_plane
 from sim.calibration import target_scene
 from sim.rig import SimulatedRig

@@ -13,9 +13,9 @@ import pytest
 from calibration.plans import response_plan
 from calibration.response import ResponseError, calibrate_response, merge_bracket
 from calibration.sessions import calibrate_responses
+from orchestrator.daemon import run_local
 from rig.clock import VirtualClock
 from rig.config import default_rig_config
-from rig.daemon import run_local
 from sim.calibration import target_scene
 from sim.rig import SimulatedRig
 from sim.sensor import inverse_response

@@ -7,9 +7,9 @@ from pathlib import Path
 
 import pytest
 
-from rig import client
-from rig.daemon import DaemonSettings, daemon_thread
-from rig.daemon.local import worker_threads
+from orchestrator import client
+from orchestrator.daemon import DaemonSettings, daemon_thread
+from orchestrator.daemon.local import worker_threads
 from sim.scene import scene_from_dict
 
 PLAN = """

@@ -15,10 +15,10 @@ from pathlib import Path
 
 import numpy as np
 
+from orchestrator.daemon import run_local
 from processing.offline import MdfStage, run_stages
 from rig.archive import Archive
 from rig.clock import VirtualClock
-from rig.daemon import run_local
 from sim import Simulator
 from sim.rig import SimulatedRig
 from sim.scene import scene_from_dict

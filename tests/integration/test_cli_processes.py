@@ -15,7 +15,7 @@ from pathlib import Path
 
 import tomli_w
 
-from rig import client
+from orchestrator import client
 from rig.archive import Archive
 
 RIG = str(Path(sys.executable).with_name("rig"))

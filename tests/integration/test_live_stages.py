@@ -10,12 +10,12 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from orchestrator.daemon import run_local
 from processing.offline import PsStage, View, run_stages
 from processing.registration import register_frame
 from rig.archive import Archive
 from rig.clock import VirtualClock
 from rig.config import RigConfig
-from rig.daemon import run_local
 from sim.rig import SimulatedRig
 from sim.scene import scene_from_dict
 
@@ -101,8 +101,8 @@ def test_live_ps_view_is_the_offline_solve(session):
 
 
 def test_a_failing_stage_is_reported_and_the_frame_still_acknowledged():
-    from rig.daemon.protocol import ArraySpec, FrameHeader, decode_result, encode_frame
-    from rig.worker import STAGES, _process
+    from orchestrator.daemon.protocol import ArraySpec, FrameHeader, decode_result, encode_frame
+    from orchestrator.worker import STAGES, _process
 
     def broken(image, header):
         raise RuntimeError("lens cap on")

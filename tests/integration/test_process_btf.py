@@ -9,6 +9,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
+from orchestrator.daemon import run_local
 from processing.btf import reconstruct, view_slots
 from processing.btf.material import from_arrays
 from processing.offline import BtfStage, run_stages
@@ -16,7 +17,6 @@ from processing.registration import register_capture
 from rig.archive import Archive
 from rig.clock import VirtualClock
 from rig.config import RigConfig
-from rig.daemon import run_local
 from sim.rig import SimulatedRig
 from sim.scene import scene_from_dict
 

@@ -9,11 +9,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from orchestrator.daemon import run_local
 from processing.mdf import Reason
 from processing.offline import MdfStage, run_stages
 from rig.archive import Archive
 from rig.clock import VirtualClock
-from rig.daemon import run_local
 from sim import Simulator
 from sim.rig import SimulatedRig
 from sim.scene import load_scene

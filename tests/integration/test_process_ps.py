@@ -19,11 +19,11 @@ import numpy as np
 import pytest
 from typer.testing import CliRunner
 
+from orchestrator.cli import app
+from orchestrator.daemon import run_local
 from processing.offline import PsStage, run_stages
 from rig.archive import Archive
-from rig.cli import app
 from rig.clock import VirtualClock
-from rig.daemon import run_local
 from sim import Simulator
 from sim.rig import SimulatedRig
 from sim.scene import scene_from_dict

@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from drivers.errors import DeviceError
-from rig import client
+from orchestrator import client
+from orchestrator.daemon import ReplayDevices, replay_local
 from rig.archive import Archive
 from rig.clock import VirtualClock
-from rig.daemon import ReplayDevices, replay_local
 from sim.rig import SimulatedRig
 from tests.integration.conftest import run_session
 

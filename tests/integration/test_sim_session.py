@@ -14,7 +14,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rig import client
+from orchestrator import client
 from rig.archive import Archive
 from rig.clock import VirtualClock
 from rig.errors import ConfigError

@@ -3,7 +3,7 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from rig.cli import app
+from orchestrator.cli import app
 
 EXAMPLES = Path(__file__).parents[2] / "examples" / "plans"
 runner = CliRunner()
@@ -100,7 +100,7 @@ def test_sim_serve_rejects_a_fault_for_an_unknown_peer(tmp_path):
 
 
 def test_parse_faults_reads_toml_values():
-    from rig.cli.sim_cmd import parse_faults
+    from orchestrator.cli.sim_cmd import parse_faults
 
     faults = parse_faults(["cameras.dropped_frames=2", "lamp_bank.dead_lamps=['lamp3']"])
     assert faults == {"cameras": {"dropped_frames": 2}, "lamp_bank": {"dead_lamps": ["lamp3"]}}

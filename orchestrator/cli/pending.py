@@ -11,7 +11,7 @@ from typing import Annotated
 
 import typer
 
-from rig.cli.common import not_built
+from orchestrator.cli.common import not_built
 
 __all__ = ["register"]
 

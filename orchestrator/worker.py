@@ -29,9 +29,8 @@ from collections.abc import Callable
 import numpy as np
 import zmq
 
-from processing.live import LIVE_STAGES
-from rig.daemon.endpoints import Endpoints
-from rig.daemon.protocol import (
+from orchestrator.daemon.endpoints import Endpoints
+from orchestrator.daemon.protocol import (
     MAX_FRAME_BYTES,
     MessageError,
     NamedArray,
@@ -39,6 +38,7 @@ from rig.daemon.protocol import (
     decode_frame,
     encode_result,
 )
+from processing.live import LIVE_STAGES
 from rig.errors import ConfigError
 
 __all__ = ["STAGES", "frame_stats", "run_worker"]

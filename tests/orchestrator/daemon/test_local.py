@@ -1,10 +1,10 @@
 """`rig run` in one process, and the daemon benchmark's shape (speed is not asserted here)."""
 
+from orchestrator.daemon.bench import run_bench
+from orchestrator.daemon.local import run_local
 from rig.archive import Archive
-from rig.daemon.bench import run_bench
-from rig.daemon.local import run_local
-from tests.rig.daemon.conftest import TINY_PLAN
-from tests.rig.daemon.soft import soft_devices
+from tests.orchestrator.daemon.conftest import TINY_PLAN
+from tests.orchestrator.daemon.soft import soft_devices
 
 
 def test_run_local_runs_a_whole_session(rig, tmp_path):

@@ -1,7 +1,7 @@
 """Soft devices: in-process turntable, arc, lamps, laser and cameras on one clock.
 
 They implement the driver interfaces the facade uses (``drivers.interfaces``
-and ``rig.daemon.devices``), model motion and exposure time on the injected
+and ``orchestrator.daemon.devices``), model motion and exposure time on the injected
 clock (parallel axes overlap: each wait sleeps only up to its own end), make
 deterministic frames from the rig's state, record any exposure taken while an
 axis moved, and inject faults on request (stall, timeout, dropped frame, a dark
@@ -19,10 +19,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from drivers.errors import DeviceFault, DeviceTimeout, MotionStalled
+from orchestrator.daemon import RigDevices, frame_formats
 from rig.archive import FrameFormat
 from rig.clock import Clock
 from rig.config import Axis, RigConfig
-from rig.daemon import RigDevices, frame_formats
 
 
 @dataclass

@@ -1,6 +1,7 @@
 """A daemon with soft devices in its own process, for the kill -9 tests.
 
-Run as ``python -m tests.rig.daemon.soft_daemon [--delay SECONDS]``: binds free loopback ports,
+Run as ``python -m tests.orchestrator.daemon.soft_daemon [--delay SECONDS]``:
+binds free loopback ports,
 prints one JSON line with its endpoints, and serves until ``shutdown`` (or a
 signal). ``--delay`` makes each camera read take that long in real time, so a
 test can kill the process in the middle of a session.
@@ -10,10 +11,10 @@ import argparse
 import dataclasses
 import json
 
+from orchestrator.daemon import Daemon, DaemonSettings
 from rig.clock import VirtualClock
 from rig.config import default_rig_config
-from rig.daemon import Daemon, DaemonSettings
-from tests.rig.daemon.soft import SoftRig, soft_devices
+from tests.orchestrator.daemon.soft import SoftRig, soft_devices
 
 
 def main() -> None:

@@ -14,10 +14,10 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from drivers.errors import DeviceError
+from orchestrator.daemon.devices import Captured
 from rig.archive import Archive, StepRecord
 from rig.clock import Clock
 from rig.config import RigConfig
-from rig.daemon.devices import Captured
 
 __all__ = ["MOVE_TOLERANCE_DEG", "ReplayDevices", "replay_factory"]
 

@@ -9,12 +9,12 @@ from collections.abc import Callable
 from contextlib import contextmanager
 from pathlib import Path
 
+from orchestrator.daemon.devices import build_devices
+from orchestrator.daemon.endpoints import DaemonSettings, Endpoints
+from orchestrator.daemon.server import Daemon
+from orchestrator.daemon.session import DeviceFactory, SessionError
 from rig.clock import Clock
 from rig.config import RigConfig, default_rig_config, load_rig_config
-from rig.daemon.devices import build_devices
-from rig.daemon.endpoints import DaemonSettings, Endpoints
-from rig.daemon.server import Daemon
-from rig.daemon.session import DeviceFactory, SessionError
 
 __all__ = ["daemon_thread", "replay_local", "run_daemon", "run_local"]
 
@@ -76,7 +76,7 @@ def daemon_thread(
 @contextmanager
 def worker_threads(endpoints: Endpoints, stage: str, n: int):
     """``n`` workers of ``stage`` on threads of this process."""
-    from rig.worker import run_worker
+    from orchestrator.worker import run_worker
 
     stop = threading.Event()
     threads = [
@@ -109,10 +109,10 @@ def run_local(
     """Daemon + workers + submit + follow in one process; the final status (``rig run``).
 
     Every socket is on free loopback ports; ``workers`` threads run the live
-    ``stages`` (comma-separated, see ``rig.worker``); ``on_event`` sees each
+    ``stages`` (comma-separated, see ``orchestrator.worker``); ``on_event`` sees each
     event (e.g. to draw a progress bar).
     """
-    from rig import client
+    from orchestrator import client
 
     def submit(endpoints: Endpoints) -> None:
         client.submit(plan_path, archive=archive, connect=endpoints)
@@ -137,9 +137,9 @@ def replay_local(
     The plan and rig config come from the recording; the frames too (``ReplayDevices``).
     A mismatch between plan and recording fails the replay, naming the step.
     """
+    from orchestrator.client import DaemonClient
+    from orchestrator.daemon.replay import replay_factory
     from rig.archive import Archive
-    from rig.client import DaemonClient
-    from rig.daemon.replay import replay_factory
 
     with Archive.open(source, mode="r") as recording:
         plan_toml = recording.plan_toml
@@ -160,7 +160,7 @@ def replay_local(
 
 
 def _in_process(config, submit, settings, devices, clock, workers, stages, on_event) -> dict:
-    from rig import client
+    from orchestrator import client
 
     daemon = daemon_thread(config, settings=settings, devices=devices, clock=clock)
     with daemon as endpoints, worker_threads(endpoints, stages, workers):

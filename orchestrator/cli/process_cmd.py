@@ -9,7 +9,7 @@ from typing import Annotated
 import typer
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from rig.cli.common import console, reporting_errors
+from orchestrator.cli.common import console, reporting_errors
 from rig.errors import ConfigError
 
 __all__ = ["register", "write_mdf_previews", "write_ps_previews"]

@@ -11,7 +11,7 @@ from typing import Annotated, Literal
 import typer
 from typer.core import TyperGroup
 
-from rig.cli.common import console, reporting_errors
+from orchestrator.cli.common import console, reporting_errors
 from rig.errors import ConfigError
 
 __all__ = ["app", "parse_faults"]

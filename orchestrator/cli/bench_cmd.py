@@ -13,7 +13,7 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
-from rig.cli.common import console, not_built, reporting_errors
+from orchestrator.cli.common import console, not_built, reporting_errors
 from rig.config import default_rig_config
 from rig.plan import parse_plan
 from rig.schedule import compile_plan
@@ -52,12 +52,12 @@ def _btf(module, quick: bool) -> list[dict]:
 # area → (module, issue that builds it, how to call its run_bench)
 AREAS: dict[str, tuple[str, int, Callable]] = {
     "archive": ("rig.archive.bench", 2, _archive),
-    "daemon": ("rig.daemon.bench", 5, _plain),
+    "daemon": ("orchestrator.daemon.bench", 5, _plain),
     "sim": ("sim.bench", 3, _plain),
     "ps": ("processing.photometric.bench", 6, _ps),
     "btf": ("processing.btf.bench", 7, _btf),
     "mdf": ("processing.mdf.bench", 8, _plain),
-    "calibration": ("sim.calibration", 9, _plain),
+    "calibration": ("orchestrator.calibration_bench", 9, _plain),
 }
 
 app = typer.Typer(no_args_is_help=True, help="Benchmarks: accuracy against time, per area.")

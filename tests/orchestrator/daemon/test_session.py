@@ -6,13 +6,19 @@ import time
 import numpy as np
 import pytest
 
+from orchestrator.client import (
+    DaemonClient,
+    DaemonRequestError,
+    follow,
+    session_ended,
+    wait_for_state,
+)
+from orchestrator.daemon import frame_formats
 from rig.archive import Archive
-from rig.client import DaemonClient, DaemonRequestError, follow, session_ended, wait_for_state
-from rig.daemon import frame_formats
 from rig.plan import parse_plan
 from rig.schedule import compile_plan
-from tests.rig.daemon.conftest import LAMP_PLAN, TINY_PLAN, running_daemon, running_workers
-from tests.rig.daemon.soft import soft_image
+from tests.orchestrator.daemon.conftest import LAMP_PLAN, TINY_PLAN, running_daemon, running_workers
+from tests.orchestrator.daemon.soft import soft_image
 
 
 def _submit(client, plan_text, path):

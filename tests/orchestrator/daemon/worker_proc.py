@@ -1,6 +1,6 @@
 """A stats worker in its own process, for the worker-kill test.
 
-Run as ``python -m tests.rig.daemon.worker_proc ENDPOINTS_JSON NAME [--die-after N]``: with
+Run as ``python -m tests.orchestrator.daemon.worker_proc ENDPOINTS_JSON NAME [--die-after N]``: with
 ``--die-after`` it SIGKILLs itself on receiving its N-th frame, before the
 result leaves, with more frames queued in its socket.
 """
@@ -10,8 +10,8 @@ import json
 import os
 import signal
 
-from rig.daemon import Endpoints
-from rig.worker import STAGES, frame_stats, run_worker
+from orchestrator.daemon import Endpoints
+from orchestrator.worker import STAGES, frame_stats, run_worker
 
 
 def main() -> None:

@@ -7,9 +7,9 @@ import numpy as np
 import pytest
 import zmq
 
-from rig.client import DaemonClient, DaemonRequestError, wait_for_state
-from rig.daemon import DaemonSettings, Endpoints, MessageError
-from rig.daemon.protocol import (
+from orchestrator.client import DaemonClient, DaemonRequestError, wait_for_state
+from orchestrator.daemon import DaemonSettings, Endpoints, MessageError
+from orchestrator.daemon.protocol import (
     MAX_CONTROL_BYTES,
     ArraySpec,
     FrameHeader,
@@ -19,7 +19,7 @@ from rig.daemon.protocol import (
     parse_request,
 )
 from rig.errors import ConfigError
-from tests.rig.daemon.conftest import LAMP_PLAN, running_daemon
+from tests.orchestrator.daemon.conftest import LAMP_PLAN, running_daemon
 
 GOOD = {"id": "r1", "command": "status", "args": {}}
 

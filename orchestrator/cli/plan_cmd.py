@@ -8,7 +8,7 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
-from rig.cli.common import console, load_config_option, reporting_errors
+from orchestrator.cli.common import console, load_config_option, reporting_errors
 from rig.config import RigConfig
 from rig.kinematics import sampling_residuals
 from rig.plan import Plan, load_plan

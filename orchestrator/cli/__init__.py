@@ -10,7 +10,7 @@ import logging
 
 import typer
 
-from rig.cli import (
+from orchestrator.cli import (
     bench_cmd,
     calibrate_cmd,
     pending,
@@ -19,7 +19,7 @@ from rig.cli import (
     session_cmd,
     sim_cmd,
 )
-from rig.cli.common import console
+from orchestrator.cli.common import console
 
 __all__ = ["app", "main"]
 

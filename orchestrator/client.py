@@ -20,8 +20,8 @@ from pathlib import Path
 
 import zmq
 
-from rig.daemon.endpoints import Endpoints
-from rig.daemon.protocol import MAX_CONTROL_BYTES, decode_json
+from orchestrator.daemon.endpoints import Endpoints
+from orchestrator.daemon.protocol import MAX_CONTROL_BYTES, decode_json
 from rig.errors import RigError
 
 __all__ = [

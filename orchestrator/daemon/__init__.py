@@ -6,14 +6,20 @@ archive), ``RigDevices`` (the device facade) and the message ``protocol``;
 See ``docs/daemon.md``.
 """
 
-from rig.daemon.devices import Captured, DeviceSet, RigDevices, ThreadedCamera, build_devices
-from rig.daemon.endpoints import DEFAULT_PORT, DaemonSettings, Endpoints, is_loopback
-from rig.daemon.local import daemon_thread, replay_local, run_daemon, run_local
-from rig.daemon.protocol import MessageError
-from rig.daemon.replay import ReplayDevices, replay_factory
-from rig.daemon.server import Daemon
-from rig.daemon.session import Session, SessionError, frame_formats
-from rig.daemon.state import (
+from orchestrator.daemon.devices import (
+    Captured,
+    DeviceSet,
+    RigDevices,
+    ThreadedCamera,
+    build_devices,
+)
+from orchestrator.daemon.endpoints import DEFAULT_PORT, DaemonSettings, Endpoints, is_loopback
+from orchestrator.daemon.local import daemon_thread, replay_local, run_daemon, run_local
+from orchestrator.daemon.protocol import MessageError
+from orchestrator.daemon.replay import ReplayDevices, replay_factory
+from orchestrator.daemon.server import Daemon
+from orchestrator.daemon.session import Session, SessionError, frame_formats
+from orchestrator.daemon.state import (
     TRANSITIONS,
     IllegalTransition,
     SessionEvent,

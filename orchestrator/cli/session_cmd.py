@@ -9,7 +9,7 @@ from typing import Annotated
 
 import typer
 
-from rig.cli.common import SessionProgress, console, reporting_errors
+from orchestrator.cli.common import SessionProgress, console, reporting_errors
 from rig.errors import ConfigError
 
 __all__ = ["register"]
@@ -49,7 +49,7 @@ def register(app: typer.Typer) -> None:
         ] = None,
     ) -> None:
         """Run the control daemon: owns the devices and one session at a time."""
-        from rig.daemon import DaemonSettings, run_daemon
+        from orchestrator.daemon import DaemonSettings, run_daemon
 
         with reporting_errors():
             settings = DaemonSettings(
@@ -74,7 +74,7 @@ def register(app: typer.Typer) -> None:
         connect: Annotated[str, CONNECT] = DEFAULT_CONNECT,
     ) -> None:
         """Submit a plan to the running daemon."""
-        from rig import client
+        from orchestrator import client
 
         with reporting_errors():
             _print_status(client.submit(plan, archive=archive, connect=connect))
@@ -85,7 +85,7 @@ def register(app: typer.Typer) -> None:
         connect: Annotated[str, CONNECT] = DEFAULT_CONNECT,
     ) -> None:
         """Show the daemon's session state; --follow draws progress until it ends."""
-        from rig import client
+        from orchestrator import client
 
         with reporting_errors():
             if not follow:
@@ -103,7 +103,7 @@ def register(app: typer.Typer) -> None:
     ):
 
         def command(connect: Annotated[str, CONNECT] = DEFAULT_CONNECT, _name=name) -> None:
-            from rig import client
+            from orchestrator import client
 
             with reporting_errors():
                 _print_status(getattr(client, _name)(connect=connect))
@@ -119,7 +119,7 @@ def register(app: typer.Typer) -> None:
         connect: Annotated[str, CONNECT] = DEFAULT_CONNECT,
     ) -> None:
         """Resume a paused session, or continue a crashed one from its archive."""
-        from rig import client
+        from orchestrator import client
 
         with reporting_errors():
             _print_status(client.resume(archive, connect=connect))
@@ -150,7 +150,7 @@ def register(app: typer.Typer) -> None:
         ] = None,
     ) -> None:
         """Daemon + workers + submit + follow in one process, for a local session."""
-        from rig.daemon import run_local
+        from orchestrator.daemon import run_local
 
         with reporting_errors(), SessionProgress() as view:
             if sim is None:
@@ -193,7 +193,7 @@ def register(app: typer.Typer) -> None:
         The plan, rig config and frames come from ARCHIVE; moves, lamps, cameras and
         exposures are checked against the recording, and a mismatch fails the replay.
         """
-        from rig.daemon import replay_local
+        from orchestrator.daemon import replay_local
 
         target = out if out is not None else archive.with_suffix(".replay.zarr")
         with reporting_errors(), SessionProgress() as view:
@@ -219,7 +219,7 @@ def register(app: typer.Typer) -> None:
         Stages other than stats read the session's archive: a worker on another machine
         needs it at the same path (a shared file system).
         """
-        from rig.worker import run_worker
+        from orchestrator.worker import run_worker
 
         stop = threading.Event()
         previous = signal.signal(signal.SIGINT, lambda *_: stop.set())

@@ -8,7 +8,7 @@ from typing import Annotated
 import numpy as np
 import typer
 
-from rig.cli.common import (
+from orchestrator.cli.common import (
     EXIT_FAILURE,
     SessionProgress,
     console,
@@ -112,7 +112,7 @@ def _plan(target: str, rig, archive: Path, *, poses: int, cameras) -> str:
 
 
 def _capture(target: str, rig, plan: str, archive: Path, *, sim: bool, scale: float) -> None:
-    from rig.daemon import run_local
+    from orchestrator.daemon import run_local
 
     if archive.exists():
         raise ConfigError(f"--archive {archive} exists; give a new path or use --from {archive}")

@@ -8,13 +8,13 @@ import sys
 import time
 from pathlib import Path
 
+from orchestrator.client import DaemonClient, follow, wait_for_state
+from orchestrator.daemon import Endpoints
 from rig.archive import Archive
-from rig.client import DaemonClient, follow, wait_for_state
-from rig.daemon import Endpoints
 from rig.plan import parse_plan
 from rig.schedule import compile_plan
-from tests.rig.daemon.conftest import LAMP_PLAN, TINY_PLAN, running_daemon
-from tests.rig.daemon.test_session import _check_archive
+from tests.orchestrator.daemon.conftest import LAMP_PLAN, TINY_PLAN, running_daemon
+from tests.orchestrator.daemon.test_session import _check_archive
 
 ROOT = Path(__file__).resolve().parents[3]
 
@@ -40,8 +40,8 @@ def test_a_worker_killed_mid_stream_loses_no_frame(config, rig, tmp_path):
     settings = {"resend_after_s": 0.3, "worker_timeout_s": 1.0}
     with running_daemon(config, rig, **settings) as endpoints:
         spec = json.dumps(endpoints.__dict__)
-        dying = _spawn("tests.rig.daemon.worker_proc", spec, "dying", "--die-after", "3")
-        steady = _spawn("tests.rig.daemon.worker_proc", spec, "steady")
+        dying = _spawn("tests.orchestrator.daemon.worker_proc", spec, "dying", "--die-after", "3")
+        steady = _spawn("tests.orchestrator.daemon.worker_proc", spec, "steady")
         try:
             with DaemonClient(endpoints) as client:
                 deadline = time.monotonic() + 20
@@ -67,7 +67,7 @@ def test_a_worker_killed_mid_stream_loses_no_frame(config, rig, tmp_path):
 
 def test_daemon_killed_mid_session_resumes_without_loss_or_repeat(config, tmp_path):
     path = tmp_path / "k.zarr"
-    daemon = _spawn("tests.rig.daemon.soft_daemon", "--delay", "0.01")
+    daemon = _spawn("tests.orchestrator.daemon.soft_daemon", "--delay", "0.01")
     try:
         endpoints = Endpoints(**json.loads(daemon.stdout.readline()))
         with DaemonClient(endpoints) as client:
@@ -83,7 +83,7 @@ def test_daemon_killed_mid_session_resumes_without_loss_or_repeat(config, tmp_pa
         before = archive.committed_steps()
     steps = len(compile_plan(parse_plan(LAMP_PLAN), config).steps)
     assert 4 <= len(before) < steps
-    again = _spawn("tests.rig.daemon.soft_daemon")
+    again = _spawn("tests.orchestrator.daemon.soft_daemon")
     try:
         endpoints = Endpoints(**json.loads(again.stdout.readline()))
         with DaemonClient(endpoints) as client:

@@ -29,13 +29,13 @@ from typing import Literal, Protocol
 import numpy as np
 
 from drivers.errors import DeviceError
+from orchestrator.daemon.devices import Captured, DeviceSet
+from orchestrator.daemon.protocol import ArraySpec, FrameHeader
+from orchestrator.daemon.state import IllegalTransition, SessionEvent, SessionState, StateMachine
 from rig.archive import Archive, ArchiveError, FrameFormat, FrameRecord, StepRecord
 from rig.calfile import load_calibration
 from rig.clock import Clock
 from rig.config import RigConfig
-from rig.daemon.devices import Captured, DeviceSet
-from rig.daemon.protocol import ArraySpec, FrameHeader
-from rig.daemon.state import IllegalTransition, SessionEvent, SessionState, StateMachine
 from rig.errors import RigError
 from rig.kinematics import forward
 from rig.plan import Plan, parse_plan

@@ -22,11 +22,9 @@ from pathlib import Path
 import numpy as np
 import zmq
 
-from rig.clock import Clock, RealClock
-from rig.config import RigConfig
-from rig.daemon.devices import build_devices
-from rig.daemon.endpoints import DaemonSettings, Endpoints
-from rig.daemon.protocol import (
+from orchestrator.daemon.devices import build_devices
+from orchestrator.daemon.endpoints import DaemonSettings, Endpoints
+from orchestrator.daemon.protocol import (
     MAX_CONTROL_BYTES,
     MAX_FRAME_BYTES,
     FrameHeader,
@@ -40,9 +38,11 @@ from rig.daemon.protocol import (
     parse_request,
     request_id,
 )
-from rig.daemon.session import DeviceFactory, Session
-from rig.daemon.state import IllegalTransition, SessionEvent, StateMachine, allowed_events
-from rig.daemon.stream import FrameLedger, InFlight
+from orchestrator.daemon.session import DeviceFactory, Session
+from orchestrator.daemon.state import IllegalTransition, SessionEvent, StateMachine, allowed_events
+from orchestrator.daemon.stream import FrameLedger, InFlight
+from rig.clock import Clock, RealClock
+from rig.config import RigConfig
 from rig.errors import PlanError, RigError
 
 __all__ = ["Daemon"]

@@ -4,7 +4,7 @@ import threading
 
 import pytest
 
-from rig.daemon.state import (
+from orchestrator.daemon.state import (
     TRANSITIONS,
     IllegalTransition,
     SessionEvent,

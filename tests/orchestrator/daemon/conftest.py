@@ -7,11 +7,11 @@ from contextlib import contextmanager
 
 import pytest
 
+from orchestrator.daemon import Daemon, DaemonSettings
+from orchestrator.worker import run_worker
 from rig.clock import VirtualClock
 from rig.config import default_rig_config
-from rig.daemon import Daemon, DaemonSettings
-from rig.worker import run_worker
-from tests.rig.daemon.soft import SoftRig, soft_devices
+from tests.orchestrator.daemon.soft import SoftRig, soft_devices
 
 TINY_PLAN = """
 [sample]
