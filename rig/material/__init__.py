@@ -13,6 +13,8 @@ from rig.material._btf import BtfGroup, btf_from_arrays, btf_to_arrays, read_btf
 from rig.material._btf_model import CompressedBTF, GlobalSVD, check_directions
 from rig.material._errors import MaterialError
 from rig.material._export import export_material
+from rig.material._flatfield import FlatFieldMaps, read_flat_field, write_flat_field
+from rig.material._live import LiveResults, read_live, write_live
 from rig.material._material import Material, read_material
 from rig.material._mdf import UNSEEN, Mdf, read_mdf, write_mdf
 from rig.material._ps import PsView, read_ps, write_ps
@@ -21,7 +23,9 @@ __all__ = [
     "UNSEEN",
     "BtfGroup",
     "CompressedBTF",
+    "FlatFieldMaps",
     "GlobalSVD",
+    "LiveResults",
     "Material",
     "MaterialError",
     "Mdf",
@@ -31,10 +35,14 @@ __all__ = [
     "check_directions",
     "export_material",
     "read_btf",
+    "read_flat_field",
+    "read_live",
     "read_material",
     "read_mdf",
     "read_ps",
     "write_btf",
+    "write_flat_field",
+    "write_live",
     "write_mdf",
     "write_ps",
 ]

@@ -8,6 +8,7 @@ camera, the steps…). Version 0 is the layout written before the group carried
 
 from __future__ import annotations
 
+import re
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any
@@ -30,6 +31,7 @@ VERSION = 1
 _ARRAYS = ("normals", "albedo", "valid", "reason", "height_mm")
 #: how far from 1 a valid texel's normal may be (float32 storage of a unit vector)
 _UNIT_TOL = 1e-3
+_NAME = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_.\-]*")
 
 
 @dataclass(frozen=True)
@@ -82,14 +84,21 @@ def write_ps(group, views: Sequence[PsView], *, attrs: dict[str, Any] | None = N
     if len(sizes) != 1:
         raise MaterialError(f"ps: the views use different texel grids N = {sorted(sizes)}")
     names = [v.name for v in views]
+    for name in names:
+        if not isinstance(name, str) or not _NAME.fullmatch(name):
+            raise MaterialError(
+                f"ps view name {name!r}: use letters, digits, '_', '-' and '.', "
+                "starting with a letter, digit or '_'"
+            )
     if len(set(names)) != len(names):
         raise MaterialError(f"ps: view names repeat: {sorted(names)}")
     for view in views:
-        arrays = _checked(_arrays_of(view), where=f"ps view {view.name!r}")
+        where = f"ps view {view.name!r}"
+        arrays = _checked(_arrays_of(view), where=where)
+        view_deg = _view_deg(view.view_deg, where=where)
         sub = group.create_group(view.name)
         write_arrays(sub, arrays)
-        view_deg = None if view.view_deg is None else [float(a) for a in view.view_deg]
-        sub.attrs.update({**view.attrs, "view_deg": view_deg})
+        sub.attrs.update({**view.attrs, "view_deg": None if view_deg is None else list(view_deg)})
     group.attrs.update({**(attrs or {}), **format_attrs("ps", VERSION), "size": sizes.pop()})
 
 

@@ -43,7 +43,7 @@ def svd_model(seed: int = 1, c: int = 2) -> GlobalSVD:
 
 def ps_view(name: str, view_deg=(0.0, 0.0), seed: int = 2) -> PsView:
     rng = np.random.default_rng(seed)
-    normals = rng.normal(0, 0.2, (N, N, 3)) + [0, 0, 1]
+    normals = rng.normal(0, 0.2, (N, N, 3)) + np.array([0.0, 0.0, 1.0])
     normals /= np.linalg.norm(normals, axis=-1, keepdims=True)
     valid = rng.uniform(size=(N, N)) > 0.2
     return PsView(
