@@ -12,6 +12,7 @@ import os
 import shutil
 from pathlib import Path
 
+from rig.archive import Archive, ArchiveError, software_versions
 from rig.material._errors import MaterialError
 from rig.material._material import GROUPS, STORE_FORMAT, archive_provenance, read_material
 
@@ -35,8 +36,6 @@ def export_material(archive_path: str | os.PathLike, out_path: str | os.PathLike
         readable material, or a group is malformed.
     """
     import zarr
-
-    from rig.archive import Archive, ArchiveError, software_versions
 
     source, out = Path(archive_path), Path(out_path)
     if out.exists() or out.is_symlink():

@@ -11,6 +11,7 @@ from typing import Any
 
 import numpy as np
 
+from rig.archive import Archive
 from rig.config import Holder, RigConfig
 from rig.errors import RigError
 from rig.geometry import direction_angles
@@ -106,8 +107,6 @@ def read_material(path: str | os.PathLike) -> Material:
         provenance = dict(attrs.get("provenance", {}))
         return _material(path, root, float(sample_mm), provenance, where=str(path))
     if "btfrig_archive" in attrs:
-        from rig.archive import Archive
-
         with Archive.open(path, mode="r") as archive:
             holder, config = _holder_and_config(archive)
             return _material(
@@ -120,8 +119,8 @@ def read_material(path: str | os.PathLike) -> Material:
     )
 
 
-def archive_provenance(archive) -> dict[str, Any]:
-    """What a material from ``archive`` (a ``rig.archive.Archive``) owes to it."""
+def archive_provenance(archive: Archive) -> dict[str, Any]:
+    """What a material from ``archive`` owes to it (``provenance`` of :class:`Material`)."""
     calibration = archive.calibration
     sections = {
         key.removesuffix("_provenance"): value
@@ -155,7 +154,7 @@ def _root_attributes(path: Path) -> dict[str, Any]:
         raise MaterialError(f"{document}: not a readable zarr v3 group document ({err})") from err
 
 
-def _holder_and_config(archive) -> tuple[Holder, RigConfig | None]:
+def _holder_and_config(archive: Archive) -> tuple[Holder, RigConfig | None]:
     """The archive's sample holder and rig config (None when the stored config no
     longer validates: the holder alone then gives the sample's size)."""
     stored = archive.rig_config
