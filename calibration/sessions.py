@@ -44,6 +44,7 @@ from processing.offline import frame_camera
 from rig.archive import Archive
 from rig.calfile import CameraResult, LampResult, LaserResult
 from rig.config import RigConfig
+from rig.material import FlatFieldMaps
 
 __all__ = [
     "FlatFieldMaps",
@@ -209,16 +210,6 @@ class LampRun:
     rays: dict[str, int]
     skipped: dict[str, list[str]]
     flat_field: FlatFieldMaps | None = None
-
-
-@dataclass(frozen=True)
-class FlatFieldMaps:
-    """Each lamp's fall-off on the white target as ``camera`` sees it: ``falloff``
-    (L, H, W) float32, lamp ``lamps[i]``'s image over its value at the centre."""
-
-    camera: str
-    lamps: tuple[str, ...]
-    falloff: np.ndarray
 
 
 def calibrate_lamps(

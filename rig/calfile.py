@@ -125,7 +125,9 @@ class CalibrationFile(_Closed):
     lamps: dict[str, LampResult] = Field(default_factory=dict)
     lamps_provenance: Provenance | None = None
     lamps_flat_field: str | None = Field(
-        None, description="npz beside this file: each lamp's fall-off map (camera, lamps, falloff)"
+        None,
+        description="flat-field store beside this file: each lamp's fall-off map "
+        "(rig.material.read_flat_field)",
     )
     laser: dict[str, LaserResult] = Field(default_factory=dict, description="per laser mount")
     laser_provenance: Provenance | None = None

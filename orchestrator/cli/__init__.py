@@ -13,6 +13,7 @@ import typer
 from orchestrator.cli import (
     bench_cmd,
     calibrate_cmd,
+    export_cmd,
     pending,
     plan_cmd,
     process_cmd,
@@ -37,6 +38,7 @@ calibrate_cmd.register(app)
 pending.register(app)
 app.add_typer(sim_cmd.app, name="sim")
 app.add_typer(bench_cmd.app, name="bench")
+app.add_typer(export_cmd.app, name="export")
 
 
 def main() -> None:

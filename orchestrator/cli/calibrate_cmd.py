@@ -5,7 +5,6 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Annotated
 
-import numpy as np
 import typer
 
 from orchestrator.cli.common import (
@@ -205,6 +204,7 @@ def _response(source: Path, path: Path):
 def _lamps(source: Path, path: Path):
     from calibration.report import lamp_report, plot_lamps
     from calibration.sessions import calibrate_lamps
+    from rig.material import write_flat_field
 
     white = _white_archive(source)
     results, run, failed = calibrate_lamps(source, white if white.exists() else None)
@@ -214,9 +214,7 @@ def _lamps(source: Path, path: Path):
     console.print(f"plot: {plot_lamps(results, path.with_suffix('.lamps.png'))}")
     extra = {}
     if run.flat_field is not None:
-        maps = path.with_suffix(".flatfield.npz")
-        np.savez_compressed(maps, camera=run.flat_field.camera, lamps=list(run.flat_field.lamps),
-                            falloff=run.flat_field.falloff)  # fmt: skip
+        maps = write_flat_field(path.with_suffix(".flatfield.zarr"), run.flat_field)
         console.print(f"flat fields: {maps} (seen by {run.flat_field.camera})")
         extra = {"lamps_flat_field": maps.name}
     return results, failed, extra

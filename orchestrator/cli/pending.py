@@ -25,15 +25,6 @@ def register(app: typer.Typer) -> None:
         """Render a material on a mesh (headless PNG or a window)."""
         not_built("view", None, "the GL renderer")
 
-    @app.command("export")
-    def export_(
-        archive: Annotated[Path, typer.Argument(help="session archive")],
-        fmt: Annotated[str, typer.Option("--format", help="png16 | tiff | exr | ubo2003")],
-        out: Annotated[Path, typer.Option("--out", help="output folder")],
-    ) -> None:
-        """Write frames or the material in common formats."""
-        not_built("export", None, "exporters")
-
     @app.command("import")
     def import_(
         folder: Annotated[Path, typer.Argument(help="a Bonn UBO2003 folder")],

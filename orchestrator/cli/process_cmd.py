@@ -22,26 +22,25 @@ def write_ps_previews(archive_path: Path, out: Path) -> list[Path]:
 
     from processing.photometric import albedo_preview, hillshade_preview, normal_map_preview
     from rig.archive import Archive
+    from rig.material import read_ps
 
     out.mkdir(parents=True, exist_ok=True)
     written = []
     with Archive.open(archive_path, mode="r") as archive:
-        group = archive.material["ps"]
+        views = read_ps(archive.material["ps"], where=f"{archive_path}/material/ps")
         sample_mm = archive.rig_config["holder"]["sample_mm"]
-        for name in sorted(group):
-            view = group[name]
-            valid = view["valid"][:]
-            height = view["height_mm"][:]
-            images = {
-                "normals": normal_map_preview(view["normals"][:]),
-                "albedo": albedo_preview(view["albedo"][:], valid=valid),
-                "height": hillshade_preview(height, pitch_mm=sample_mm / height.shape[0]),
-            }
-            for kind, image in images.items():
-                path = out / f"{name}_{kind}.png"
-                bgr = image[..., ::-1] if image.ndim == 3 else image
-                cv2.imwrite(str(path), np.ascontiguousarray(bgr))
-                written.append(path)
+    for name, view in views.items():
+        pitch_mm = sample_mm / view.size
+        images = {
+            "normals": normal_map_preview(view.normals),
+            "albedo": albedo_preview(view.albedo, valid=view.valid),
+            "height": hillshade_preview(view.height_mm, pitch_mm=pitch_mm),
+        }
+        for kind, image in images.items():
+            path = out / f"{name}_{kind}.png"
+            bgr = image[..., ::-1] if image.ndim == 3 else image
+            cv2.imwrite(str(path), np.ascontiguousarray(bgr))
+            written.append(path)
     return written
 
 
@@ -52,13 +51,14 @@ def write_mdf_previews(archive_path: Path, out: Path) -> list[Path]:
     import numpy as np
 
     from rig.archive import Archive
+    from rig.material import read_mdf
 
     out.mkdir(parents=True, exist_ok=True)
     written = []
     with Archive.open(archive_path, mode="r") as archive:
-        group = archive.material["mdf"]
-        distance = group["distance_mm"][:]
-        names = group.attrs["views"]
+        mdf = read_mdf(archive.material["mdf"], where=f"{archive_path}/material/mdf")
+    distance = mdf.distance_mm
+    names = mdf.attrs.get("views") or [f"view{v}" for v in range(len(distance))]
     seen = distance >= 0
     top = float(np.percentile(distance[seen], 99)) if seen.any() else 1.0  # outliers clip
     for name, d, s in zip(names, distance, seen, strict=True):

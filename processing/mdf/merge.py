@@ -22,6 +22,7 @@ from processing.mdf._reason import Reason
 from processing.mdf.displacement import ScanDisplacement
 from rig.camera import PinholeCamera
 from rig.geometry import direction_angles
+from rig.material import Mdf
 
 __all__ = ["Mdf", "ViewDisplacement", "assemble_mdf", "merge_scans", "view_direction_deg"]
 
@@ -100,35 +101,8 @@ def view_direction_deg(camera: PinholeCamera) -> np.ndarray:
     return np.array([float(theta), float(phi)])
 
 
-@dataclass(frozen=True)
-class Mdf:
-    """The mesostructure distance function of a material, one slot per view.
-
-    Attributes
-    ----------
-    distance : (V, N, N) float32
-        D_v(x, y) in mm on the texel grid ``rig.geometry.texel_centers_mm``;
-        -1 where unseen.
-    reason : (V, N, N) uint8
-        :class:`~processing.mdf.Reason` per texel.
-    count : (V, N, N) uint8
-        Laser locations that contributed.
-    view_dirs_deg : (V, 2) float32
-        (θ, φ) of each view slot, sample frame.
-    """
-
-    distance: np.ndarray
-    reason: np.ndarray
-    count: np.ndarray
-    view_dirs_deg: np.ndarray
-
-    def coverage(self) -> np.ndarray:
-        """(V,) float64: fraction of texels with a value, per view."""
-        return (self.distance >= 0).mean(axis=(1, 2))
-
-
 def assemble_mdf(views: Sequence[ViewDisplacement], view_dirs_deg) -> Mdf:
-    """Stack merged views into an :class:`Mdf`.
+    """Stack merged views into the material's :class:`~rig.material.Mdf`.
 
     Parameters
     ----------
@@ -146,8 +120,8 @@ def assemble_mdf(views: Sequence[ViewDisplacement], view_dirs_deg) -> Mdf:
     if len(shapes) != 1:
         raise MdfError(f"assemble_mdf: the views use different texel grids {sorted(shapes)}")
     return Mdf(
-        distance=np.stack([v.distance for v in views]),
+        distance_mm=np.stack([v.distance for v in views]).astype(np.float32),
+        view_dirs_deg=dirs.astype(np.float32),
         reason=np.stack([v.reason for v in views]),
         count=np.stack([v.count for v in views]),
-        view_dirs_deg=dirs.astype(np.float32),
     )

@@ -13,7 +13,7 @@ calibration (``rig calibrate laser``) measured against the model, if it has one.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -30,6 +30,7 @@ from rig.archive import Archive
 from rig.config import RigConfig
 from rig.geometry import texel_centers_mm
 from rig.kinematics import laser_plane, laser_source_mm
+from rig.material import write_mdf
 
 __all__ = ["MdfStage"]
 
@@ -82,15 +83,12 @@ class MdfStage:
     def write(self, group, archive: Archive, results) -> dict:
         results = sorted(results, key=lambda r: r["view"].name)
         mdf = assemble_mdf([r["merged"] for r in results], [r["view_deg"] for r in results])
-        group.create_array("distance_mm", data=mdf.distance.astype(np.float32))
-        group.create_array("reason", data=mdf.reason)
-        group.create_array("count", data=mdf.count)
-        group.create_array("view_dirs_deg", data=mdf.view_dirs_deg)
-        group.attrs.update(
-            stage="mdf", size=self.size, peak=self.peak, unseen=-1.0,
-            views=[r["view"].name for r in results], grid="rig.geometry.texel_centers_mm",
-        )  # fmt: skip
-        seen = float(np.mean(mdf.distance >= 0))
+        attrs = {
+            "stage": "mdf", "peak": self.peak, "views": [r["view"].name for r in results],
+            "grid": "rig.geometry.texel_centers_mm",
+        }  # fmt: skip
+        write_mdf(group, replace(mdf, attrs=attrs))
+        seen = float(np.mean(mdf.distance_mm >= 0))
         return {"views": len(results), "seen_fraction": seen}
 
 

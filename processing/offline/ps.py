@@ -30,8 +30,9 @@ from processing.photometric import (
 from processing.registration import register_capture
 from rig.archive import Archive
 from rig.config import RigConfig
-from rig.geometry import direction_vector
+from rig.geometry import direction_angles, direction_vector
 from rig.kinematics import lamp_position_mm
+from rig.material import PsView, write_ps
 
 __all__ = ["PsStage"]
 
@@ -79,8 +80,10 @@ class PsStage:
             usable = valid if usable is None else usable & valid
             lamps.append(step)
         sample_mm = config.holder.sample_mm
+        theta, phi = direction_angles(lens.center)
+        view_deg = (float(theta), float(phi))
         if len(images) < 3:
-            return _empty(item, self.size, registered, len(steps))
+            return _empty(item, self.size, registered, len(steps), view_deg)
         stack = np.stack(images)
         # Clipped observations: one above any real value, so the solver's saturation
         # test drops exactly them.
@@ -107,27 +110,32 @@ class PsStage:
             "valid": result.valid,
             "reason": result.reason,
             "height_mm": height.height_mm,
+            "view_deg": view_deg,
             "lamps": [s.lamp for s in lamps],
             "registered": registered,
             "frames": len(steps),
         }
 
     def write(self, group, archive: Archive, results) -> dict:
-        solved = 0
-        for r in results:
-            view: View = r["view"]
-            sub = group.create_group(view.name)
-            for key in ("normals", "albedo", "valid", "reason", "height_mm"):
-                sub.create_array(key, data=np.asarray(r[key]))
-            sub.attrs.update(
-                camera=view.camera, turntable_deg=view.turntable_deg, steps=list(view.steps),
-                lamps=r["lamps"], frames=r["frames"], registered=r["registered"],
-                size=self.size, method=self.method, grid="rig.geometry.texel_centers_mm",
-            )  # fmt: skip
-            solved += int(np.count_nonzero(r["valid"]))
-        group.attrs.update(stage="ps", size=self.size, method=self.method)
+        views = [_ps_view(r, self) for r in results]
+        write_ps(group, views, attrs={"stage": "ps", "method": self.method})
+        solved = sum(int(np.count_nonzero(v.valid)) for v in views)
         texels = len(results) * self.size**2
         return {"views": len(results), "valid_fraction": solved / texels if texels else 0.0}
+
+
+def _ps_view(result: dict, stage: PsStage) -> PsView:
+    view: View = result["view"]
+    return PsView(
+        view.name, result["normals"], result["albedo"], result["valid"], result["reason"],
+        result["height_mm"], view_deg=result["view_deg"],
+        attrs={
+            "camera": view.camera, "turntable_deg": view.turntable_deg, "steps": list(view.steps),
+            "lamps": result["lamps"], "frames": result["frames"],
+            "registered": result["registered"], "method": stage.method,
+            "grid": "rig.geometry.texel_centers_mm",
+        },
+    )  # fmt: skip
 
 
 def _lights(config: RigConfig, steps) -> NearLights | DistantLights:
@@ -142,7 +150,7 @@ def _lights(config: RigConfig, steps) -> NearLights | DistantLights:
     return NearLights(np.array(positions), intensities)
 
 
-def _empty(item: View, n: int, registered: int, frames: int) -> dict:
+def _empty(item: View, n: int, registered: int, frames: int, view_deg) -> dict:
     """Fewer than three registered lamps: nothing solvable, every texel flagged."""
     return {
         "view": item,
@@ -151,6 +159,7 @@ def _empty(item: View, n: int, registered: int, frames: int) -> dict:
         "valid": np.zeros((n, n), bool),
         "reason": np.full((n, n), Reason.TOO_FEW_LIGHTS, np.uint8),
         "height_mm": np.zeros((n, n), np.float32),
+        "view_deg": view_deg,
         "lamps": [],
         "registered": registered,
         "frames": frames,

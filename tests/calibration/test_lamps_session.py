@@ -11,6 +11,7 @@ from rig.calfile import load_calibration
 from rig.config import RigConfig, default_rig_config, write_rig_config
 from rig.geometry import angular_distance_deg
 from rig.kinematics import lamp_position_mm
+from rig.material import read_flat_field
 
 LAMPS = (
     {"id": "sun45", "theta_deg": 45.0, "kind": "directional", "intensity": 1.0},
@@ -61,8 +62,8 @@ def test_near_lamp_intensities(calibrated):
 def test_flat_field_maps_are_written_beside_the_file(calibrated):
     _, cal, _, path = calibrated
     assert cal.lamps_flat_field is not None
-    with np.load(path.parent / cal.lamps_flat_field) as data:
-        falloff, lamps = data["falloff"], list(data["lamps"])
+    maps = read_flat_field(path.parent / cal.lamps_flat_field)
+    falloff, lamps = maps.falloff, list(maps.lamps)
     assert sorted(lamps) == sorted(lamp["id"] for lamp in LAMPS)
     height, width = falloff.shape[1:]
     assert np.all(np.isfinite(falloff))

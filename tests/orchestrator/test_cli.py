@@ -52,7 +52,7 @@ def test_bad_plan_exits_2_with_field_names(tmp_path):
 
 
 @pytest.mark.parametrize(
-    "args", [["view", "m.zarr"], ["export", "s.zarr", "--format", "png16", "--out", "x"]]
+    "args", [["view", "m.zarr"], ["export", "png16", "s.zarr", "--out", "x"]]
 )
 def test_unbuilt_commands_say_so_and_fail(args):
     result = runner.invoke(app, args)

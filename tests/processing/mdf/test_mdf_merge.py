@@ -50,7 +50,7 @@ def test_assembled_mdf():
         merge_scans([image([[3.0, 4.0]], [[OK, OK]], 1.0)]),
     ]
     mdf = assemble_mdf(views, [[0.0, 0.0], [30.0, 90.0]])
-    assert mdf.distance.shape == (2, 1, 2) and mdf.distance.dtype == np.float32
+    assert mdf.distance_mm.shape == (2, 1, 2) and mdf.distance_mm.dtype == np.float32
     assert mdf.reason.dtype == np.uint8 and mdf.count.dtype == np.uint8
     np.testing.assert_allclose(mdf.coverage(), [0.5, 1.0])
     assert mdf.view_dirs_deg.dtype == np.float32
