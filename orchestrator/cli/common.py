@@ -9,6 +9,7 @@ from pathlib import Path
 
 import typer
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
 from rig.config import RigConfig, default_rig_config, load_rig_config
@@ -18,6 +19,7 @@ __all__ = [
     "EXIT_FAILURE",
     "EXIT_INVALID",
     "EXIT_NOT_BUILT",
+    "OPTIONAL_EXTRAS",
     "SessionProgress",
     "console",
     "load_config_option",
@@ -33,12 +35,39 @@ EXIT_FAILURE = 1
 EXIT_INVALID = 2
 EXIT_NOT_BUILT = 3
 
+# The optional packages a command may need, by top-level module, and the extra that installs them.
+OPTIONAL_EXTRAS = {
+    "distributed": "dask",
+    "dask": "dask",
+    "pyrender": "sim",
+    "trimesh": "sim",
+    "embreex": "sim",
+    "rtree": "sim",
+    "moderngl": "render",
+    "mitsuba": "reference",
+    "harvesters": "genicam",
+    "genicam": "genicam",
+}
+
 
 @contextmanager
 def reporting_errors() -> Iterator[None]:
-    """Turn domain errors into a readable message and the right exit code."""
+    """Turn domain errors into a readable message and the right exit code.
+
+    A missing optional package is a failure (exit 1) that names the extra to install.
+    """
     try:
         yield
+    except ModuleNotFoundError as err:
+        extra = OPTIONAL_EXTRAS.get((err.name or "").split(".")[0])
+        if extra is None:
+            raise
+        advice = f"install btfrig[{extra}] (pip install 'btfrig[{extra}]')"
+        err_console.print(
+            f"[red]error:[/red] this command needs the optional package {err.name!r}: "
+            + escape(advice)
+        )
+        raise typer.Exit(EXIT_FAILURE) from err
     except (PlanError, ConfigError) as err:
         err_console.print(f"[red]error:[/red] {err}")
         raise typer.Exit(EXIT_INVALID) from err

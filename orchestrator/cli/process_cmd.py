@@ -98,14 +98,14 @@ def register(app: typer.Typer) -> None:
         height on the sample's texel grid, with preview PNGs); btf (registered
         normtextures of every view slot, compressed by per-view PCA, --components).
         """
-        import distributed  # noqa: F401  (configures its loggers on import)
-
         from processing.offline import STAGES, run_stages
 
-        for name in list(logging.root.manager.loggerDict):
-            if name.split(".")[0] == "distributed":  # its INFO lines are for its developers
-                logging.getLogger(name).setLevel(logging.WARNING)
         with reporting_errors():
+            import distributed  # noqa: F401  (configures its loggers on import)
+
+            for name in list(logging.root.manager.loggerDict):
+                if name.split(".")[0] == "distributed":  # its INFO lines are for its developers
+                    logging.getLogger(name).setLevel(logging.WARNING)
             names = [s.strip() for s in stages.split(",") if s.strip()]
             unknown = [n for n in names if n not in STAGES]
             if unknown or not names:

@@ -82,9 +82,10 @@ def serve(
     """
     from rig.clock import RealClock, ScaledClock
     from rig.config import write_rig_config
-    from sim.rig import SimulatedRig
 
     with reporting_errors():
+        from sim.rig import SimulatedRig
+
         if transport not in ("tcp", "rtu"):
             raise ConfigError(f"--transport {transport!r}: valid are 'tcp' and 'rtu'")
         mode: Literal["tcp", "rtu"] = "tcp" if transport == "tcp" else "rtu"
@@ -123,9 +124,9 @@ def render(
     Writes one image per camera × lamp, a laser frame, and the true normals,
     height and albedo maps.
     """
-    from sim.preview import write_preview
-
     with reporting_errors():
+        from sim.preview import write_preview
+
         written = write_preview(scene, out, cameras=cameras, lamps=lamps)
     for path in written:
         console.print(f"wrote {path}")

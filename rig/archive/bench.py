@@ -32,11 +32,19 @@ import numpy as np
 
 from rig.archive._records import FrameFormat, StepRecord
 from rig.archive.archive import Archive
+from rig.config import RigConfig, default_rig_config
 
-__all__ = ["TARGET_MB_S", "frame_pool", "run_bench"]
+__all__ = ["TARGET_MB_S", "frame_pool", "laser_scan_mb_s", "run_bench"]
 
-#: 8 cameras × 7.5 Hz × 1024×768×3 bytes, in MB/s (10⁶ bytes).
-TARGET_MB_S = 8 * 7.5 * 1024 * 768 * 3 / 1e6
+
+def laser_scan_mb_s(config: RigConfig) -> float:
+    """Raw pixel rate (MB/s, 10⁶ bytes) of every camera of ``config`` at the laser-scan rate."""
+    frame_bytes = sum(c.width * c.height * c.channels for c in config.camera_arc.cameras)
+    return frame_bytes * config.laser.frame_rate_hz / 1e6
+
+
+#: The default (seed) rig's laser scan: 8 cameras × 7.5 Hz × 1024×768×3 bytes.
+TARGET_MB_S = laser_scan_mb_s(default_rig_config())
 
 
 def frame_pool(content: str, *, cameras: int, height: int, width: int) -> list[np.ndarray]:

@@ -11,11 +11,12 @@ import numpy as np
 import pytest
 
 from orchestrator.daemon import run_local
-from processing.offline import PsStage, View, run_stages
+from processing.live import LIVE_SIZE
 from processing.registration import register_frame
 from rig.archive import Archive
 from rig.clock import VirtualClock
 from rig.config import RigConfig
+from sim import Simulator
 from sim.rig import SimulatedRig
 from sim.scene import scene_from_dict
 
@@ -36,6 +37,9 @@ exposure_s = 0.05
 """
 
 
+truth: dict[str, np.ndarray] = {}
+
+
 @pytest.fixture(scope="module")
 def session(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("live")
@@ -45,7 +49,10 @@ def session(tmp_path_factory):
     data["laser"] = {"power_w": 0.1}
     (tmp / "plan.toml").write_text(PLAN)
     clock = VirtualClock()
-    with SimulatedRig(scene_from_dict(data), clock=clock) as sim:
+    scene = scene_from_dict(data)
+    with Simulator(scene) as sim:
+        truth["normals"] = sim.texel_truth(LIVE_SIZE).normals  # ray cast, independent of PS
+    with SimulatedRig(scene, clock=clock) as sim:
         final = run_local(
             tmp / "plan.toml", sim.rig_config(), archive=tmp / "s.zarr", clock=clock,
             workers=2, stages="stats,register,laser,ps",
@@ -87,17 +94,14 @@ def test_live_laser_lines_are_found_while_scanning(session):
     assert (reasons == 0).mean() > 0.5  # the sheet is on the plate in most of the sweep
 
 
-def test_live_ps_view_is_the_offline_solve(session):
+def test_live_ps_view_matches_the_ray_cast_truth(session):
     with Archive.open(session) as arch:
         live = arch.material["live/ps/cam0"]
-        normals = live["normals"][0]
-        ps_steps = tuple(s.index for s in arch.step_table() if s.kind == "ps")
-    offline = PsStage(size=normals.shape[0]).compute(
-        str(session), View("cam0_tt000.0", "cam0", 0.0, ps_steps)
-    )
-    np.testing.assert_allclose(normals, offline["normals"], atol=1e-5)
-    (run,) = run_stages(session, [PsStage(size=normals.shape[0])])
-    assert run.summary["valid_fraction"] > 0.95
+        normals, valid = live["normals"][0], live["valid"][0]
+    assert valid.mean() > 0.95
+    cos = np.clip(np.sum(normals * truth["normals"], axis=-1), -1.0, 1.0)
+    error_deg = np.degrees(np.arccos(cos))[valid]
+    assert error_deg.mean() < 1.0 and np.percentile(error_deg, 95) < 2.0  # measured 0.44°, 0.77°
 
 
 def test_a_failing_stage_is_reported_and_the_frame_still_acknowledged():

@@ -1,3 +1,4 @@
+import sys
 from pathlib import Path
 
 import pytest
@@ -110,3 +111,21 @@ def test_process_of_a_missing_archive_names_it(tmp_path):
     result = runner.invoke(app, ["process", str(tmp_path / "nowhere.zarr")])
     assert result.exit_code == 1
     assert "nowhere.zarr" in result.output and "no archive here" in result.output
+
+
+def test_process_without_dask_names_the_extra(tmp_path, monkeypatch):
+    monkeypatch.setitem(sys.modules, "distributed", None)  # as if btfrig[dask] were not installed
+    result = runner.invoke(app, ["process", str(tmp_path / "s.zarr")])
+    assert result.exit_code == 1, result.output
+    assert "btfrig[dask]" in result.output
+    assert "Traceback" not in result.output
+
+
+def test_sim_render_without_the_simulator_names_the_extra(tmp_path, monkeypatch):
+    for name in [m for m in sys.modules if m == "sim" or m.startswith("sim.")]:
+        monkeypatch.delitem(sys.modules, name)  # so the simulator is imported afresh
+    monkeypatch.setitem(sys.modules, "trimesh", None)
+    args = ["sim", "render", "examples/scenes/bumps.toml", "--out", str(tmp_path)]
+    result = runner.invoke(app, args)
+    assert result.exit_code == 1, result.output
+    assert "btfrig[sim]" in result.output

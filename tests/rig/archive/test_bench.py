@@ -3,13 +3,28 @@
 import itertools
 
 import numpy as np
+import pytest
 
 from rig.archive import Archive, FrameFormat, StepRecord
-from rig.archive.bench import TARGET_MB_S, frame_pool, run_bench
+from rig.archive.bench import TARGET_MB_S, frame_pool, laser_scan_mb_s, run_bench
+from rig.config import default_rig_config
 
 
 def test_target_rate_is_the_seed_laser_scan():
-    assert abs(TARGET_MB_S - 141.56) < 0.01  # 8 cameras × 7.5 Hz × 1024×768×3 B
+    # seed 001: 8 cameras of 1024×768 RGB at 7.5 Hz while scanning = 141.56 MB/s
+    assert laser_scan_mb_s(default_rig_config()) == pytest.approx(141.557760)
+    assert round(TARGET_MB_S, 6) == 141.55776  # the target the bench rows are fractions of
+
+
+def test_scan_rate_follows_the_cameras_and_the_frame_rate():
+    config = default_rig_config()
+    cameras = config.camera_arc.cameras
+    grey = cameras[0].model_copy(update={"channels": 1, "width": 640, "height": 480})
+    arc = config.camera_arc.model_copy(update={"cameras": [grey, *cameras[1:4]]})
+    laser = config.laser.model_copy(update={"frame_rate_hz": 15.0})
+    smaller = config.model_copy(update={"camera_arc": arc, "laser": laser})
+    expected = (640 * 480 + 3 * 1024 * 768 * 3) * 15.0 / 1e6
+    assert laser_scan_mb_s(smaller) == pytest.approx(expected)
 
 
 def test_append_step(benchmark, tmp_path):
