@@ -3,7 +3,7 @@ event log of one measurement session in a Zarr v3 directory, appended step by
 step with crash-consistent commits (see ``docs/archive.md``).
 """
 
-from rig.archive._errors import ArchiveError, StepAlreadyCommitted
+from rig.archive._errors import ArchiveDamaged, ArchiveError, ArchiveFull, StepAlreadyCommitted
 from rig.archive._index import FRAME_TABLE_DTYPE
 from rig.archive._records import (
     FRAME_DTYPES,
@@ -21,7 +21,9 @@ __all__ = [
     "FRAME_DTYPES",
     "FRAME_TABLE_DTYPE",
     "Archive",
+    "ArchiveDamaged",
     "ArchiveError",
+    "ArchiveFull",
     "Event",
     "FrameFormat",
     "FrameInfo",

@@ -20,7 +20,6 @@ from __future__ import annotations
 
 import contextlib
 import fcntl
-import logging
 import os
 import shutil
 import time
@@ -31,18 +30,21 @@ from typing import Any
 
 import numpy as np
 
-from rig.archive._errors import ArchiveError
-from rig.archive._frames import FrameArray
+from rig.archive._errors import ArchiveDamaged, ArchiveError, os_failure
+from rig.archive._frames import FrameArray, chunk_record
 from rig.archive._index import FRAME_TABLE_DTYPE, SessionIndex
 from rig.archive._journal import Journal, read_journal
-from rig.archive._material import check_result_name, recover_material, replace_result
+from rig.archive._material import replace_result
+from rig.archive._quarantine import Quarantine
 from rig.archive._records import Event, FrameFormat, FrameInfo, FrameRecord, StepRecord, json_safe
+from rig.archive._recovery import check_chunks, check_mirror, recover
 from rig.archive._store import (
     array_document,
     check_array_document,
+    check_name,
     fsync_dir,
     group_document,
-    log_document,
+    hidden_node_document,
     read_document,
     write_atomic,
 )
@@ -50,7 +52,6 @@ from rig.archive._versions import software_versions
 
 __all__ = ["FORMAT_VERSION", "Archive"]
 
-log = logging.getLogger(__name__)
 
 #: Version of the archive layout written by this code.
 FORMAT_VERSION = 1
@@ -60,6 +61,10 @@ _JOURNAL = "log/journal.jsonl"
 _LOCK = "log/writer.lock"
 _RESERVED_KINDS = frozenset({"created", "opened", "closed", "step", "calibration", "material"})
 _MIN_CAPACITY = 64
+_LOG_DESCRIPTION = (
+    "no data: the archive's append-only event log is the JSON-lines file "
+    "log/journal.jsonl (see btfrig docs/archive.md)"
+)
 
 
 class Archive:
@@ -119,8 +124,7 @@ class Archive:
         for name, fmt in cameras.items():
             if not isinstance(fmt, FrameFormat):
                 raise ArchiveError(f"{path}: cameras[{name!r}] is not a FrameFormat: {fmt!r}")
-            if len(check_result_name(name)) > 64:
-                raise ArchiveError(f"{path}: camera name {name!r} is longer than 64 characters")
+            check_name(name, what=f"{path}: camera name")
         if not (isinstance(zstd_level, int) and -7 <= zstd_level <= 22):
             raise ArchiveError(f"{path}: zstd_level = {zstd_level!r}, expected an int in -7..22")
         attributes = {
@@ -149,7 +153,7 @@ class Archive:
         (tmp / "material").mkdir()
         (tmp / "material" / "zarr.json").write_bytes(group_document())
         (tmp / "log").mkdir()
-        (tmp / "log" / "zarr.json").write_bytes(log_document())
+        (tmp / "log" / "zarr.json").write_bytes(hidden_node_document(_LOG_DESCRIPTION))
         (tmp / _JOURNAL).touch()
         (tmp / "zarr.json").write_bytes(group_document(attributes))
         # The directory appears under its name only when complete.
@@ -171,8 +175,9 @@ class Archive:
         """Open an existing archive, checking its structure.
 
         With ``mode="a"`` leftovers of a crash (an uncommitted step's chunks, a
-        torn journal line, an interrupted material replacement) are removed.
-        Raises ArchiveError naming what is damaged and where.
+        torn journal line, an interrupted material replacement) are moved into
+        ``quarantine/<UTC time>/``; ``recovered`` says what was set aside.
+        Raises ArchiveDamaged (an ArchiveError) naming what is damaged and where.
         """
         path = Path(path)
         if not path.is_dir():
@@ -212,7 +217,7 @@ class Archive:
         for group in ("frames", "calibration", "material"):
             read_document(self.path / group / "zarr.json", node_type="group")
         read_document(self.path / "log" / "zarr.json", node_type="array")
-        self.cameras = {n: FrameFormat.from_json(f) for n, f in attributes["cameras"].items()}
+        self.cameras = _cameras(self.path, attributes["cameras"])
         self._arrays: dict[str, FrameArray] = {}
         self._capacity: dict[str, int] = {}
         for name, fmt in self.cameras.items():
@@ -223,44 +228,22 @@ class Archive:
             self._arrays[name] = FrameArray(directory, name, fmt, level)
         contents = read_journal(self.path / _JOURNAL)
         self._index = SessionIndex(self.path, self.cameras, contents.events)
-        recovered = self._check_chunks()
+        leftovers = check_chunks(
+            self.path, self._arrays, self._index, journal_events=len(contents.events)
+        )
+        check_mirror(self.path, self._index)
+        self._events = list(contents.events)
+        #: What recovery set aside on this (writable) opening; also in the ``opened`` event.
+        self.recovered: dict[str, Any] = {}
         if self.mode == "a":
+            quarantine = Quarantine(self.path, fsync=self._fsync)
+            self.recovered = recover(self.path, self._arrays, leftovers, contents, quarantine)
             self._journal = Journal(self.path / _JOURNAL, contents, fsync=self._fsync)
-            self._events = list(contents.events)
-            if contents.torn_bytes:
-                recovered["torn_journal_bytes"] = contents.torn_bytes
-            material = recover_material(self.path / "material")
-            if material:
-                recovered["material"] = material
             self._mirror_calibration()
             kind = "created" if not self._events else "opened"
-            self._append_event(kind, {"software": software_versions(), "recovered": recovered})
-        else:
-            self._events = list(contents.events)
-
-    def _check_chunks(self) -> dict[str, Any]:
-        """Check every committed chunk is present and whole; drop leftovers in mode 'a'."""
-        recovered: dict[str, Any] = {}
-        for name, array in self._arrays.items():
-            sizes = array.chunk_sizes()
-            for info, nbytes in self._index.committed_chunks(name):
-                where = f"step {info.step}, camera {name!r}, sub {info.sub}"
-                size = sizes.get(info.position)
-                if size is None:
-                    raise ArchiveError(
-                        f"{where}: chunk file {array.path(info.position)} is missing"
-                    )
-                if size != nbytes:
-                    raise ArchiveError(
-                        f"{where}: chunk file {array.path(info.position)} has {size} bytes, "
-                        f"{nbytes} were committed (truncated or overwritten)"
-                    )
-            leftovers = sorted(p for p in sizes if p >= self._index.next_position[name])
-            if leftovers and self.mode == "a":
-                array.remove(leftovers)
-                recovered[f"uncommitted_chunks/{name}"] = len(leftovers)
-                log.warning("%s: removed %d uncommitted chunks", array.directory, len(leftovers))
-        return recovered
+            self._append_event(
+                kind, {"software": software_versions(), "recovered": self.recovered}
+            )
 
     # -- appending ------------------------------------------------------------------------
 
@@ -284,30 +267,51 @@ class Archive:
         self._index.check_new_step(step, records)
         jobs = []
         rows: dict[str, list[list]] = {}
+        counts = {camera: len(records[camera]) for camera in step.cameras}
         for camera in step.cameras:
             array = self._arrays[camera]
             start = self._index.next_position[camera]
-            self._ensure_capacity(camera, start + len(records[camera]))
             rows[camera] = []
             for position, record in enumerate(records[camera], start):
                 where = f"{self.path}: step {step.index}, camera {camera!r}, sub {record.sub}"
-                jobs.append((array, position, array.check_image(record.image, where=where)))
+                image = array.check_image(record.image, where=where)
                 row = [int(record.sub), float(record.exposure_s), float(record.timestamp)]
+                own = {"step": step.to_json(), "camera": camera, "frames": counts}
+                own.update(sub=row[0], exposure_s=row[1], timestamp=row[2], position=position)
+                jobs.append((array, position, image, chunk_record(own)))
                 rows[camera].append([*row, position])
-        sizes = self._executor().map(self._write_chunk, jobs)
-        for (array, position, _), nbytes in zip(jobs, sizes, strict=True):
-            rows[array.camera][position - self._index.next_position[array.camera]].append(nbytes)
-        if self._fsync:
-            for camera in step.cameras:
-                fsync_dir(self._arrays[camera].directory)
+        self._write_chunks(step, jobs, rows)
         committed = StepRecord.from_json({**step.to_json(), "committed_at": time.time()})
         event = self._append_event("step", {"step": committed.to_json(), "frames": rows})
         self._index.add_step(event)
         return committed
 
-    def _write_chunk(self, job: tuple[FrameArray, int, np.ndarray]) -> int:
-        array, position, image = job
-        return array.write(position, image, fsync=self._fsync)
+    def _write_chunks(self, step: StepRecord, jobs: list, rows: dict[str, list[list]]) -> None:
+        """Write (and ``fsync``) every chunk of ``step``; append each one's size to its row.
+
+        On a failure (a full disk) the chunk files written so far are removed:
+        they were never committed, and the retry needs their space.
+        """
+        try:
+            for camera, camera_rows in rows.items():
+                self._ensure_capacity(camera, camera_rows[-1][3] + 1)
+            sizes = list(self._executor().map(self._write_chunk, jobs))
+            if self._fsync:
+                for camera in step.cameras:
+                    fsync_dir(self._arrays[camera].directory)
+        except OSError as err:
+            for array, position, _, _ in jobs:
+                array.path(position).unlink(missing_ok=True)
+            needed = sum(array.format.nbytes for array, *_ in jobs)
+            raise os_failure(
+                err, self.path, doing=f"step {step.index}'s {len(jobs)} frames", needed_bytes=needed
+            ) from err
+        for (array, position, _, _), nbytes in zip(jobs, sizes, strict=True):
+            rows[array.camera][position - self._index.next_position[array.camera]].append(nbytes)
+
+    def _write_chunk(self, job: tuple[FrameArray, int, np.ndarray, bytes]) -> int:
+        array, position, image, record = job
+        return array.write(position, image, record, fsync=self._fsync)
 
     def _executor(self) -> ThreadPoolExecutor:
         if self._pool is None:
@@ -371,7 +375,7 @@ class Archive:
         import zarr
 
         self._check_writable()
-        check_result_name(name)
+        check_name(name, what="material result name")
         with replace_result(self.path / "material", name, fsync=self._fsync) as tmp:
             yield zarr.open_group(tmp, mode="w", zarr_format=3)
         self._append_event("material", {"name": name})
@@ -492,6 +496,24 @@ class Archive:
     def events(self, kind: str | None = None) -> list[Event]:
         """The event log (as of opening, plus this handle's appends), optionally one kind."""
         return [e for e in self._events if kind is None or e.kind == kind]
+
+
+def _cameras(path: Path, attribute: Any) -> dict[str, FrameFormat]:
+    """The root attribute ``cameras``, checked: its names become folders under frames/."""
+    where = f"{path / 'zarr.json'}: attribute cameras"
+    if not isinstance(attribute, dict) or not attribute:
+        raise ArchiveDamaged(f"{where} = {attribute!r}: expected {{name: frame format}}, ≥ 1")
+    cameras = {}
+    for name, fmt in attribute.items():
+        try:
+            check_name(name, what=f"{where}: camera name")
+        except ArchiveError as err:
+            raise ArchiveDamaged(f"{err}; the archive is damaged or was crafted") from err
+        try:
+            cameras[name] = FrameFormat.from_json(fmt)
+        except (ArchiveError, KeyError, TypeError) as err:
+            raise ArchiveDamaged(f"{where}[{name!r}] = {fmt!r}: {err}") from err
+    return cameras
 
 
 def _as_record(frame, i: int, step: StepRecord, now: float) -> FrameRecord:
