@@ -19,7 +19,6 @@ visible or none of it.
 from __future__ import annotations
 
 import contextlib
-import fcntl
 import os
 import shutil
 import time
@@ -30,41 +29,25 @@ from typing import Any
 
 import numpy as np
 
-from rig.archive._errors import ArchiveDamaged, ArchiveError, os_failure
+from rig.archive._errors import ArchiveError, os_failure
 from rig.archive._frames import FrameArray, chunk_record
 from rig.archive._index import FRAME_TABLE_DTYPE, SessionIndex
 from rig.archive._journal import Journal, read_journal
+from rig.archive._layout import FORMAT_VERSION, JOURNAL, lock_writer, read_layout, write_layout
 from rig.archive._material import replace_result
 from rig.archive._quarantine import Quarantine
 from rig.archive._records import Event, FrameFormat, FrameInfo, FrameRecord, StepRecord, json_safe
 from rig.archive._recovery import check_chunks, check_mirror, recover
-from rig.archive._store import (
-    array_document,
-    check_array_document,
-    check_name,
-    fsync_dir,
-    group_document,
-    hidden_node_document,
-    read_document,
-    write_atomic,
-)
+from rig.archive._store import array_document, check_name, fsync_dir, group_document, write_atomic
 from rig.archive._versions import software_versions
 
 __all__ = ["FORMAT_VERSION", "Archive"]
 
 
-#: Version of the archive layout written by this code.
-FORMAT_VERSION = 1
-# The journal and the writer lock sit inside the ``log`` node, an empty zarr
-# array: zarr never lists inside an array, so zarr readers see no stray files.
-_JOURNAL = "log/journal.jsonl"
-_LOCK = "log/writer.lock"
-_RESERVED_KINDS = frozenset({"created", "opened", "closed", "step", "calibration", "material"})
-_MIN_CAPACITY = 64
-_LOG_DESCRIPTION = (
-    "no data: the archive's append-only event log is the JSON-lines file "
-    "log/journal.jsonl (see btfrig docs/archive.md)"
+_RESERVED_KINDS = frozenset(
+    {"created", "opened", "closed", "step", "calibration", "material", "repaired"}
 )
+_MIN_CAPACITY = 64
 
 
 class Archive:
@@ -86,7 +69,7 @@ class Archive:
         self._journal: Journal | None = None
         self._pool: ThreadPoolExecutor | None = None
         if mode == "a":
-            self._lock()
+            self._lock_fd = lock_writer(self.path)
         try:
             self._load()
         except BaseException:
@@ -139,23 +122,7 @@ class Archive:
         calibration = json_safe(dict(calibration or {}), where="calibration")
         tmp = path.with_name(f".{path.name}.creating")
         shutil.rmtree(tmp, ignore_errors=True)  # left by a crash during an earlier create
-        tmp.mkdir(parents=True)
-        (tmp / "frames").mkdir()
-        for name, fmt in cameras.items():
-            (tmp / "frames" / name).mkdir()
-            doc = array_document(fmt, length=0, zstd_level=zstd_level)
-            (tmp / "frames" / name / "zarr.json").write_bytes(doc)
-        (tmp / "frames" / "zarr.json").write_bytes(group_document())
-        (tmp / "calibration").mkdir()
-        (tmp / "calibration" / "zarr.json").write_bytes(
-            group_document({"version": 0, "calibration": {}})
-        )
-        (tmp / "material").mkdir()
-        (tmp / "material" / "zarr.json").write_bytes(group_document())
-        (tmp / "log").mkdir()
-        (tmp / "log" / "zarr.json").write_bytes(hidden_node_document(_LOG_DESCRIPTION))
-        (tmp / _JOURNAL).touch()
-        (tmp / "zarr.json").write_bytes(group_document(attributes))
+        write_layout(tmp, attributes, dict(cameras))
         # The directory appears under its name only when complete.
         os.rename(tmp, path)
         archive = cls(path, mode="a", fsync=fsync, workers=workers)
@@ -184,49 +151,14 @@ class Archive:
             raise ArchiveError(f"{path}: no archive here (not a directory)")
         return cls(path, mode=mode, fsync=fsync, workers=workers)
 
-    def _lock(self) -> None:
-        try:
-            self._lock_fd = os.open(self.path / _LOCK, os.O_RDWR | os.O_CREAT, 0o644)
-        except FileNotFoundError as err:
-            raise ArchiveError(
-                f"{self.path}: missing folder log/ (journal and writer lock); "
-                "not a btfrig archive, or a damaged one"
-            ) from err
-        try:
-            fcntl.flock(self._lock_fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError as err:
-            raise ArchiveError(
-                f"{self.path}: another process has it open for appending; "
-                "close that one or open this one with mode='r'"
-            ) from err
-
     def _load(self) -> None:
-        root = read_document(self.path / "zarr.json", node_type="group")
-        attributes = root.get("attributes", {})
-        for key in ("btfrig_archive", "cameras", "zstd_level", "plan", "rig_config", "software"):
-            if key not in attributes:
-                raise ArchiveError(f"{self.path}/zarr.json: attribute {key!r} is missing")
-        version = attributes["btfrig_archive"].get("format_version")
-        if version != FORMAT_VERSION:
-            raise ArchiveError(
-                f"{self.path}: archive format version {version!r}, this btfrig reads "
-                f"version {FORMAT_VERSION}"
-            )
-        self._attributes = attributes
-        self._zstd_level = int(attributes["zstd_level"])
-        for group in ("frames", "calibration", "material"):
-            read_document(self.path / group / "zarr.json", node_type="group")
-        read_document(self.path / "log" / "zarr.json", node_type="array")
-        self.cameras = _cameras(self.path, attributes["cameras"])
-        self._arrays: dict[str, FrameArray] = {}
-        self._capacity: dict[str, int] = {}
-        for name, fmt in self.cameras.items():
-            directory = self.path / "frames" / name
-            document = read_document(directory / "zarr.json", node_type="array")
-            length, level = check_array_document(directory / "zarr.json", document, fmt)
-            self._capacity[name] = length
-            self._arrays[name] = FrameArray(directory, name, fmt, level)
-        contents = read_journal(self.path / _JOURNAL)
+        layout = read_layout(self.path)
+        self._attributes = layout.attributes
+        self._zstd_level = layout.attributes["zstd_level"]
+        self.cameras = layout.cameras
+        self._arrays = layout.arrays
+        self._capacity = layout.capacity
+        contents = read_journal(self.path / JOURNAL)
         self._index = SessionIndex(self.path, self.cameras, contents.events)
         leftovers = check_chunks(
             self.path, self._arrays, self._index, journal_events=len(contents.events)
@@ -238,12 +170,10 @@ class Archive:
         if self.mode == "a":
             quarantine = Quarantine(self.path, fsync=self._fsync)
             self.recovered = recover(self.path, self._arrays, leftovers, contents, quarantine)
-            self._journal = Journal(self.path / _JOURNAL, contents, fsync=self._fsync)
+            self._journal = Journal(self.path / JOURNAL, contents, fsync=self._fsync)
             self._mirror_calibration()
             kind = "created" if not self._events else "opened"
-            self._append_event(
-                kind, {"software": software_versions(), "recovered": self.recovered}
-            )
+            self._append_event(kind, {"software": software_versions(), "recovered": self.recovered})
 
     # -- appending ------------------------------------------------------------------------
 
@@ -496,24 +426,6 @@ class Archive:
     def events(self, kind: str | None = None) -> list[Event]:
         """The event log (as of opening, plus this handle's appends), optionally one kind."""
         return [e for e in self._events if kind is None or e.kind == kind]
-
-
-def _cameras(path: Path, attribute: Any) -> dict[str, FrameFormat]:
-    """The root attribute ``cameras``, checked: its names become folders under frames/."""
-    where = f"{path / 'zarr.json'}: attribute cameras"
-    if not isinstance(attribute, dict) or not attribute:
-        raise ArchiveDamaged(f"{where} = {attribute!r}: expected {{name: frame format}}, ≥ 1")
-    cameras = {}
-    for name, fmt in attribute.items():
-        try:
-            check_name(name, what=f"{where}: camera name")
-        except ArchiveError as err:
-            raise ArchiveDamaged(f"{err}; the archive is damaged or was crafted") from err
-        try:
-            cameras[name] = FrameFormat.from_json(fmt)
-        except (ArchiveError, KeyError, TypeError) as err:
-            raise ArchiveDamaged(f"{where}[{name!r}] = {fmt!r}: {err}") from err
-    return cameras
 
 
 def _as_record(frame, i: int, step: StepRecord, now: float) -> FrameRecord:
