@@ -13,6 +13,7 @@ from rig.archive._records import (
     FrameRecord,
     StepRecord,
 )
+from rig.archive._repair import RepairReport, repair_archive
 from rig.archive._versions import software_versions
 from rig.archive.archive import FORMAT_VERSION, Archive
 
@@ -28,7 +29,9 @@ __all__ = [
     "FrameFormat",
     "FrameInfo",
     "FrameRecord",
+    "RepairReport",
     "StepAlreadyCommitted",
     "StepRecord",
+    "repair_archive",
     "software_versions",
 ]
