@@ -3,7 +3,7 @@ event log of one measurement session in a Zarr v3 directory, appended step by
 step with crash-consistent commits (see ``docs/archive.md``).
 """
 
-from rig.archive._errors import ArchiveError, StepAlreadyCommitted
+from rig.archive._errors import ArchiveDamaged, ArchiveError, ArchiveFull, StepAlreadyCommitted
 from rig.archive._index import FRAME_TABLE_DTYPE
 from rig.archive._records import (
     FRAME_DTYPES,
@@ -13,6 +13,7 @@ from rig.archive._records import (
     FrameRecord,
     StepRecord,
 )
+from rig.archive._repair import RepairReport, repair_archive
 from rig.archive._versions import software_versions
 from rig.archive.archive import FORMAT_VERSION, Archive
 
@@ -21,12 +22,16 @@ __all__ = [
     "FRAME_DTYPES",
     "FRAME_TABLE_DTYPE",
     "Archive",
+    "ArchiveDamaged",
     "ArchiveError",
+    "ArchiveFull",
     "Event",
     "FrameFormat",
     "FrameInfo",
     "FrameRecord",
+    "RepairReport",
     "StepAlreadyCommitted",
     "StepRecord",
+    "repair_archive",
     "software_versions",
 ]

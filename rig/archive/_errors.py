@@ -2,9 +2,13 @@
 
 from __future__ import annotations
 
+import errno
+import shutil
+from pathlib import Path
+
 from rig.errors import RigError
 
-__all__ = ["ArchiveError", "StepAlreadyCommitted"]
+__all__ = ["ArchiveDamaged", "ArchiveError", "ArchiveFull", "StepAlreadyCommitted", "os_failure"]
 
 
 class ArchiveError(RigError):
@@ -13,6 +17,33 @@ class ArchiveError(RigError):
     The message names the path and, where it applies, the step, camera and
     sub-index concerned, and what would be valid.
     """
+
+
+class ArchiveDamaged(ArchiveError):
+    """What the archive holds contradicts itself: a file, attribute or journal is bad.
+
+    The message names the file or attribute, the bad value and what was
+    expected; ``rig repair ARCHIVE`` rebuilds what can be rebuilt.
+    """
+
+
+class ArchiveFull(ArchiveError):
+    """The filesystem holding the archive ran out of space during a write.
+
+    Nothing committed is lost: the write was rolled back. ``path`` is the file
+    that could not be written, ``needed_bytes`` what the write needed and
+    ``free_bytes`` what the filesystem had free afterwards.
+    """
+
+    def __init__(self, path: Path, *, doing: str, needed_bytes: int, free_bytes: int):
+        self.path = path
+        self.needed_bytes = needed_bytes
+        self.free_bytes = free_bytes
+        super().__init__(
+            f"{path}: disk full while writing {doing}: it needs about "
+            f"{_mb(needed_bytes)} MB, the filesystem has {_mb(free_bytes)} MB free; free at "
+            "least that much, then resume (nothing committed was lost)"
+        )
 
 
 class StepAlreadyCommitted(ArchiveError):
@@ -26,3 +57,18 @@ class StepAlreadyCommitted(ArchiveError):
         super().__init__(message)
         self.index = index
         self.next_index = next_index
+
+
+def _mb(nbytes: int) -> str:
+    return f"{nbytes / 1e6:.3g}"
+
+
+def os_failure(err: OSError, path: Path, *, doing: str, needed_bytes: int) -> ArchiveError:
+    """The archive error for a failed write: ArchiveFull when the disk (or quota) is full."""
+    if err.errno in (errno.ENOSPC, errno.EDQUOT):
+        try:
+            free = shutil.disk_usage(path.parent).free
+        except OSError:
+            free = 0
+        return ArchiveFull(path, doing=doing, needed_bytes=needed_bytes, free_bytes=free)
+    return ArchiveError(f"{path}: writing {doing} failed: {err.strerror or err}")

@@ -5,13 +5,27 @@ little-endian and C-ordered (the ``bytes`` codec), compressed by zstd with the
 content checksum on (the ``zstd`` codec, via numcodecs, as zarr itself does).
 Writing chunk files directly lets the archive order and ``fsync`` them before
 a commit, and compress them in its own thread pool (zstd releases the GIL).
+
+Each chunk file ends with the frame's own record (step, camera, sub, exposure,
+timestamp, position, and how many frames each camera has in the step) in a
+zstd *skippable frame*, which every zstd decoder, zarr's included, passes
+over. The journal is the authority; these records let ``rig repair`` rebuild
+a lost journal from the chunks.
+
+References
+----------
+.. [1] Zstandard compression format, RFC 8878, section 3.1.2 (skippable frames).
 """
 
 from __future__ import annotations
 
+import json
 import os
 import re
+import struct
+import zlib
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 from numcodecs import Zstd
@@ -20,9 +34,22 @@ from rig.archive._errors import ArchiveError
 from rig.archive._records import FrameFormat
 from rig.archive._store import chunk_name
 
-__all__ = ["FrameArray"]
+__all__ = ["FrameArray", "chunk_record"]
 
 _CHUNK_RE = re.compile(r"c\.(\d+)\.0\.0\.0")
+#: A zstd skippable frame (magic 0x184D2A50–5F, then the length of its content).
+_SKIPPABLE = struct.Struct("<II")
+_SKIPPABLE_MAGIC = 0x184D2A5B
+#: The record's content ends with (CRC-32 of the JSON, its length, a tag).
+_TAIL = struct.Struct("<II4s")
+_TAG = b"BTFR"
+
+
+def chunk_record(record: dict[str, Any]) -> bytes:
+    """The skippable zstd frame that carries a frame's ``record`` (plain JSON values)."""
+    body = json.dumps(record, sort_keys=True, separators=(",", ":"), allow_nan=False).encode()
+    content = body + _TAIL.pack(zlib.crc32(body), len(body), _TAG)
+    return _SKIPPABLE.pack(_SKIPPABLE_MAGIC, len(content)) + content
 
 
 class FrameArray:
@@ -54,13 +81,15 @@ class FrameArray:
         # No copy when the frame is already contiguous and little-endian (the usual case).
         return np.ascontiguousarray(image, dtype=self._dtype)
 
-    def write(self, position: int, image: np.ndarray, *, fsync: bool) -> int:
-        """Compress ``image`` (already checked) into chunk ``position``; bytes written."""
-        data = memoryview(self._codec.encode(image))
+    def write(self, position: int, image: np.ndarray, record: bytes, *, fsync: bool) -> int:
+        """Compress ``image`` (already checked) into chunk ``position``, followed by
+        its ``record`` (from :func:`chunk_record`); bytes written."""
         fd = os.open(self.path(position), os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
         try:
-            while data:
-                data = data[os.write(fd, data) :]
+            for part in (self._codec.encode(image), record):
+                data = memoryview(part)
+                while data:
+                    data = data[os.write(fd, data) :]
             if fsync:
                 os.fsync(fd)
             return os.fstat(fd).st_size
@@ -106,7 +135,37 @@ class FrameArray:
                     sizes[int(match.group(1))] = entry.stat().st_size
         return sizes
 
-    def remove(self, positions) -> None:
-        """Delete the chunk files of ``positions`` (uncommitted leftovers)."""
-        for position in positions:
-            self.path(position).unlink(missing_ok=True)
+    def read_record(self, position: int) -> dict[str, Any] | None:
+        """The record at the end of chunk ``position``; None when there is none whole.
+
+        A record is trusted only when its CRC matches and it names this
+        camera and position (a chunk cut short by a crash has none).
+        """
+        try:
+            with open(self.path(position), "rb") as f:
+                size = f.seek(0, os.SEEK_END)
+                if size < _SKIPPABLE.size + _TAIL.size:
+                    return None
+                f.seek(size - _TAIL.size)
+                crc, length, tag = _TAIL.unpack(f.read(_TAIL.size))
+                start = size - _TAIL.size - length - _SKIPPABLE.size
+                if tag != _TAG or start < 0:
+                    return None
+                f.seek(start)
+                magic, content_length = _SKIPPABLE.unpack(f.read(_SKIPPABLE.size))
+                body = f.read(length)
+        except FileNotFoundError:
+            return None
+        if (magic, content_length) != (_SKIPPABLE_MAGIC, length + _TAIL.size):
+            return None
+        if zlib.crc32(body) != crc:
+            return None
+        try:
+            record = json.loads(body)
+        except ValueError:
+            return None
+        if not isinstance(record, dict):
+            return None
+        if record.get("camera") != self.camera or record.get("position") != position:
+            return None
+        return record

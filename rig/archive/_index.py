@@ -15,7 +15,7 @@ from typing import Any
 
 import numpy as np
 
-from rig.archive._errors import ArchiveError, StepAlreadyCommitted
+from rig.archive._errors import ArchiveDamaged, ArchiveError, StepAlreadyCommitted
 from rig.archive._records import Event, FrameFormat, FrameInfo, FrameRecord, StepRecord
 
 __all__ = ["FRAME_TABLE_DTYPE", "SessionIndex"]
@@ -56,9 +56,9 @@ class SessionIndex:
         try:
             version, calibration = event.payload["version"], event.payload["calibration"]
         except (KeyError, TypeError) as err:
-            raise ArchiveError(f"{self.path}: journal seq {event.seq}: bad calibration") from err
+            raise ArchiveDamaged(f"{self.path}: journal seq {event.seq}: bad calibration") from err
         if version != self.calibration_version + 1 or not isinstance(calibration, dict):
-            raise ArchiveError(
+            raise ArchiveDamaged(
                 f"{self.path}: journal seq {event.seq}: calibration version {version!r}, "
                 f"expected {self.calibration_version + 1}"
             )
@@ -74,12 +74,12 @@ class SessionIndex:
                 for camera, frames in event.payload["frames"].items()
             }
         except (KeyError, TypeError, ValueError) as err:
-            raise ArchiveError(f"{where}: malformed step record: {err!r}") from err
+            raise ArchiveDamaged(f"{where}: malformed step record: {err!r}") from err
         where = f"{where} (step {step.index})"
         if step.index in self.steps:
-            raise ArchiveError(f"{where}: step {step.index} is committed twice")
+            raise ArchiveDamaged(f"{where}: step {step.index} is committed twice")
         if set(rows) != set(step.cameras) or not set(rows) <= set(self.cameras):
-            raise ArchiveError(
+            raise ArchiveDamaged(
                 f"{where}: frames for cameras {sorted(rows)}, step lists {list(step.cameras)}, "
                 f"archive has {sorted(self.cameras)}"
             )
@@ -88,7 +88,7 @@ class SessionIndex:
             for offset, (sub, exposure_s, timestamp, position, nbytes) in enumerate(frames):
                 expected = self.next_position[camera] + offset
                 if position != expected or sub in entries or nbytes <= 0:
-                    raise ArchiveError(
+                    raise ArchiveDamaged(
                         f"{where}: camera {camera!r} sub {sub} at position {position} "
                         f"({nbytes} bytes); expected a new sub at position {expected}"
                     )

@@ -8,8 +8,9 @@ one under a hidden temporary name and swapping it in with two renames:
 3. the temporary is renamed ``material/<name>``; the old one is deleted.
 
 A crash leaves at most one of those states; ``recover_material`` resolves it
-on the next writable open: temporaries are deleted, and an ``.old-`` copy is
-either deleted (the new result is in place) or renamed back (it is not).
+on the next writable open: temporaries are moved to the quarantine, and an
+``.old-`` copy is either moved there too (the new result is in place) or
+renamed back (it is not).
 """
 
 from __future__ import annotations
@@ -24,24 +25,14 @@ from collections.abc import Iterator
 from pathlib import Path
 
 from rig.archive._errors import ArchiveError
-from rig.archive._store import fsync_dir
+from rig.archive._quarantine import Quarantine
+from rig.archive._store import check_name, fsync_dir
 
-__all__ = ["check_result_name", "fsync_tree", "recover_material", "replace_result"]
+__all__ = ["fsync_tree", "recover_material", "replace_result"]
 
 log = logging.getLogger(__name__)
 
-_NAME_RE = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_\-]*")
 _OLD_RE = re.compile(r"\.old-(.+)-[0-9a-f]{32}")
-
-
-def check_result_name(name: str) -> str:
-    """``name`` if it can name a result in ``material/``, else ArchiveError."""
-    if not isinstance(name, str) or not _NAME_RE.fullmatch(name):
-        raise ArchiveError(
-            f"material result name {name!r}: use letters, digits, '_' and '-', "
-            "not starting with '-'"
-        )
-    return name
 
 
 def fsync_tree(root: Path) -> None:
@@ -84,21 +75,30 @@ def replace_result(material_dir: Path, name: str, *, fsync: bool) -> Iterator[Pa
         shutil.rmtree(old)
 
 
-def recover_material(material_dir: Path) -> list[str]:
-    """Finish or roll back replacements a crash interrupted; what was done."""
+def recover_material(material_dir: Path, quarantine: Quarantine) -> list[str]:
+    """Finish or roll back replacements a crash interrupted; what was done.
+
+    Nothing is deleted: an unfinished or superseded copy goes to ``quarantine``.
+    """
     actions = []
     for entry in sorted(material_dir.iterdir()):
         if entry.name.startswith(".tmp-"):
-            shutil.rmtree(entry)
-            actions.append(f"deleted unfinished {entry.name}")
+            quarantine.move(entry)
+            actions.append(f"set aside unfinished {entry.name}")
             continue
         match = _OLD_RE.fullmatch(entry.name)
         if match is None:
             continue
-        final = material_dir / match.group(1)
+        try:
+            name = check_name(match.group(1), what=f"{entry}: material result name")
+        except ArchiveError:
+            quarantine.move(entry)
+            actions.append(f"set aside {entry.name} (not a valid result name)")
+            continue
+        final = material_dir / name
         if final.exists():
-            shutil.rmtree(entry)
-            actions.append(f"deleted replaced {entry.name}")
+            quarantine.move(entry)
+            actions.append(f"set aside replaced {entry.name}")
         else:
             os.rename(entry, final)
             actions.append(f"restored {final.name} from {entry.name}")

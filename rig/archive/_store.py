@@ -15,6 +15,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 from pathlib import Path
 from typing import Any
 
@@ -24,10 +25,11 @@ from rig.archive._records import FrameFormat
 __all__ = [
     "array_document",
     "check_array_document",
+    "check_name",
     "chunk_name",
     "fsync_dir",
     "group_document",
-    "log_document",
+    "hidden_node_document",
     "read_document",
     "write_atomic",
 ]
@@ -35,6 +37,22 @@ __all__ = [
 #: Frames of one camera are chunked one image per chunk; "." keeps every
 #: chunk of an array in one directory (one file per frame, no sub-folders).
 _CHUNK_SEPARATOR = "."
+#: What a name that becomes a path component inside the archive may look like
+#: (a camera, a material result): no "/", no "..", nothing hidden.
+_NAME_RE = re.compile(r"[A-Za-z0-9_][A-Za-z0-9_\-]{0,63}")
+
+
+def check_name(name: Any, *, what: str) -> str:
+    """``name`` if it is safe as one path component inside the archive, else ArchiveError.
+
+    ``what`` says where the name comes from (``"camera name"``, an attribute…);
+    the message names it and the bad value.
+    """
+    if not isinstance(name, str) or not _NAME_RE.fullmatch(name):
+        raise ArchiveError(
+            f"{what} {name!r}: use 1–64 letters, digits, '_' and '-', not starting with '-'"
+        )
+    return name
 
 
 def chunk_name(position: int) -> str:
@@ -58,11 +76,15 @@ def write_atomic(path: Path, data: bytes, *, fsync: bool) -> None:
     it over ``path`` (atomic on POSIX) and ``fsync``-s the directory.
     """
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    with open(tmp, "wb") as f:
-        f.write(data)
-        if fsync:
-            f.flush()
-            os.fsync(f.fileno())
+    try:
+        with open(tmp, "wb") as f:
+            f.write(data)
+            if fsync:
+                f.flush()
+                os.fsync(f.fileno())
+    except OSError:
+        tmp.unlink(missing_ok=True)  # our own half-written copy (a full disk)
+        raise
     os.replace(tmp, path)
     if fsync:
         fsync_dir(path.parent)
@@ -112,8 +134,11 @@ def array_document(frame_format: FrameFormat, *, length: int, zstd_level: int) -
     )
 
 
-def log_document() -> bytes:
-    """``zarr.json`` of ``log``: an empty array node that holds the journal file."""
+def hidden_node_document(description: str) -> bytes:
+    """``zarr.json`` of an empty array node (``log``, ``quarantine``) that holds plain files.
+
+    zarr never lists inside an array, so its readers see no stray files.
+    """
     return _dumps(
         {
             "zarr_format": 3,
@@ -124,10 +149,7 @@ def log_document() -> bytes:
             "chunk_key_encoding": {"name": "default", "configuration": {"separator": "/"}},
             "fill_value": 0,
             "codecs": [{"name": "bytes"}],
-            "attributes": {
-                "description": "no data: the archive's append-only event log is the "
-                "JSON-lines file log/journal.jsonl (see btfrig docs/archive.md)"
-            },
+            "attributes": {"description": description},
         }
     )
 

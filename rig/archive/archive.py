@@ -19,8 +19,6 @@ visible or none of it.
 from __future__ import annotations
 
 import contextlib
-import fcntl
-import logging
 import os
 import shutil
 import time
@@ -31,34 +29,24 @@ from typing import Any
 
 import numpy as np
 
-from rig.archive._errors import ArchiveError
-from rig.archive._frames import FrameArray
+from rig.archive._errors import ArchiveError, os_failure
+from rig.archive._frames import FrameArray, chunk_record
 from rig.archive._index import FRAME_TABLE_DTYPE, SessionIndex
 from rig.archive._journal import Journal, read_journal
-from rig.archive._material import check_result_name, recover_material, replace_result
+from rig.archive._layout import FORMAT_VERSION, JOURNAL, lock_writer, read_layout, write_layout
+from rig.archive._material import replace_result
+from rig.archive._quarantine import Quarantine
 from rig.archive._records import Event, FrameFormat, FrameInfo, FrameRecord, StepRecord, json_safe
-from rig.archive._store import (
-    array_document,
-    check_array_document,
-    fsync_dir,
-    group_document,
-    log_document,
-    read_document,
-    write_atomic,
-)
+from rig.archive._recovery import check_chunks, check_mirror, recover
+from rig.archive._store import array_document, check_name, fsync_dir, group_document, write_atomic
 from rig.archive._versions import software_versions
 
 __all__ = ["FORMAT_VERSION", "Archive"]
 
-log = logging.getLogger(__name__)
 
-#: Version of the archive layout written by this code.
-FORMAT_VERSION = 1
-# The journal and the writer lock sit inside the ``log`` node, an empty zarr
-# array: zarr never lists inside an array, so zarr readers see no stray files.
-_JOURNAL = "log/journal.jsonl"
-_LOCK = "log/writer.lock"
-_RESERVED_KINDS = frozenset({"created", "opened", "closed", "step", "calibration", "material"})
+_RESERVED_KINDS = frozenset(
+    {"created", "opened", "closed", "step", "calibration", "material", "repaired"}
+)
 _MIN_CAPACITY = 64
 
 
@@ -81,7 +69,7 @@ class Archive:
         self._journal: Journal | None = None
         self._pool: ThreadPoolExecutor | None = None
         if mode == "a":
-            self._lock()
+            self._lock_fd = lock_writer(self.path)
         try:
             self._load()
         except BaseException:
@@ -119,8 +107,7 @@ class Archive:
         for name, fmt in cameras.items():
             if not isinstance(fmt, FrameFormat):
                 raise ArchiveError(f"{path}: cameras[{name!r}] is not a FrameFormat: {fmt!r}")
-            if len(check_result_name(name)) > 64:
-                raise ArchiveError(f"{path}: camera name {name!r} is longer than 64 characters")
+            check_name(name, what=f"{path}: camera name")
         if not (isinstance(zstd_level, int) and -7 <= zstd_level <= 22):
             raise ArchiveError(f"{path}: zstd_level = {zstd_level!r}, expected an int in -7..22")
         attributes = {
@@ -135,23 +122,7 @@ class Archive:
         calibration = json_safe(dict(calibration or {}), where="calibration")
         tmp = path.with_name(f".{path.name}.creating")
         shutil.rmtree(tmp, ignore_errors=True)  # left by a crash during an earlier create
-        tmp.mkdir(parents=True)
-        (tmp / "frames").mkdir()
-        for name, fmt in cameras.items():
-            (tmp / "frames" / name).mkdir()
-            doc = array_document(fmt, length=0, zstd_level=zstd_level)
-            (tmp / "frames" / name / "zarr.json").write_bytes(doc)
-        (tmp / "frames" / "zarr.json").write_bytes(group_document())
-        (tmp / "calibration").mkdir()
-        (tmp / "calibration" / "zarr.json").write_bytes(
-            group_document({"version": 0, "calibration": {}})
-        )
-        (tmp / "material").mkdir()
-        (tmp / "material" / "zarr.json").write_bytes(group_document())
-        (tmp / "log").mkdir()
-        (tmp / "log" / "zarr.json").write_bytes(log_document())
-        (tmp / _JOURNAL).touch()
-        (tmp / "zarr.json").write_bytes(group_document(attributes))
+        write_layout(tmp, attributes, dict(cameras))
         # The directory appears under its name only when complete.
         os.rename(tmp, path)
         archive = cls(path, mode="a", fsync=fsync, workers=workers)
@@ -171,96 +142,38 @@ class Archive:
         """Open an existing archive, checking its structure.
 
         With ``mode="a"`` leftovers of a crash (an uncommitted step's chunks, a
-        torn journal line, an interrupted material replacement) are removed.
-        Raises ArchiveError naming what is damaged and where.
+        torn journal line, an interrupted material replacement) are moved into
+        ``quarantine/<UTC time>/``; ``recovered`` says what was set aside.
+        Raises ArchiveDamaged (an ArchiveError) naming what is damaged and where.
         """
         path = Path(path)
         if not path.is_dir():
             raise ArchiveError(f"{path}: no archive here (not a directory)")
         return cls(path, mode=mode, fsync=fsync, workers=workers)
 
-    def _lock(self) -> None:
-        try:
-            self._lock_fd = os.open(self.path / _LOCK, os.O_RDWR | os.O_CREAT, 0o644)
-        except FileNotFoundError as err:
-            raise ArchiveError(
-                f"{self.path}: missing folder log/ (journal and writer lock); "
-                "not a btfrig archive, or a damaged one"
-            ) from err
-        try:
-            fcntl.flock(self._lock_fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
-        except BlockingIOError as err:
-            raise ArchiveError(
-                f"{self.path}: another process has it open for appending; "
-                "close that one or open this one with mode='r'"
-            ) from err
-
     def _load(self) -> None:
-        root = read_document(self.path / "zarr.json", node_type="group")
-        attributes = root.get("attributes", {})
-        for key in ("btfrig_archive", "cameras", "zstd_level", "plan", "rig_config", "software"):
-            if key not in attributes:
-                raise ArchiveError(f"{self.path}/zarr.json: attribute {key!r} is missing")
-        version = attributes["btfrig_archive"].get("format_version")
-        if version != FORMAT_VERSION:
-            raise ArchiveError(
-                f"{self.path}: archive format version {version!r}, this btfrig reads "
-                f"version {FORMAT_VERSION}"
-            )
-        self._attributes = attributes
-        self._zstd_level = int(attributes["zstd_level"])
-        for group in ("frames", "calibration", "material"):
-            read_document(self.path / group / "zarr.json", node_type="group")
-        read_document(self.path / "log" / "zarr.json", node_type="array")
-        self.cameras = {n: FrameFormat.from_json(f) for n, f in attributes["cameras"].items()}
-        self._arrays: dict[str, FrameArray] = {}
-        self._capacity: dict[str, int] = {}
-        for name, fmt in self.cameras.items():
-            directory = self.path / "frames" / name
-            document = read_document(directory / "zarr.json", node_type="array")
-            length, level = check_array_document(directory / "zarr.json", document, fmt)
-            self._capacity[name] = length
-            self._arrays[name] = FrameArray(directory, name, fmt, level)
-        contents = read_journal(self.path / _JOURNAL)
+        layout = read_layout(self.path)
+        self._attributes = layout.attributes
+        self._zstd_level = layout.attributes["zstd_level"]
+        self.cameras = layout.cameras
+        self._arrays = layout.arrays
+        self._capacity = layout.capacity
+        contents = read_journal(self.path / JOURNAL)
         self._index = SessionIndex(self.path, self.cameras, contents.events)
-        recovered = self._check_chunks()
+        leftovers = check_chunks(
+            self.path, self._arrays, self._index, journal_events=len(contents.events)
+        )
+        check_mirror(self.path, self._index)
+        self._events = list(contents.events)
+        #: What recovery set aside on this (writable) opening; also in the ``opened`` event.
+        self.recovered: dict[str, Any] = {}
         if self.mode == "a":
-            self._journal = Journal(self.path / _JOURNAL, contents, fsync=self._fsync)
-            self._events = list(contents.events)
-            if contents.torn_bytes:
-                recovered["torn_journal_bytes"] = contents.torn_bytes
-            material = recover_material(self.path / "material")
-            if material:
-                recovered["material"] = material
+            quarantine = Quarantine(self.path, fsync=self._fsync)
+            self.recovered = recover(self.path, self._arrays, leftovers, contents, quarantine)
+            self._journal = Journal(self.path / JOURNAL, contents, fsync=self._fsync)
             self._mirror_calibration()
             kind = "created" if not self._events else "opened"
-            self._append_event(kind, {"software": software_versions(), "recovered": recovered})
-        else:
-            self._events = list(contents.events)
-
-    def _check_chunks(self) -> dict[str, Any]:
-        """Check every committed chunk is present and whole; drop leftovers in mode 'a'."""
-        recovered: dict[str, Any] = {}
-        for name, array in self._arrays.items():
-            sizes = array.chunk_sizes()
-            for info, nbytes in self._index.committed_chunks(name):
-                where = f"step {info.step}, camera {name!r}, sub {info.sub}"
-                size = sizes.get(info.position)
-                if size is None:
-                    raise ArchiveError(
-                        f"{where}: chunk file {array.path(info.position)} is missing"
-                    )
-                if size != nbytes:
-                    raise ArchiveError(
-                        f"{where}: chunk file {array.path(info.position)} has {size} bytes, "
-                        f"{nbytes} were committed (truncated or overwritten)"
-                    )
-            leftovers = sorted(p for p in sizes if p >= self._index.next_position[name])
-            if leftovers and self.mode == "a":
-                array.remove(leftovers)
-                recovered[f"uncommitted_chunks/{name}"] = len(leftovers)
-                log.warning("%s: removed %d uncommitted chunks", array.directory, len(leftovers))
-        return recovered
+            self._append_event(kind, {"software": software_versions(), "recovered": self.recovered})
 
     # -- appending ------------------------------------------------------------------------
 
@@ -284,30 +197,51 @@ class Archive:
         self._index.check_new_step(step, records)
         jobs = []
         rows: dict[str, list[list]] = {}
+        counts = {camera: len(records[camera]) for camera in step.cameras}
         for camera in step.cameras:
             array = self._arrays[camera]
             start = self._index.next_position[camera]
-            self._ensure_capacity(camera, start + len(records[camera]))
             rows[camera] = []
             for position, record in enumerate(records[camera], start):
                 where = f"{self.path}: step {step.index}, camera {camera!r}, sub {record.sub}"
-                jobs.append((array, position, array.check_image(record.image, where=where)))
+                image = array.check_image(record.image, where=where)
                 row = [int(record.sub), float(record.exposure_s), float(record.timestamp)]
+                own = {"step": step.to_json(), "camera": camera, "frames": counts}
+                own.update(sub=row[0], exposure_s=row[1], timestamp=row[2], position=position)
+                jobs.append((array, position, image, chunk_record(own)))
                 rows[camera].append([*row, position])
-        sizes = self._executor().map(self._write_chunk, jobs)
-        for (array, position, _), nbytes in zip(jobs, sizes, strict=True):
-            rows[array.camera][position - self._index.next_position[array.camera]].append(nbytes)
-        if self._fsync:
-            for camera in step.cameras:
-                fsync_dir(self._arrays[camera].directory)
+        self._write_chunks(step, jobs, rows)
         committed = StepRecord.from_json({**step.to_json(), "committed_at": time.time()})
         event = self._append_event("step", {"step": committed.to_json(), "frames": rows})
         self._index.add_step(event)
         return committed
 
-    def _write_chunk(self, job: tuple[FrameArray, int, np.ndarray]) -> int:
-        array, position, image = job
-        return array.write(position, image, fsync=self._fsync)
+    def _write_chunks(self, step: StepRecord, jobs: list, rows: dict[str, list[list]]) -> None:
+        """Write (and ``fsync``) every chunk of ``step``; append each one's size to its row.
+
+        On a failure (a full disk) the chunk files written so far are removed:
+        they were never committed, and the retry needs their space.
+        """
+        try:
+            for camera, camera_rows in rows.items():
+                self._ensure_capacity(camera, camera_rows[-1][3] + 1)
+            sizes = list(self._executor().map(self._write_chunk, jobs))
+            if self._fsync:
+                for camera in step.cameras:
+                    fsync_dir(self._arrays[camera].directory)
+        except OSError as err:
+            for array, position, _, _ in jobs:
+                array.path(position).unlink(missing_ok=True)
+            needed = sum(array.format.nbytes for array, *_ in jobs)
+            raise os_failure(
+                err, self.path, doing=f"step {step.index}'s {len(jobs)} frames", needed_bytes=needed
+            ) from err
+        for (array, position, _, _), nbytes in zip(jobs, sizes, strict=True):
+            rows[array.camera][position - self._index.next_position[array.camera]].append(nbytes)
+
+    def _write_chunk(self, job: tuple[FrameArray, int, np.ndarray, bytes]) -> int:
+        array, position, image, record = job
+        return array.write(position, image, record, fsync=self._fsync)
 
     def _executor(self) -> ThreadPoolExecutor:
         if self._pool is None:
@@ -371,7 +305,7 @@ class Archive:
         import zarr
 
         self._check_writable()
-        check_result_name(name)
+        check_name(name, what="material result name")
         with replace_result(self.path / "material", name, fsync=self._fsync) as tmp:
             yield zarr.open_group(tmp, mode="w", zarr_format=3)
         self._append_event("material", {"name": name})

@@ -86,7 +86,7 @@ def _die_in_commit(step: int, halfway: bool) -> None:
     def append(self, kind, payload, *, time):
         if kind == "step" and payload["step"]["index"] == step:
             if halfway:
-                line = journal_module._line(self._next_seq, time, kind, payload)
+                line = journal_module.encode_event(self._next_seq, time, kind, payload)
                 os.write(self._fd, line[: len(line) // 2])
             os.kill(os.getpid(), signal.SIGKILL)
         return original(self, kind, payload, time=time)

@@ -1,0 +1,144 @@
+"""The archive's folders and metadata: writing a new one, checking one that exists.
+
+Every name read from an archive that becomes a path (a camera name in the root
+attributes) is checked against a safe pattern first: a name is data, never a
+path component that could lead outside the archive.
+"""
+
+from __future__ import annotations
+
+import fcntl
+import os
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from rig.archive._errors import ArchiveDamaged, ArchiveError
+from rig.archive._frames import FrameArray
+from rig.archive._records import FrameFormat
+from rig.archive._store import (
+    array_document,
+    check_array_document,
+    check_name,
+    group_document,
+    hidden_node_document,
+    read_document,
+)
+
+__all__ = ["FORMAT_VERSION", "JOURNAL", "Layout", "lock_writer", "read_layout", "write_layout"]
+
+#: Version of the archive layout written by this code.
+FORMAT_VERSION = 1
+# The journal and the writer lock sit inside the ``log`` node, an empty zarr
+# array: zarr never lists inside an array, so zarr readers see no stray files.
+JOURNAL = "log/journal.jsonl"
+_LOCK = "log/writer.lock"
+_LOG_DESCRIPTION = (
+    "no data: the archive's append-only event log is the JSON-lines file "
+    "log/journal.jsonl (see btfrig docs/archive.md)"
+)
+_ATTRIBUTES = ("btfrig_archive", "cameras", "zstd_level", "plan", "rig_config", "software")
+
+
+@dataclass(frozen=True)
+class Layout:
+    """What an archive's metadata declares, checked against its folders."""
+
+    attributes: dict[str, Any]
+    cameras: dict[str, FrameFormat]
+    arrays: dict[str, FrameArray]
+    #: Frames each camera array's shape declares (a capacity, not a commit).
+    capacity: dict[str, int]
+
+
+def write_layout(
+    directory: Path, attributes: dict[str, Any], cameras: dict[str, FrameFormat]
+) -> None:
+    """Write the folders and metadata of an empty archive into new ``directory``."""
+    directory.mkdir(parents=True)
+    (directory / "frames").mkdir()
+    for name, fmt in cameras.items():
+        (directory / "frames" / name).mkdir()
+        doc = array_document(fmt, length=0, zstd_level=attributes["zstd_level"])
+        (directory / "frames" / name / "zarr.json").write_bytes(doc)
+    (directory / "frames" / "zarr.json").write_bytes(group_document())
+    (directory / "calibration").mkdir()
+    (directory / "calibration" / "zarr.json").write_bytes(
+        group_document({"version": 0, "calibration": {}})
+    )
+    (directory / "material").mkdir()
+    (directory / "material" / "zarr.json").write_bytes(group_document())
+    (directory / "log").mkdir()
+    (directory / "log" / "zarr.json").write_bytes(hidden_node_document(_LOG_DESCRIPTION))
+    (directory / JOURNAL).touch()
+    (directory / "zarr.json").write_bytes(group_document(attributes))
+
+
+def read_layout(path: Path) -> Layout:
+    """Check the metadata of the archive at ``path``; ArchiveError naming what is wrong."""
+    root = read_document(path / "zarr.json", node_type="group")
+    attributes = root.get("attributes")
+    if not isinstance(attributes, dict):
+        raise ArchiveDamaged(f"{path}/zarr.json: attributes = {attributes!r}, expected an object")
+    for key in _ATTRIBUTES:
+        if key not in attributes:
+            raise ArchiveError(f"{path}/zarr.json: attribute {key!r} is missing")
+    marker = attributes["btfrig_archive"]
+    version = marker.get("format_version") if isinstance(marker, dict) else None
+    if version != FORMAT_VERSION:
+        raise ArchiveError(
+            f"{path}: archive format version {version!r}, this btfrig reads "
+            f"version {FORMAT_VERSION}"
+        )
+    level = attributes["zstd_level"]
+    if not isinstance(level, int) or isinstance(level, bool):
+        raise ArchiveDamaged(f"{path}/zarr.json: attribute zstd_level = {level!r}, expected an int")
+    for group in ("frames", "calibration", "material"):
+        read_document(path / group / "zarr.json", node_type="group")
+    read_document(path / "log" / "zarr.json", node_type="array")
+    cameras = _read_cameras(path, attributes["cameras"])
+    arrays, capacity = {}, {}
+    for name, fmt in cameras.items():
+        directory = path / "frames" / name
+        document = read_document(directory / "zarr.json", node_type="array")
+        capacity[name], level = check_array_document(directory / "zarr.json", document, fmt)
+        arrays[name] = FrameArray(directory, name, fmt, level)
+    return Layout(attributes, cameras, arrays, capacity)
+
+
+def _read_cameras(path: Path, attribute: Any) -> dict[str, FrameFormat]:
+    """The root attribute ``cameras``, checked: its names become folders under frames/."""
+    where = f"{path / 'zarr.json'}: attribute cameras"
+    if not isinstance(attribute, dict) or not attribute:
+        raise ArchiveDamaged(f"{where} = {attribute!r}: expected {{name: frame format}}, ≥ 1")
+    cameras = {}
+    for name, fmt in attribute.items():
+        try:
+            check_name(name, what=f"{where}: camera name")
+        except ArchiveError as err:
+            raise ArchiveDamaged(f"{err}; the archive is damaged or was crafted") from err
+        try:
+            cameras[name] = FrameFormat.from_json(fmt)
+        except (ArchiveError, KeyError, TypeError) as err:
+            raise ArchiveDamaged(f"{where}[{name!r}] = {fmt!r}: {err}") from err
+    return cameras
+
+
+def lock_writer(path: Path) -> int:
+    """Take the archive's writer lock; the descriptor to close to release it."""
+    try:
+        fd = os.open(path / _LOCK, os.O_RDWR | os.O_CREAT, 0o644)
+    except FileNotFoundError as err:
+        raise ArchiveError(
+            f"{path}: missing folder log/ (journal and writer lock); "
+            "not a btfrig archive, or a damaged one"
+        ) from err
+    try:
+        fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
+    except BlockingIOError as err:
+        os.close(fd)
+        raise ArchiveError(
+            f"{path}: another process has it open for appending; "
+            "close that one or open this one with mode='r'"
+        ) from err
+    return fd
