@@ -7,10 +7,11 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
+from rich.markup import escape
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from orchestrator.cli.common import console, reporting_errors
-from rig.errors import ConfigError
+from orchestrator.cli.common import console, prepare_folder
+from rig.errors import ConfigError, RigError
 
 __all__ = ["register", "write_mdf_previews", "write_ps_previews"]
 
@@ -96,7 +97,10 @@ def register(app: typer.Typer) -> None:
         Re-running a stage replaces its output atomically; a failed run leaves the
         previous output as it was. Stages: ps (photometric stereo: normals, albedo,
         height on the sample's texel grid, with preview PNGs); btf (registered
-        normtextures of every view slot, compressed by per-view PCA, --components).
+        normtextures of every view slot, compressed by per-view PCA, --components);
+        mdf (the mesostructure distance function of the laser scans, with previews).
+        A stage that can use none of its frames (all flagged: saturated, black…) is
+        skipped with the reason, the others still run, and the exit code is 1.
         """
         import distributed  # noqa: F401  (configures its loggers on import)
 
@@ -105,36 +109,49 @@ def register(app: typer.Typer) -> None:
         for name in list(logging.root.manager.loggerDict):
             if name.split(".")[0] == "distributed":  # its INFO lines are for its developers
                 logging.getLogger(name).setLevel(logging.WARNING)
-        with reporting_errors():
-            names = [s.strip() for s in stages.split(",") if s.strip()]
-            unknown = [n for n in names if n not in STAGES]
-            if unknown or not names:
-                raise ConfigError(
-                    f"--stages {stages!r}: unknown stage(s) {unknown}; valid are {sorted(STAGES)}"
-                )
-            options = {"btf": {"components": components}}
-            chosen = [STAGES[n](size=size, **options.get(n, {})) for n in names]
-            columns = (
-                TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
-                TimeElapsedColumn(),
-            )  # fmt: skip
-            with Progress(*columns, console=console) as bar:
-                tasks: dict[str, int] = {}
+        names = [s.strip() for s in stages.split(",") if s.strip()]
+        unknown = [n for n in names if n not in STAGES]
+        if unknown or not names:
+            raise ConfigError(
+                f"--stages {stages!r}: unknown stage(s) {unknown}; valid are {sorted(STAGES)}"
+            )
+        writers = {"ps": write_ps_previews, "mdf": write_mdf_previews}
+        if previews is not None and any(n in writers for n in names):
+            prepare_folder(previews, "--previews")
+        options = {"btf": {"components": components}}
+        chosen = [STAGES[n](size=size, **options.get(n, {})) for n in names]
+        columns = (
+            TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
+            TimeElapsedColumn(),
+        )  # fmt: skip
+        with Progress(*columns, console=console) as bar:
+            tasks: dict[str, int] = {}
 
-                def progress(stage: str, done: int, total: int) -> None:
-                    if stage not in tasks:
-                        tasks[stage] = bar.add_task(stage, total=total)
-                    bar.update(tasks[stage], completed=done)
+            def progress(stage: str, done: int, total: int) -> None:
+                if stage not in tasks:
+                    tasks[stage] = bar.add_task(stage, total=total)
+                bar.update(tasks[stage], completed=done)
 
-                runs = run_stages(
-                    archive, chosen, scheduler=scheduler, workers=workers, progress=progress
-                )
-            for run in runs:
-                detail = ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}"
-                                   for k, v in run.summary.items())  # fmt: skip
-                console.print(f"{run.stage}: {run.items} item(s) → material/{run.stage} ({detail})")
-            folder = previews or archive.with_name(f"{archive.stem}_previews")
-            writers = {"ps": write_ps_previews, "mdf": write_mdf_previews}
-            for name in names:
-                for path in writers.get(name, lambda *_: [])(archive, folder):
-                    console.print(f"wrote {path}")
+            runs = run_stages(
+                archive, chosen, scheduler=scheduler, workers=workers, progress=progress
+            )
+        for run in runs:
+            if run.skipped is not None:
+                console.print(f"[yellow]{run.stage}: skipped[/yellow] — {escape(run.skipped)}")
+                continue
+            detail = ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}"
+                               for k, v in run.summary.items())  # fmt: skip
+            console.print(
+                escape(f"{run.stage}: {run.items} item(s) → material/{run.stage} ({detail})")
+            )
+        folder = previews or archive.with_name(f"{archive.stem}_previews")
+        for run in runs:
+            if run.skipped is None and run.stage in writers:
+                for path in writers[run.stage](archive, folder):
+                    console.print(escape(f"wrote {path}"))
+        skipped = [run.stage for run in runs if run.skipped is not None]
+        if skipped:
+            raise RigError(
+                f"{len(skipped)} of {len(runs)} stage(s) skipped: {', '.join(skipped)} "
+                "(why is said above); the other stages' results are in material/"
+            )
