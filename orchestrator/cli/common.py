@@ -65,7 +65,7 @@ def _report(err: Exception) -> tuple[str, int]:
         package = err.name.split(".")[0]
         if package in EXTRAS:
             return (
-                f"this needs the optional package {package!r}, which is not installed; "
+                f"the optional package {package!r} is not installed; "
                 f"install it with: pip install 'btfrig[{EXTRAS[package]}]'",
                 EXIT_FAILURE,
             )
@@ -111,13 +111,16 @@ def load_config_option(path: Path | None) -> RigConfig:
 
 
 def prepare_folder(path: Path, option: str) -> Path:
-    """Create the folder ``path`` given as ``option``; a ``ConfigError`` naming
-    both when it cannot be a folder here."""
+    """Create the folder ``path`` (for ``option``, e.g. ``"--previews DIR"``); a
+    ``ConfigError`` naming both and why when it cannot be made."""
+    blocking = next((p for p in (path, *path.parents) if p.exists() and not p.is_dir()), None)
+    if blocking is not None:
+        raise ConfigError(f"{option}: {blocking} is a file, not a folder; give another path")
     try:
         path.mkdir(parents=True, exist_ok=True)
     except OSError as err:
         raise ConfigError(
-            f"{option} {path}: cannot create this folder ({err.strerror}); give a writable folder"
+            f"{option}: cannot create the folder {path} ({err.strerror}); give a writable one"
         ) from None
     return path
 

@@ -117,7 +117,7 @@ def register(app: typer.Typer) -> None:
             )
         writers = {"ps": write_ps_previews, "mdf": write_mdf_previews}
         if previews is not None and any(n in writers for n in names):
-            prepare_folder(previews, "--previews")
+            prepare_folder(previews, f"--previews {previews}")
         options = {"btf": {"components": components}}
         chosen = [STAGES[n](size=size, **options.get(n, {})) for n in names]
         columns = (

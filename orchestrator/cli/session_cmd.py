@@ -10,7 +10,7 @@ from typing import Annotated
 import typer
 from rich.markup import escape
 
-from orchestrator.cli.common import SessionProgress, console
+from orchestrator.cli.common import SessionProgress, console, prepare_folder
 from rig.errors import ConfigError, RigError
 
 __all__ = ["register"]
@@ -167,15 +167,24 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Daemon + workers + submit + follow in one process, for a local session."""
         from orchestrator.daemon import run_local
+        from rig.plan import load_plan
 
+        if config is not None and sim is not None:
+            raise ConfigError("--config and --sim: give one (the scene names its rig)")
+        # The daemon runs here: its archive's folder must be one this machine can make.
+        archive = archive if archive is not None else load_plan(plan).archive_path()
+        if archive.exists():
+            raise ConfigError(
+                f"--archive {archive} exists; give a new path, or continue its session with "
+                f"`rig resume {archive}` (to a running `rig daemon`)"
+            )
+        prepare_folder(archive.parent, f"--archive {archive}")
         with SessionProgress() as view:
             if sim is None:
                 final = run_local(
                     plan, config, archive=archive, workers=workers, stages=stages, on_event=view
                 )
             else:
-                if config is not None:
-                    raise ConfigError("--config and --sim: give one (the scene names its rig)")
                 from rig.clock import VirtualClock
                 from sim.rig import SimulatedRig
 
