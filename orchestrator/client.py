@@ -22,6 +22,7 @@ import zmq
 
 from orchestrator.daemon.endpoints import Endpoints
 from orchestrator.daemon.protocol import MAX_CONTROL_BYTES, decode_json
+from orchestrator.daemon.session import SessionError
 from rig.errors import RigError
 
 __all__ = [
@@ -154,9 +155,29 @@ def pause(*, connect="tcp://127.0.0.1") -> dict:
 
 
 def resume(archive: str | Path | None = None, *, connect="tcp://127.0.0.1") -> dict:
-    """Resume the paused session, or (with ``archive``) continue a crashed one."""
-    path = None if archive is None else str(Path(archive).resolve())
-    return _one(connect, "resume", archive=path)
+    """Resume the paused session, or (with ``archive``) continue a crashed one.
+
+    An archive this machine sees is checked first: a finished session's is refused.
+    """
+    if archive is None:
+        return _one(connect, "resume", archive=None)
+    path = Path(archive).resolve()
+    if path.is_dir():
+        _refuse_finished(path)
+    return _one(connect, "resume", archive=str(path))
+
+
+def _refuse_finished(path: Path) -> None:
+    from rig.archive import Archive
+
+    with Archive.open(path, mode="r") as recorded:
+        sessions = recorded.events("session")
+        committed = len(recorded.committed_steps())
+    if any(event.payload.get("action") == "finished" for event in sessions):
+        raise SessionError(
+            f"{path}: its session finished ({committed} step(s) committed); nothing to resume. "
+            "Process it with `rig process`, or submit the plan again to a new archive"
+        )
 
 
 def abort(*, connect="tcp://127.0.0.1") -> dict:

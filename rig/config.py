@@ -12,6 +12,7 @@ the far half of its arc, i.e. at azimuth (arc angle + 180°).
 
 from __future__ import annotations
 
+import reprlib
 import tomllib
 from pathlib import Path
 from typing import Annotated, Literal
@@ -40,9 +41,11 @@ __all__ = [
     "Turntable",
     "TurntableRegisters",
     "default_rig_config",
+    "file_text",
     "format_validation_error",
     "load_rig_config",
     "read_toml",
+    "toml_data",
     "write_rig_config",
 ]
 
@@ -420,6 +423,12 @@ def _model_in(annotation) -> type[BaseModel] | None:
     return _model_in(origin) if origin is not None else None
 
 
+# A value shown in an error: a few levels and items, so a huge or deeply nested
+# input gives a short line.
+_SHORT = reprlib.Repr()
+_SHORT.maxlevel, _SHORT.maxlist, _SHORT.maxtuple, _SHORT.maxstring = 3, 6, 6, 80
+
+
 def format_validation_error(
     source: str, err: ValidationError, model: type[BaseModel] | None = None
 ) -> list[str]:
@@ -438,20 +447,47 @@ def format_validation_error(
             lines.append(f"{where}: unknown field{hint}")
             continue
         msg = e["msg"].removeprefix("Value error, ")
-        shown = "" if isinstance(value, dict) else f" (got {value!r})"
+        shown = "" if isinstance(value, dict) else f" (got {_SHORT.repr(value)})"
         lines.append(f"{where}: {msg}{shown}")
     return lines
 
 
-def read_toml(path: str | Path, what: str) -> dict:
-    """The data of TOML file ``path``; a ``ConfigError`` naming ``what`` and the
-    file when it is missing or not TOML."""
+def file_text(path: Path) -> str:
+    """The UTF-8 text of file ``path``; a ``ValueError`` saying why it cannot be
+    read ("does not exist", "is a folder, not a TOML file", …)."""
     try:
-        return tomllib.loads(Path(path).read_text())
+        return path.read_text(encoding="utf-8")
     except FileNotFoundError:
-        raise ConfigError(f"{what} {path} does not exist") from None
+        raise ValueError("does not exist") from None
+    except IsADirectoryError:
+        raise ValueError("is a folder, not a TOML file") from None
+    except UnicodeDecodeError as err:
+        raise ValueError(
+            f"is not UTF-8 text (byte {err.start} is {err.object[err.start]:#04x}); "
+            "give a TOML text file"
+        ) from None
+    except OSError as err:
+        raise ValueError(f"cannot be read: {err.strerror}") from None
+
+
+def toml_data(text: str) -> dict:
+    """The data of TOML ``text``; a ``ValueError`` saying why it is not TOML."""
+    try:
+        return tomllib.loads(text)
     except tomllib.TOMLDecodeError as err:
-        raise ConfigError(f"{what} {path} is not valid TOML: {err}") from err
+        raise ValueError(f"is not valid TOML: {err}") from None
+    except RecursionError:
+        # tomllib parses nested arrays and inline tables recursively
+        raise ValueError("nests arrays or inline tables too deeply to be read") from None
+
+
+def read_toml(path: str | Path, what: str) -> dict:
+    """The data of TOML file ``path``; a ``ConfigError`` naming ``what``, the
+    file and why when it cannot be read or is not TOML."""
+    try:
+        return toml_data(file_text(Path(path)))
+    except ValueError as err:
+        raise ConfigError(f"{what} {path} {err}") from None
 
 
 def load_rig_config(path: str | Path) -> RigConfig:

@@ -21,7 +21,6 @@ Example
 from __future__ import annotations
 
 import re
-import tomllib
 from pathlib import Path
 from typing import Annotated
 
@@ -36,7 +35,7 @@ from pydantic import (
     model_validator,
 )
 
-from rig.config import format_validation_error
+from rig.config import file_text, format_validation_error, toml_data
 from rig.errors import ConfigError, PlanError
 from rig.geometry import Sampling
 
@@ -233,9 +232,9 @@ class Plan(_Closed):
 def parse_plan(text: str, *, source: str = "<plan>") -> Plan:
     """Validate plan TOML text; a bad plan raises ``PlanError`` listing every problem."""
     try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as err:
-        raise PlanError(source, [f"not valid TOML: {err}"]) from err
+        data = toml_data(text)
+    except ValueError as err:
+        raise PlanError(source, [f"the plan {err}"]) from None
     try:
         return Plan.model_validate(data)
     except ValidationError as err:
@@ -246,7 +245,7 @@ def load_plan(path: str | Path) -> Plan:
     """Read and validate a plan TOML file."""
     path = Path(path)
     try:
-        text = path.read_text()
-    except FileNotFoundError:
-        raise PlanError(str(path), ["the file does not exist"]) from None
+        text = file_text(path)
+    except ValueError as err:
+        raise PlanError(str(path), [f"the file {err}"]) from None
     return parse_plan(text, source=str(path))

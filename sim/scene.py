@@ -26,7 +26,6 @@ Example::
 
 from __future__ import annotations
 
-import tomllib
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
@@ -294,9 +293,9 @@ def _rig(spec: SceneSpec, base_dir: Path, source: str, problems: list[str]) -> R
     if spec.rig.config is not None:
         path = _resolve(spec.rig.config, base_dir)
         try:
-            base = tomllib.loads(path.read_text())
-        except (OSError, tomllib.TOMLDecodeError) as err:
-            problems.append(f"rig.config: cannot read rig config {path}: {err}")
+            base = read_toml(path, "rig config")
+        except ConfigError as err:
+            problems.append(f"rig.config: {err}")
             return None
     else:
         base = default_rig_config().model_dump(mode="json")

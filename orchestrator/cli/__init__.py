@@ -1,12 +1,14 @@
 """The `rig` command line: one entry point for every job of the rig.
 
 Exit codes: 0 success, 1 a device or runtime failure, 2 invalid input (plan,
-config, arguments), 3 a command that is not built yet.
+config, arguments), 3 a command that is not built yet. Every error is one
+message naming what failed; ``rig --debug …`` also prints the traceback.
 """
 
 from __future__ import annotations
 
 import logging
+from typing import Annotated
 
 import typer
 
@@ -21,7 +23,7 @@ from orchestrator.cli import (
     session_cmd,
     sim_cmd,
 )
-from orchestrator.cli.common import console
+from orchestrator.cli.common import RigGroup, console
 
 __all__ = ["app", "main"]
 
@@ -31,7 +33,19 @@ app = typer.Typer(
     no_args_is_help=True,
     add_completion=False,
     pretty_exceptions_enable=False,
+    cls=RigGroup,
 )
+
+
+@app.callback()
+def _options(
+    debug: Annotated[
+        bool, typer.Option("--debug", help="on an error, also print the traceback")
+    ] = False,
+) -> None:
+    """Options of every command (``RigGroup`` reads --debug from the context)."""
+
+
 plan_cmd.register(app)
 session_cmd.register(app)
 process_cmd.register(app)

@@ -12,7 +12,6 @@ from orchestrator.cli.common import (
     SessionProgress,
     console,
     load_config_option,
-    reporting_errors,
 )
 from rig.errors import ConfigError
 
@@ -74,22 +73,21 @@ def register(app: typer.Typer) -> None:
         TARGET section, with date, software and residuals), a report and plots.
         --from ARCHIVE recomputes from a recorded (or replayed) session.
         """
-        with reporting_errors():
-            if target not in _TARGETS:
-                raise ConfigError(f"unknown target {target!r}; valid are {', '.join(_TARGETS)}")
-            rig = load_config_option(config)
-            ids = None if cameras is None else [c.strip() for c in cameras.split(",") if c.strip()]
-            if from_archive is None:
-                source = archive or Path(f"calibrations/{target}.zarr")
-                plan = _plan(target, rig, source, poses=poses, cameras=ids)
-                _capture(target, rig, plan, source, sim=sim, scale=scale)
-                if target == "lamps":  # the white target: a second session
-                    white = _white_archive(source)
-                    plan = _plan("white", rig, white, poses=poses, cameras=ids)
-                    _capture("white", rig, plan, white, sim=sim, scale=scale)
-            else:
-                source = from_archive
-            failed = _compute(target, source, rig, out, apply or [])
+        if target not in _TARGETS:
+            raise ConfigError(f"unknown target {target!r}; valid are {', '.join(_TARGETS)}")
+        rig = load_config_option(config)
+        ids = None if cameras is None else [c.strip() for c in cameras.split(",") if c.strip()]
+        if from_archive is None:
+            source = archive or Path(f"calibrations/{target}.zarr")
+            plan = _plan(target, rig, source, poses=poses, cameras=ids)
+            _capture(target, rig, plan, source, sim=sim, scale=scale)
+            if target == "lamps":  # the white target: a second session
+                white = _white_archive(source)
+                plan = _plan("white", rig, white, poses=poses, cameras=ids)
+                _capture("white", rig, plan, white, sim=sim, scale=scale)
+        else:
+            source = from_archive
+        failed = _compute(target, source, rig, out, apply or [])
         if failed:
             raise typer.Exit(EXIT_FAILURE)
 

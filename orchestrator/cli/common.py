@@ -11,6 +11,7 @@ import typer
 from rich.console import Console
 from rich.markup import escape
 from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from typer.core import TyperGroup
 
 from rig.config import RigConfig, default_rig_config, load_rig_config
 from rig.errors import ConfigError, PlanError, RigError
@@ -19,11 +20,13 @@ __all__ = [
     "EXIT_FAILURE",
     "EXIT_INVALID",
     "EXIT_NOT_BUILT",
-    "OPTIONAL_EXTRAS",
+    "EXTRAS",
+    "RigGroup",
     "SessionProgress",
     "console",
     "load_config_option",
     "not_built",
+    "prepare_folder",
     "reporting_errors",
 ]
 
@@ -35,14 +38,16 @@ EXIT_FAILURE = 1
 EXIT_INVALID = 2
 EXIT_NOT_BUILT = 3
 
-# The optional packages a command may need, by top-level module, and the extra that installs them.
-OPTIONAL_EXTRAS = {
-    "distributed": "dask",
+
+#: import name of an optional package → the extra of btfrig that installs it
+EXTRAS = {
     "dask": "dask",
+    "distributed": "dask",
     "pyrender": "sim",
+    "OpenGL": "sim",
     "trimesh": "sim",
-    "embreex": "sim",
     "rtree": "sim",
+    "embreex": "sim",
     "moderngl": "render",
     "mitsuba": "reference",
     "harvesters": "genicam",
@@ -50,30 +55,54 @@ OPTIONAL_EXTRAS = {
 }
 
 
-@contextmanager
-def reporting_errors() -> Iterator[None]:
-    """Turn domain errors into a readable message and the right exit code.
+def _report(err: Exception) -> tuple[str, int]:
+    """The one-line reason and exit code of an error that ends a command."""
+    if isinstance(err, PlanError | ConfigError):
+        return str(err), EXIT_INVALID
+    if isinstance(err, RigError):
+        return str(err), EXIT_FAILURE
+    if isinstance(err, ModuleNotFoundError) and err.name is not None:
+        package = err.name.split(".")[0]
+        if package in EXTRAS:
+            return (
+                f"the optional package {package!r} is not installed; "
+                f"install it with: pip install 'btfrig[{EXTRAS[package]}]'",
+                EXIT_FAILURE,
+            )
+    if isinstance(err, OSError):
+        return str(err), EXIT_FAILURE  # names the path: "[Errno 20] Not a directory: '…'"
+    return (
+        f"unexpected {type(err).__name__}: {err} (`rig --debug …` shows where it happened)",
+        EXIT_FAILURE,
+    )
 
-    A missing optional package is a failure (exit 1) that names the extra to install.
+
+@contextmanager
+def reporting_errors(*, debug: bool = False) -> Iterator[None]:
+    """The one place a command's error is printed: one message and an exit code
+    (2 invalid input, 1 failure), never a traceback unless ``debug``.
+
+    Typer's own exits and usage errors pass through (typer prints those).
     """
     try:
         yield
-    except ModuleNotFoundError as err:
-        extra = OPTIONAL_EXTRAS.get((err.name or "").split(".")[0])
-        if extra is None:
-            raise
-        advice = f"install btfrig[{extra}] (pip install 'btfrig[{extra}]')"
-        err_console.print(
-            f"[red]error:[/red] this command needs the optional package {err.name!r}: "
-            + escape(advice)
-        )
-        raise typer.Exit(EXIT_FAILURE) from err
-    except (PlanError, ConfigError) as err:
-        err_console.print(f"[red]error:[/red] {err}")
-        raise typer.Exit(EXIT_INVALID) from err
-    except RigError as err:
-        err_console.print(f"[red]error:[/red] {err}")
-        raise typer.Exit(EXIT_FAILURE) from err
+    except (typer.Exit, typer.Abort, typer.TyperException):
+        raise
+    except Exception as err:
+        message, code = _report(err)
+        if debug:
+            err_console.print_exception()
+        # rich markup would eat bracketed text of the message ("[…]", "[dask]")
+        err_console.print(f"[red]error:[/red] {escape(message)}")
+        raise typer.Exit(code) from err
+
+
+class RigGroup(TyperGroup):
+    """The `rig` command group: every command's errors go through ``reporting_errors``."""
+
+    def invoke(self, ctx: typer.Context):
+        with reporting_errors(debug=bool(ctx.params.get("debug"))):
+            return super().invoke(ctx)
 
 
 def load_config_option(path: Path | None) -> RigConfig:
@@ -81,11 +110,25 @@ def load_config_option(path: Path | None) -> RigConfig:
     return default_rig_config() if path is None else load_rig_config(path)
 
 
-def not_built(command: str, issue: int | None, what: str) -> None:
+def prepare_folder(path: Path, option: str) -> Path:
+    """Create the folder ``path`` (for ``option``, e.g. ``"--previews DIR"``); a
+    ``ConfigError`` naming both and why when it cannot be made."""
+    blocking = next((p for p in (path, *path.parents) if p.exists() and not p.is_dir()), None)
+    if blocking is not None:
+        raise ConfigError(f"{option}: {blocking} is a file, not a folder; give another path")
+    try:
+        path.mkdir(parents=True, exist_ok=True)
+    except OSError as err:
+        raise ConfigError(
+            f"{option}: cannot create the folder {path} ({err.strerror}); give a writable one"
+        ) from None
+    return path
+
+
+def not_built(command: str, what: str) -> None:
     """Say plainly that a command does not exist yet, and fail."""
-    tracked = f"tracked in issue {issue}" if issue is not None else "not scheduled yet"
     err_console.print(
-        f"[yellow]rig {command}:[/yellow] not built yet — {what} ({tracked}). Nothing was done."
+        f"[yellow]rig {command}:[/yellow] not built yet — {escape(what)}. Nothing was done."
     )
     raise typer.Exit(EXIT_NOT_BUILT)
 
@@ -133,6 +176,6 @@ class SessionProgress:
             self.progress.console.print(f"state: {event.get('from')} → [bold]{event.get('to')}[/]")
         elif topic == "log":
             detail = {k: v for k, v in event.items() if k not in ("topic", "seq", "time", "kind")}
-            self.progress.console.print(f"{event.get('kind')}: {detail}")
+            self.progress.console.print(escape(f"{event.get('kind')}: {detail}"))
         elif topic == "gap":
             self.progress.console.print(f"[yellow]missed {event['missed']} event(s)[/yellow]")

@@ -11,7 +11,8 @@ from typing import Annotated
 
 import typer
 
-from orchestrator.cli.common import EXIT_INVALID, console, err_console, not_built, reporting_errors
+from orchestrator.cli.common import console, not_built
+from rig.errors import ConfigError
 
 __all__ = ["app"]
 
@@ -39,17 +40,12 @@ def material(
     from rig.material import export_material
 
     if not (archive / "zarr.json").is_file() or not (archive / "material").is_dir():
-        _invalid(f"{archive}: not a session archive (no zarr.json and material/ there)")
+        raise ConfigError(f"{archive}: not a session archive (no zarr.json and material/ there)")
     if out.exists():
-        _invalid(f"{out}: already exists; give --out a new path")
-    with reporting_errors():
-        written = export_material(archive, out)
+        raise ConfigError(f"{out}: already exists; give --out a new path")
+    written = export_material(archive, out)
     console.print(f"material store: {written}")
 
-
-def _invalid(message: str) -> None:
-    err_console.print(f"[red]error:[/red] {message}")
-    raise typer.Exit(EXIT_INVALID)
 
 
 def _pending(fmt: str, what: str) -> None:
@@ -57,7 +53,7 @@ def _pending(fmt: str, what: str) -> None:
         archive: _Archive,
         out: Annotated[Path, typer.Option("--out", help="output folder")],
     ) -> None:
-        not_built(f"export {fmt}", None, f"the exporter to {what}")
+        not_built(f"export {fmt}", f"the exporter to {what}")
 
     command.__doc__ = f"{what[0].upper()}{what[1:]} (not built yet)."
     app.command(fmt)(command)

@@ -23,7 +23,7 @@ def register(app: typer.Typer) -> None:
         out: Annotated[Path | None, typer.Option("--out", help="write a PNG")] = None,
     ) -> None:
         """Render a material on a mesh (headless PNG or a window)."""
-        not_built("view", None, "the GL renderer")
+        not_built("view", "the GL renderer")
 
     @app.command("import")
     def import_(
@@ -31,4 +31,4 @@ def register(app: typer.Typer) -> None:
         out: Annotated[Path, typer.Option("--out", help="archive to create")],
     ) -> None:
         """Read a BTF in the Bonn UBO2003 layout into an archive."""
-        not_built("import", None, "the UBO2003 importer")
+        not_built("import", "the UBO2003 importer")

@@ -8,7 +8,7 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
-from orchestrator.cli.common import console, load_config_option, reporting_errors
+from orchestrator.cli.common import console, load_config_option
 from rig.config import RigConfig
 from rig.kinematics import sampling_residuals
 from rig.plan import Plan, load_plan
@@ -73,19 +73,18 @@ def register(app: typer.Typer) -> None:
         ] = False,
     ) -> None:
         """Validate a plan; with --estimate, compile it for the rig and say what it costs."""
-        with reporting_errors():
-            the_plan = load_plan(plan_file)
-            rig = load_config_option(config)
-            console.print(f"plan [bold]{plan_file}[/bold] is valid (sample {the_plan.sample.name})")
-            if residuals:
-                _print_residuals(the_plan, rig)
-            if not (estimate or steps):
-                return
-            schedule = compile_plan(the_plan, rig)
-            if estimate:
-                print_estimate(schedule)
-            if steps:
-                _print_steps(schedule, steps)
+        the_plan = load_plan(plan_file)
+        rig = load_config_option(config)
+        console.print(f"plan [bold]{plan_file}[/bold] is valid (sample {the_plan.sample.name})")
+        if residuals:
+            _print_residuals(the_plan, rig)
+        if not (estimate or steps):
+            return
+        schedule = compile_plan(the_plan, rig)
+        if estimate:
+            print_estimate(schedule)
+        if steps:
+            _print_steps(schedule, steps)
 
 
 def _print_steps(schedule: Schedule, n: int) -> None:

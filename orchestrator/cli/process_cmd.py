@@ -7,10 +7,11 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
+from rich.markup import escape
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from orchestrator.cli.common import console, reporting_errors
-from rig.errors import ConfigError
+from orchestrator.cli.common import console, prepare_folder
+from rig.errors import ConfigError, RigError
 
 __all__ = ["register", "write_mdf_previews", "write_ps_previews"]
 
@@ -22,25 +23,26 @@ def write_ps_previews(archive_path: Path, out: Path) -> list[Path]:
 
     from processing.photometric import albedo_preview, hillshade_preview, normal_map_preview
     from rig.archive import Archive
-    from rig.material import read_ps
 
     out.mkdir(parents=True, exist_ok=True)
     written = []
     with Archive.open(archive_path, mode="r") as archive:
-        views = read_ps(archive.material["ps"], where=f"{archive_path}/material/ps")
+        group = archive.material["ps"]
         sample_mm = archive.rig_config["holder"]["sample_mm"]
-    for name, view in views.items():
-        pitch_mm = sample_mm / view.size
-        images = {
-            "normals": normal_map_preview(view.normals),
-            "albedo": albedo_preview(view.albedo, valid=view.valid),
-            "height": hillshade_preview(view.height_mm, pitch_mm=pitch_mm),
-        }
-        for kind, image in images.items():
-            path = out / f"{name}_{kind}.png"
-            bgr = image[..., ::-1] if image.ndim == 3 else image
-            cv2.imwrite(str(path), np.ascontiguousarray(bgr))
-            written.append(path)
+        for name in sorted(group):
+            view = group[name]
+            valid = view["valid"][:]
+            height = view["height_mm"][:]
+            images = {
+                "normals": normal_map_preview(view["normals"][:]),
+                "albedo": albedo_preview(view["albedo"][:], valid=valid),
+                "height": hillshade_preview(height, pitch_mm=sample_mm / height.shape[0]),
+            }
+            for kind, image in images.items():
+                path = out / f"{name}_{kind}.png"
+                bgr = image[..., ::-1] if image.ndim == 3 else image
+                cv2.imwrite(str(path), np.ascontiguousarray(bgr))
+                written.append(path)
     return written
 
 
@@ -51,14 +53,13 @@ def write_mdf_previews(archive_path: Path, out: Path) -> list[Path]:
     import numpy as np
 
     from rig.archive import Archive
-    from rig.material import read_mdf
 
     out.mkdir(parents=True, exist_ok=True)
     written = []
     with Archive.open(archive_path, mode="r") as archive:
-        mdf = read_mdf(archive.material["mdf"], where=f"{archive_path}/material/mdf")
-    distance = mdf.distance_mm
-    names = mdf.attrs.get("views") or [f"view{v}" for v in range(len(distance))]
+        group = archive.material["mdf"]
+        distance = group["distance_mm"][:]
+        names = group.attrs["views"]
     seen = distance >= 0
     top = float(np.percentile(distance[seen], 99)) if seen.any() else 1.0  # outliers clip
     for name, d, s in zip(names, distance, seen, strict=True):
@@ -96,45 +97,61 @@ def register(app: typer.Typer) -> None:
         Re-running a stage replaces its output atomically; a failed run leaves the
         previous output as it was. Stages: ps (photometric stereo: normals, albedo,
         height on the sample's texel grid, with preview PNGs); btf (registered
-        normtextures of every view slot, compressed by per-view PCA, --components).
+        normtextures of every view slot, compressed by per-view PCA, --components);
+        mdf (the mesostructure distance function of the laser scans, with previews).
+        A stage that can use none of its frames (all flagged: saturated, black…) is
+        skipped with the reason, the others still run, and the exit code is 1.
         """
+        import distributed  # noqa: F401  (configures its loggers on import)
+
         from processing.offline import STAGES, run_stages
 
-        with reporting_errors():
-            import distributed  # noqa: F401  (configures its loggers on import)
+        for name in list(logging.root.manager.loggerDict):
+            if name.split(".")[0] == "distributed":  # its INFO lines are for its developers
+                logging.getLogger(name).setLevel(logging.WARNING)
+        names = [s.strip() for s in stages.split(",") if s.strip()]
+        unknown = [n for n in names if n not in STAGES]
+        if unknown or not names:
+            raise ConfigError(
+                f"--stages {stages!r}: unknown stage(s) {unknown}; valid are {sorted(STAGES)}"
+            )
+        writers = {"ps": write_ps_previews, "mdf": write_mdf_previews}
+        if previews is not None and any(n in writers for n in names):
+            prepare_folder(previews, f"--previews {previews}")
+        options = {"btf": {"components": components}}
+        chosen = [STAGES[n](size=size, **options.get(n, {})) for n in names]
+        columns = (
+            TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
+            TimeElapsedColumn(),
+        )  # fmt: skip
+        with Progress(*columns, console=console) as bar:
+            tasks: dict[str, int] = {}
 
-            for name in list(logging.root.manager.loggerDict):
-                if name.split(".")[0] == "distributed":  # its INFO lines are for its developers
-                    logging.getLogger(name).setLevel(logging.WARNING)
-            names = [s.strip() for s in stages.split(",") if s.strip()]
-            unknown = [n for n in names if n not in STAGES]
-            if unknown or not names:
-                raise ConfigError(
-                    f"--stages {stages!r}: unknown stage(s) {unknown}; valid are {sorted(STAGES)}"
-                )
-            options = {"btf": {"components": components}}
-            chosen = [STAGES[n](size=size, **options.get(n, {})) for n in names]
-            columns = (
-                TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
-                TimeElapsedColumn(),
-            )  # fmt: skip
-            with Progress(*columns, console=console) as bar:
-                tasks: dict[str, int] = {}
+            def progress(stage: str, done: int, total: int) -> None:
+                if stage not in tasks:
+                    tasks[stage] = bar.add_task(stage, total=total)
+                bar.update(tasks[stage], completed=done)
 
-                def progress(stage: str, done: int, total: int) -> None:
-                    if stage not in tasks:
-                        tasks[stage] = bar.add_task(stage, total=total)
-                    bar.update(tasks[stage], completed=done)
-
-                runs = run_stages(
-                    archive, chosen, scheduler=scheduler, workers=workers, progress=progress
-                )
-            for run in runs:
-                detail = ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}"
-                                   for k, v in run.summary.items())  # fmt: skip
-                console.print(f"{run.stage}: {run.items} item(s) → material/{run.stage} ({detail})")
-            folder = previews or archive.with_name(f"{archive.stem}_previews")
-            writers = {"ps": write_ps_previews, "mdf": write_mdf_previews}
-            for name in names:
-                for path in writers.get(name, lambda *_: [])(archive, folder):
-                    console.print(f"wrote {path}")
+            runs = run_stages(
+                archive, chosen, scheduler=scheduler, workers=workers, progress=progress
+            )
+        for run in runs:
+            if run.skipped is not None:
+                console.print(f"[yellow]{run.stage}: skipped[/yellow] — {escape(run.skipped)}")
+                continue
+            detail = ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}"
+                               for k, v in run.summary.items())  # fmt: skip
+            console.print(
+                escape(f"{run.stage}: {run.items} item(s) → material/{run.stage} ({detail})")
+            )
+        folder = previews or archive.with_name(f"{archive.stem}_previews")
+        for run in runs:
+            if run.skipped is None and run.stage in writers:
+                for path in writers[run.stage](archive, folder):
+                    console.print(escape(f"wrote {path}"))
+        skipped = [run.stage for run in runs if run.skipped is not None]
+        if skipped:
+            raise RigError(
+                f"{len(skipped)} of {len(runs)} stage(s) skipped: {', '.join(skipped)} "
+                "(why is said above); the other stages' results are in material/"
+            )

@@ -8,7 +8,7 @@ from typing import Annotated
 import typer
 from rich.markup import escape
 
-from orchestrator.cli.common import console, reporting_errors
+from orchestrator.cli.common import console
 
 __all__ = ["register"]
 
@@ -25,8 +25,7 @@ def register(app: typer.Typer) -> None:
         """
         from rig.archive import repair_archive
 
-        with reporting_errors():
-            report = repair_archive(archive)
+        report = repair_archive(archive)
         if not report.changed:
             console.print(
                 f"{escape(str(archive))}: opens cleanly with {report.committed_steps} "

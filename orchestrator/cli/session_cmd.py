@@ -8,9 +8,10 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
+from rich.markup import escape
 
-from orchestrator.cli.common import SessionProgress, console, reporting_errors
-from rig.errors import ConfigError
+from orchestrator.cli.common import SessionProgress, console, prepare_folder
+from rig.errors import ConfigError, RigError
 
 __all__ = ["register"]
 
@@ -23,7 +24,7 @@ def _print_status(state: dict) -> None:
     console.print(f"daemon: [bold]{state.get('state')}[/bold]")
     for key in ("session", "sample", "archive", "committed", "steps", "frames", "fault", "reason"):
         if session.get(key) is not None:
-            console.print(f"  {key}: {session[key]}")
+            console.print(escape(f"  {key}: {session[key]}"))
 
 
 def register(app: typer.Typer) -> None:
@@ -49,21 +50,40 @@ def register(app: typer.Typer) -> None:
         ] = None,
     ) -> None:
         """Run the control daemon: owns the devices and one session at a time."""
+        import zmq
+        from pydantic import ValidationError
+
         from orchestrator.daemon import DaemonSettings, run_daemon
 
-        with reporting_errors():
-            settings = DaemonSettings(
-                host=host,
-                port=port,
-                on_fault=on_fault,
-                curve_secret_key=curve_secret_key,
-                curve_clients_dir=curve_clients_dir,
-            )
+        options = {
+            "host": host,
+            "port": port,
+            "on_fault": on_fault,
+            "curve_secret_key": curve_secret_key,
+            "curve_clients_dir": curve_clients_dir,
+        }
+        try:
+            settings = DaemonSettings(**options)
+        except ValidationError as err:
+            raise ConfigError(
+                "; ".join(
+                    f"--{str(e['loc'][0]).replace('_', '-')} {e['input']}: {e['msg']}"
+                    for e in err.errors()
+                )
+            ) from None
+        try:
             run_daemon(
                 config,
                 settings=settings,
                 on_ready=lambda ep: console.print(f"daemon listening on {ep.control}"),
             )
+        except zmq.ZMQError as err:
+            if err.errno != zmq.EADDRINUSE:
+                raise
+            raise RigError(
+                f"cannot listen on {host} ports {port}–{port + 3}: {err.strerror} (another "
+                "`rig daemon` or program holds one); stop it, or give another --port"
+            ) from None
 
     @app.command()
     def submit(
@@ -76,8 +96,7 @@ def register(app: typer.Typer) -> None:
         """Submit a plan to the running daemon."""
         from orchestrator import client
 
-        with reporting_errors():
-            _print_status(client.submit(plan, archive=archive, connect=connect))
+        _print_status(client.submit(plan, archive=archive, connect=connect))
 
     @app.command()
     def status(
@@ -87,14 +106,13 @@ def register(app: typer.Typer) -> None:
         """Show the daemon's session state; --follow draws progress until it ends."""
         from orchestrator import client
 
-        with reporting_errors():
-            if not follow:
-                _print_status(client.status(connect=connect))
-                return
-            with SessionProgress() as view:
-                for event in client.follow(connect, until=client.session_ended):
-                    view(event)
+        if not follow:
             _print_status(client.status(connect=connect))
+            return
+        with SessionProgress() as view:
+            for event in client.follow(connect, until=client.session_ended):
+                view(event)
+        _print_status(client.status(connect=connect))
 
     for name, doc in (
         ("pause", "Pause the running session after the current step."),
@@ -105,8 +123,7 @@ def register(app: typer.Typer) -> None:
         def command(connect: Annotated[str, CONNECT] = DEFAULT_CONNECT, _name=name) -> None:
             from orchestrator import client
 
-            with reporting_errors():
-                _print_status(getattr(client, _name)(connect=connect))
+            _print_status(getattr(client, _name)(connect=connect))
 
         command.__doc__ = doc
         app.command(name)(command)
@@ -121,8 +138,7 @@ def register(app: typer.Typer) -> None:
         """Resume a paused session, or continue a crashed one from its archive."""
         from orchestrator import client
 
-        with reporting_errors():
-            _print_status(client.resume(archive, connect=connect))
+        _print_status(client.resume(archive, connect=connect))
 
     @app.command()
     def run(
@@ -151,15 +167,24 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Daemon + workers + submit + follow in one process, for a local session."""
         from orchestrator.daemon import run_local
+        from rig.plan import load_plan
 
-        with reporting_errors(), SessionProgress() as view:
+        if config is not None and sim is not None:
+            raise ConfigError("--config and --sim: give one (the scene names its rig)")
+        # The daemon runs here: its archive's folder must be one this machine can make.
+        archive = archive if archive is not None else load_plan(plan).archive_path()
+        if archive.exists():
+            raise ConfigError(
+                f"--archive {archive} exists; give a new path, or continue its session with "
+                f"`rig resume {archive}` (to a running `rig daemon`)"
+            )
+        prepare_folder(archive.parent, f"--archive {archive}")
+        with SessionProgress() as view:
             if sim is None:
                 final = run_local(
                     plan, config, archive=archive, workers=workers, stages=stages, on_event=view
                 )
             else:
-                if config is not None:
-                    raise ConfigError("--config and --sim: give one (the scene names its rig)")
                 from rig.clock import VirtualClock
                 from sim.rig import SimulatedRig
 
@@ -196,7 +221,7 @@ def register(app: typer.Typer) -> None:
         from orchestrator.daemon import replay_local
 
         target = out if out is not None else archive.with_suffix(".replay.zarr")
-        with reporting_errors(), SessionProgress() as view:
+        with SessionProgress() as view:
             final = replay_local(
                 archive, out=target, speed=None if max_speed else speed, workers=workers,
                 on_event=view,
@@ -224,8 +249,7 @@ def register(app: typer.Typer) -> None:
         stop = threading.Event()
         previous = signal.signal(signal.SIGINT, lambda *_: stop.set())
         try:
-            with reporting_errors():
-                done = run_worker(stage, connect, stop=stop)
+            done = run_worker(stage, connect, stop=stop)
         finally:
             signal.signal(signal.SIGINT, previous)
         console.print(f"worker processed {done} frame(s)")

@@ -11,7 +11,7 @@ from typing import Annotated, Literal
 import typer
 from typer.core import TyperGroup
 
-from orchestrator.cli.common import console, reporting_errors
+from orchestrator.cli.common import console
 from rig.errors import ConfigError
 
 __all__ = ["app", "parse_faults"]
@@ -82,33 +82,30 @@ def serve(
     """
     from rig.clock import RealClock, ScaledClock
     from rig.config import write_rig_config
+    from sim.rig import SimulatedRig
 
-    with reporting_errors():
-        from sim.rig import SimulatedRig
-
-        if transport not in ("tcp", "rtu"):
-            raise ConfigError(f"--transport {transport!r}: valid are 'tcp' and 'rtu'")
-        mode: Literal["tcp", "rtu"] = "tcp" if transport == "tcp" else "rtu"
-        clock = RealClock() if speed == 1.0 else ScaledClock(speed)
-        stop = threading.Event()
-        handlers = {
-            sig: signal.signal(sig, lambda *_: stop.set())
-            for sig in (signal.SIGINT, signal.SIGTERM)
-        }
-        try:
-            with SimulatedRig(
-                scene, clock=clock, transport=mode, faults=parse_faults(fault or [])
-            ) as sim:
-                path = write_rig_config(sim.rig_config(), config_out)
-                console.print(
-                    f"simulated rig {sim.scene.rig.name!r} of scene {scene} is up "
-                    f"(time ×{speed:g}); rig config written to {path}"
-                )
-                console.print(f"next: rig daemon --config {path}   (Ctrl-C here stops the rig)")
-                stop.wait()
-        finally:
-            for sig, handler in handlers.items():
-                signal.signal(sig, handler)
+    if transport not in ("tcp", "rtu"):
+        raise ConfigError(f"--transport {transport!r}: valid are 'tcp' and 'rtu'")
+    mode: Literal["tcp", "rtu"] = "tcp" if transport == "tcp" else "rtu"
+    clock = RealClock() if speed == 1.0 else ScaledClock(speed)
+    stop = threading.Event()
+    handlers = {
+        sig: signal.signal(sig, lambda *_: stop.set()) for sig in (signal.SIGINT, signal.SIGTERM)
+    }
+    try:
+        with SimulatedRig(
+            scene, clock=clock, transport=mode, faults=parse_faults(fault or [])
+        ) as sim:
+            path = write_rig_config(sim.rig_config(), config_out)
+            console.print(
+                f"simulated rig {sim.scene.rig.name!r} of scene {scene} is up "
+                f"(time ×{speed:g}); rig config written to {path}"
+            )
+            console.print(f"next: rig daemon --config {path}   (Ctrl-C here stops the rig)")
+            stop.wait()
+    finally:
+        for sig, handler in handlers.items():
+            signal.signal(sig, handler)
     console.print("simulated rig stopped")
 
 
@@ -124,9 +121,8 @@ def render(
     Writes one image per camera × lamp, a laser frame, and the true normals,
     height and albedo maps.
     """
-    with reporting_errors():
-        from sim.preview import write_preview
+    from sim.preview import write_preview
 
-        written = write_preview(scene, out, cameras=cameras, lamps=lamps)
+    written = write_preview(scene, out, cameras=cameras, lamps=lamps)
     for path in written:
         console.print(f"wrote {path}")

@@ -9,7 +9,15 @@ See ``docs/processing.md`` for the stage protocol.
 from processing.offline.btf import BtfSlot, BtfStage
 from processing.offline.mdf import MdfStage
 from processing.offline.ps import PsStage
-from processing.offline.runner import Stage, StageRun, View, frame_camera, run_stages, views_of
+from processing.offline.runner import (
+    Stage,
+    StageRun,
+    StageSkipped,
+    View,
+    frame_camera,
+    run_stages,
+    views_of,
+)
 
 #: stage name → how to build it (keyword options, e.g. ``size=``)
 STAGES = {"ps": PsStage, "btf": BtfStage, "mdf": MdfStage}
@@ -22,6 +30,7 @@ __all__ = [
     "PsStage",
     "Stage",
     "StageRun",
+    "StageSkipped",
     "View",
     "frame_camera",
     "run_stages",

@@ -11,16 +11,20 @@ A frame whose registration is flagged (too few or collinear markers…) is never
 warped into the data: its slot is stored empty (``slot_valid`` false) and the
 reason listed in ``flagged``, so a re-capture or the renderer's view blending
 can stand in for it.
+When no slot at all can be registered (a saturated or black session) there
+is nothing to compress: the stage is skipped (``StageSkipped``) with the
+count of each flag's reason.
 """
 
 from __future__ import annotations
 
+from collections import Counter
 from dataclasses import dataclass
 
 import numpy as np
 
 from processing.btf import CompressedBTF, compress_view, view_slots
-from processing.offline.runner import frame_camera
+from processing.offline.runner import StageSkipped, frame_camera
 from processing.registration import register_capture
 from rig.archive import Archive
 from rig.config import RigConfig
@@ -84,7 +88,12 @@ class BtfStage:
         n_lights = len(results[0]["slot"].captures)
         template = next((r["compressed"] for r in results if r["compressed"] is not None), None)
         if template is None:
-            raise ValueError("btf: no view slot could be registered; nothing to compress")
+            reasons = Counter(f[-1] for r in results for f in r["flagged"])
+            raise StageSkipped(
+                f"no view slot could be registered, so there is nothing to compress; "
+                f"{sum(reasons.values())} frame(s) flagged: "
+                + ", ".join(f"{reason} ×{n}" for reason, n in reasons.most_common())
+            )
         empty_mean = np.zeros_like(template.mean)
         empty_basis = np.zeros_like(template.basis)
         empty_weights = np.zeros_like(template.weights)

@@ -24,11 +24,12 @@ from typing import Any, Protocol
 from rig.archive import Archive
 from rig.calfile import CalibrationFile
 from rig.config import RigConfig
-from rig.errors import ConfigError
+from rig.errors import ConfigError, RigError
 
 __all__ = [
     "Stage",
     "StageRun",
+    "StageSkipped",
     "View",
     "archive_calibration",
     "calibrated_camera",
@@ -55,7 +56,14 @@ class Stage(Protocol):
         """One item's result, from the archive at ``archive_path`` (opened read-only)."""
 
     def write(self, group, archive: Archive, results: Sequence[Any]) -> dict:
-        """Write the results into ``group`` (``material/<name>``); a summary for the user."""
+        """Write the results into ``group`` (``material/<name>``); a summary for the user.
+
+        Raises ``StageSkipped`` when no item gave anything to write."""
+
+
+class StageSkipped(RigError):
+    """A stage could use none of its items (every frame flagged…); the message says
+    why. The stage's previous output stays, and the other stages still run."""
 
 
 @dataclass(frozen=True)
@@ -124,11 +132,12 @@ def calibrated_camera(
 
 @dataclass(frozen=True)
 class StageRun:
-    """What one stage did."""
+    """What one stage did; ``skipped``: why it wrote nothing (None when it did)."""
 
     stage: str
     items: int
     summary: Mapping[str, Any]
+    skipped: str | None = None
 
 
 def run_stages(
@@ -149,12 +158,18 @@ def run_stages(
         default a local cluster of ``workers`` threads
     progress : called as items finish
 
+    A stage that can use none of its items (``StageSkipped``) is reported in
+    its ``StageRun.skipped``, and the stages after it still run.
+
     Raises
     ------
     ConfigError
-        A stage finds nothing to do in this archive (e.g. no ps steps).
+        A stage finds nothing to do in this archive (e.g. no ps steps), or
+        ``scheduler`` is not a scheduler address.
+    RigError
+        No scheduler answers at ``scheduler``.
     """
-    from distributed import Client, LocalCluster, as_completed
+    from distributed import LocalCluster, as_completed
 
     path = str(Path(archive_path).resolve())
     with Archive.open(path, mode="r") as archive:
@@ -170,7 +185,7 @@ def run_stages(
         )  # fmt: skip
     runs = []
     try:
-        with Client(cluster if cluster is not None else scheduler) as client:
+        with _client(cluster if cluster is not None else scheduler) as client:
             for stage in stages:
                 items = plans[stage.name]
                 futures = [client.submit(stage.compute, path, item, pure=False) for item in items]
@@ -182,14 +197,36 @@ def run_stages(
                     results[index[future.key]] = future.result()
                     if progress is not None:
                         progress(stage.name, done, len(items))
-                with (
-                    Archive.open(path, mode="a") as archive,
-                    archive.replace_material(stage.name) as group,
-                ):
-                    summary = stage.write(group, archive, results)
+                try:
+                    with (
+                        Archive.open(path, mode="a") as archive,
+                        archive.replace_material(stage.name) as group,
+                    ):
+                        summary = stage.write(group, archive, results)
+                except StageSkipped as skipped:
+                    log.info("stage %s skipped: %s", stage.name, skipped)
+                    runs.append(StageRun(stage.name, len(items), {}, skipped=str(skipped)))
+                    continue
                 log.info("stage %s: %d item(s) into material/", stage.name, len(items))
                 runs.append(StageRun(stage.name, len(items), summary))
     finally:
         if cluster is not None:
             cluster.close()
     return runs
+
+
+def _client(cluster_or_address):
+    """A Dask client of a local cluster, or of the scheduler at an address."""
+    from distributed import Client
+
+    if not isinstance(cluster_or_address, str):
+        return Client(cluster_or_address)
+    try:
+        return Client(cluster_or_address, timeout=10)
+    except ValueError as err:
+        raise ConfigError(
+            f"scheduler {cluster_or_address!r} is not a Dask scheduler address ({err}); "
+            "give one as tcp://HOST:PORT"
+        ) from None
+    except OSError as err:
+        raise RigError(f"no Dask scheduler answers at {cluster_or_address!r}: {err}") from None
