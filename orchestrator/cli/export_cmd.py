@@ -47,7 +47,6 @@ def material(
     console.print(f"material store: {written}")
 
 
-
 def _pending(fmt: str, what: str) -> None:
     def command(
         archive: _Archive,
