@@ -1,20 +1,22 @@
-"""Device drivers, one family per module, each speaking its device's real protocol.
+"""Device drivers, one family per package, each speaking its device's real protocol.
 
 The same driver serves a lab's hardware and the simulator's peers: only the
-connection in the rig config differs. Drivers are synchronous; time is an
-injected ``rig.clock.Clock``.
+connection in the rig config differs. ``open_device(role, section, clock=...)``
+opens the driver that the section's ``kind`` names (``drivers.registry``).
+Drivers are synchronous; time is an injected ``rig.clock.Clock``.
 """
 
-from drivers.camera import Camera, Frame, OpenCvCamera, SimCamera, open_camera
+from drivers.camera import Camera, Frame, OpenCvCamera, SimCamera
 from drivers.dynamixel import DynamixelArc, DynamixelBus
 from drivers.errors import DeviceError, DeviceFault, DeviceTimeout, MotionStalled, ProtocolError
-from drivers.interfaces import Arc, LampBank, Turntable
+from drivers.interfaces import Axis, LampBank, LaserUnit
 from drivers.modbus import ModbusLampBank, ModbusTurntable
-from drivers.nxt import NxtBrick, NxtLaser
+from drivers.nxt import NxtBrick, NxtLaser, NxtTilt
+from drivers.registry import open_device, register
 from drivers.retry import with_retries
 
 __all__ = [
-    "Arc",
+    "Axis",
     "Camera",
     "DeviceError",
     "DeviceFault",
@@ -23,15 +25,17 @@ __all__ = [
     "DynamixelBus",
     "Frame",
     "LampBank",
+    "LaserUnit",
     "ModbusLampBank",
     "ModbusTurntable",
     "MotionStalled",
     "NxtBrick",
     "NxtLaser",
+    "NxtTilt",
     "OpenCvCamera",
     "ProtocolError",
     "SimCamera",
-    "Turntable",
-    "open_camera",
+    "open_device",
+    "register",
     "with_retries",
 ]

@@ -1,42 +1,54 @@
-"""What the daemon needs from each motion and lighting device family.
+"""What the daemon needs from each kind of device, whatever family drives it.
 
-One small synchronous interface per family; each real protocol has a driver
-that satisfies it (``drivers.modbus``, ``drivers.dynamixel``), and the same
-driver talks to the simulator's peers, which answer on the wire. Failures
-raise ``drivers.errors.DeviceError`` subclasses naming device, operation and
-value. Angles are in degrees.
+One small synchronous interface per role; each family's driver satisfies it
+(``drivers.modbus``, ``drivers.dynamixel``, ``drivers.nxt``) and talks to the
+real device or to the simulator's peer on the same wire. Every rotary axis —
+turntable, light arc, the laser unit's tilt — is an ``Axis``. Failures raise
+``drivers.errors.DeviceError`` subclasses naming device, operation and value.
+Angles are in degrees. Cameras: ``drivers.camera.Camera``.
 """
 
 from __future__ import annotations
 
 from typing import Protocol, runtime_checkable
 
-__all__ = ["Arc", "LampBank", "Turntable"]
+__all__ = ["Axis", "LampBank", "LaserUnit"]
 
 
 @runtime_checkable
-class Turntable(Protocol):
-    """The rotary stage under the sample."""
+class Axis(Protocol):
+    """A rotary axis: move, wait until it stopped at the target, read where it is.
+
+    ``settle_s`` is how long the axis needs after a move before an exposure
+    (vibration dying down); the caller waits it once for axes moved together.
+    """
+
+    name: str
+    settle_s: float
 
     def home(self) -> None:
-        """Run the homing sequence and wait until the axis is at 0°."""
+        """Make the axis ready to move with a known zero (homing, torque on) and wait."""
 
     def move_to(self, deg: float) -> None:
-        """Start a move to ``deg``; returns at once (see ``wait_until_settled``)."""
+        """Start a move to ``deg``; returns at once (see ``wait_until_settled``).
 
-    def position(self) -> float:
-        """The actual position (deg) the drive reports."""
-
-    def wait_until_settled(self, timeout_s: float | None = None) -> float:
-        """Wait until the last move ends; return the position (deg).
-
-        Raises ``MotionStalled`` when the axis stops short of its target,
-        ``DeviceFault`` when the drive reports a fault and ``DeviceTimeout``
-        when it is still moving after ``timeout_s``.
+        A target outside the axis's range raises before anything moves.
         """
 
+    def wait_until_settled(self, timeout_s: float | None = None) -> float:
+        """Wait until the last move ends; return the position reached (deg).
+
+        Raises ``MotionStalled`` when the axis stops short of its target,
+        ``DeviceFault`` when the device reports a fault and ``DeviceTimeout``
+        when it has not arrived after ``timeout_s`` (default: twice the
+        expected move time plus a margin, so no wait is unbounded).
+        """
+
+    def position(self) -> float:
+        """The position (deg) the device reports."""
+
     def stop(self) -> None:
-        """Decelerate and stop now."""
+        """Decelerate and stop now; the next wait returns where the axis stopped."""
 
     def close(self) -> None:
         """Release the connection; idempotent."""
@@ -67,27 +79,16 @@ class LampBank(Protocol):
 
 
 @runtime_checkable
-class Arc(Protocol):
-    """A rotating arc (light arc) driven by one or more servos."""
+class LaserUnit(Protocol):
+    """The laser line projector: a diode and the ``tilt`` axis sweeping its sheet."""
 
-    def enable(self) -> None:
-        """Switch the servos' torque on and load the motion profile."""
+    tilt: Axis
 
-    def disable(self) -> None:
-        """Switch the servos' torque off."""
+    def check_battery(self) -> int:
+        """The supply voltage (mV); ``DeviceFault`` when too low to scan."""
 
-    def move_to(self, deg: float) -> None:
-        """Start a move of the arc to ``deg``; returns at once."""
-
-    def position(self) -> float:
-        """The arc angle (deg) the servos report."""
-
-    def wait_until_settled(self, timeout_s: float | None = None) -> float:
-        """Wait until the move ends; return the arc angle (deg).
-
-        Raises ``MotionStalled``, ``DeviceFault`` (a servo's hardware error)
-        or ``DeviceTimeout`` like ``Turntable.wait_until_settled``.
-        """
+    def set_laser(self, on: bool) -> None:
+        """Switch the diode."""
 
     def close(self) -> None:
-        """Release the bus; idempotent."""
+        """Diode off (best effort), release the connection; idempotent."""

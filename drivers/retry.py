@@ -8,7 +8,7 @@ from typing import TypeVar
 
 from drivers.errors import DeviceError, DeviceTimeout, ProtocolError
 from rig.clock import Clock
-from rig.connections import Retry
+from rig.devices import Retry
 
 __all__ = ["with_retries"]
 

@@ -22,7 +22,21 @@ import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
 
 from rig.camera import PinholeCamera, look_at
-from rig.connections import CameraConnection, DynamixelConnection, ModbusConnection, NxtConnection
+from rig.config_migration import CONFIG_VERSION, migrate_rig_config
+from rig.devices import (
+    CameraConnection,
+    DynamixelServos,
+    GenicamConnection,
+    LampBankDevice,
+    LaserDevice,
+    LightArcDevice,
+    ModbusDrive,
+    ModbusLamps,
+    NxtLaserUnit,
+    OpenCvConnection,
+    SimCameraConnection,
+    TurntableDevice,
+)
 from rig.errors import ConfigError
 from rig.geometry import direction_vector
 from rig.targets import Targets
@@ -34,12 +48,10 @@ __all__ = [
     "Holder",
     "Lamp",
     "LampBank",
-    "LampBankRegisters",
     "Laser",
     "LightArc",
     "RigConfig",
     "Turntable",
-    "TurntableRegisters",
     "default_rig_config",
     "file_text",
     "format_validation_error",
@@ -79,64 +91,11 @@ class Axis(_Closed):
         return np.where(d < d_ramp, 2.0 * np.sqrt(d / a), d / v + v / a)
 
 
-class TurntableRegisters(_Closed):
-    """Register map of the turntable's stepper drive (Modbus holding registers).
-
-    Addresses are 0-based protocol addresses (register 40001 is address 0).
-    Positions are signed 32-bit counts of ``1 / units_per_deg`` degree in two
-    registers (``word_order`` says which comes first); speed and acceleration are
-    unsigned 16-bit in the same unit per s and per s². Drives differ: map
-    yours here. See ``docs/devices.md``.
-    """
-
-    target_position: int = Field(0, ge=0, le=65534, description="int32, write")
-    actual_position: int = Field(2, ge=0, le=65534, description="int32, read")
-    status: int = Field(4, ge=0, le=65535, description="bit field, read")
-    command: int = Field(5, ge=0, le=65535, description="write a command code")
-    speed: int = Field(6, ge=0, le=65535, description="uint16, units/s")
-    acceleration: int = Field(7, ge=0, le=65535, description="uint16, units/s²")
-    units_per_deg: float = Field(100.0, gt=0, description="position counts per degree")
-    word_order: Literal["high_first", "low_first"] = "high_first"
-    moving_bit: int = Field(0, ge=0, le=15)
-    in_position_bit: int = Field(1, ge=0, le=15)
-    fault_bit: int = Field(2, ge=0, le=15)
-    homed_bit: int = Field(3, ge=0, le=15)
-    go_code: int = Field(1, ge=0, le=65535, description="command: move to the target")
-    home_code: int = Field(2, ge=0, le=65535, description="command: find home, set 0°")
-    stop_code: int = Field(3, ge=0, le=65535, description="command: decelerate and stop")
-
-    @model_validator(mode="after")
-    def _distinct(self) -> TurntableRegisters:
-        words = {
-            "target_position": {self.target_position, self.target_position + 1},
-            "actual_position": {self.actual_position, self.actual_position + 1},
-            "status": {self.status},
-            "command": {self.command},
-            "speed": {self.speed},
-            "acceleration": {self.acceleration},
-        }
-        names = list(words)
-        for i, a in enumerate(names):
-            for b in names[i + 1 :]:
-                if words[a] & words[b]:
-                    raise ValueError(
-                        f"registers {a} and {b} overlap at {sorted(words[a] & words[b])}"
-                    )
-        bits = [self.moving_bit, self.in_position_bit, self.fault_bit, self.homed_bit]
-        if len(set(bits)) != len(bits):
-            raise ValueError(
-                f"status bits must differ; got moving/in_position/fault/homed = {bits}"
-            )
-        codes = [self.go_code, self.home_code, self.stop_code]
-        if len(set(codes)) != len(codes):
-            raise ValueError(f"command codes must differ; got go/home/stop = {codes}")
-        return self
-
-
 class Turntable(_Closed):
+    """The rotary stage under the sample: its motion limits and the device turning it."""
+
     axis: Axis = Axis(speed_deg_s=30.0, accel_deg_s2=60.0, settle_s=0.3)
-    drive: ModbusConnection = ModbusConnection(port=5020)
-    registers: TurntableRegisters = TurntableRegisters()
+    device: TurntableDevice = ModbusDrive(port=5020)
 
 
 class Lamp(_Closed):
@@ -147,27 +106,10 @@ class Lamp(_Closed):
     spot_cutoff_deg: float = Field(60.0, gt=0, le=90, description="spot lamps: half-angle")
 
 
-class LampBankRegisters(_Closed):
-    """Modbus layout of the lamp bank; lamp *i* is the *i*-th lamp of the light arc.
-
-    Coil ``coils + i`` switches lamp *i*; discrete input ``light_sensors + i``
-    is 1 while its light sensor (photodiode or current sense) sees the lamp
-    lit; with ``dimming``, holding register ``dimmers + i`` sets its level in
-    ``0..dim_full_scale``. Addresses are 0-based. See ``docs/devices.md``.
-    """
-
-    coils: int = Field(0, ge=0, le=65535, description="first lamp's on/off coil")
-    light_sensors: int = Field(0, ge=0, le=65535, description="first lamp's light-sensor input")
-    dimming: bool = Field(False, description="the bank has dimming holding registers")
-    dimmers: int = Field(0, ge=0, le=65535, description="first lamp's dimming register")
-    dim_full_scale: int = Field(1000, gt=0, le=65535, description="register value at 100 %")
-
-
 class LampBank(_Closed):
-    """The lamps' power switches: Modbus coils (and optional dimming registers)."""
+    """The lamps' power switches; lamp *i* is the *i*-th lamp of the light arc."""
 
-    connection: ModbusConnection = ModbusConnection(port=5021)
-    registers: LampBankRegisters = LampBankRegisters()
+    device: LampBankDevice = ModbusLamps(port=5021)
     warmup_s: float = Field(0.05, ge=0, description="from switching on to stable light")
 
 
@@ -180,42 +122,13 @@ class LightArc(_Closed):
     lamps: tuple[Lamp, ...] = tuple(
         Lamp(id=f"lamp{i}", theta_deg=t) for i, t in enumerate(_H2_THETAS)
     )
-    servos: DynamixelConnection = DynamixelConnection(serial_port="/dev/ttyUSB0")
-    servo_ids: tuple[int, ...] = Field((1,), description="Dynamixel ids driving the arc")
-    servo_ticks_per_rev: int = Field(4096, gt=0, description="encoder ticks per servo turn")
-    servo_gear_ratio: float = Field(1.0, gt=0, description="servo turns per arc turn")
-    servo_zero_tick: int = Field(0, description="present position (ticks) at arc 0°")
-    servo_profile_velocity: int | None = Field(
-        None, ge=1, le=32767, description="raw, 0.229 rpm units; None: from axis.speed_deg_s"
-    )
-    servo_profile_acceleration: int | None = Field(
-        None, ge=1, le=32767, description="raw, 214.577 rev/min² units; None: from axis"
-    )
-
-    def arc_deg_to_ticks(self, arc_deg: float) -> int:
-        """Servo goal position (ticks) for an arc angle (deg)."""
-        ticks = arc_deg / 360.0 * self.servo_gear_ratio * self.servo_ticks_per_rev
-        return self.servo_zero_tick + round(ticks)
-
-    def ticks_to_arc_deg(self, ticks: int) -> float:
-        """Arc angle (deg) of a servo present position (ticks)."""
-        turns = (ticks - self.servo_zero_tick) / self.servo_ticks_per_rev
-        return turns / self.servo_gear_ratio * 360.0
+    device: LightArcDevice = DynamixelServos()
 
     @model_validator(mode="after")
     def _unique_lamps(self) -> LightArc:
         ids = [lamp.id for lamp in self.lamps]
         if len(set(ids)) != len(ids) or not ids:
             raise ValueError(f"lamps need unique ids, at least one; got {ids}")
-        return self
-
-    @model_validator(mode="after")
-    def _servo_ids(self) -> LightArc:
-        ids = self.servo_ids
-        if not ids or len(set(ids)) != len(ids) or not all(0 <= i <= 252 for i in ids):
-            raise ValueError(
-                f"servo_ids need unique Dynamixel ids in 0..252, at least one; got {ids}"
-            )
         return self
 
 
@@ -234,7 +147,12 @@ class CameraSpec(_Closed):
     channels: Literal[1, 3] = 3
     bit_depth: Literal[8, 10, 12, 16] = 8
     readout_s: float = Field(1 / 15, ge=0, description="sensor readout per frame")
-    connection: CameraConnection = CameraConnection()
+    connection: CameraConnection = SimCameraConnection()
+
+    @property
+    def device(self) -> SimCameraConnection | OpenCvConnection | GenicamConnection:
+        """The camera's device section (its ``connection``), as for the other roles."""
+        return self.connection
 
 
 class CameraArc(_Closed):
@@ -260,30 +178,11 @@ class Laser(_Closed):
     sweep_deg: float = Field(12.0, gt=0, le=90, description="total tilt of the sheet per scan")
     sweep_speed_deg_s: float = Field(1.0, gt=0, description="tilt speed while scanning")
     frame_rate_hz: float = Field(7.5, gt=0, description="camera rate while scanning")
-    brick: NxtConnection = NxtConnection()
-    motor_port: Literal["A", "B", "C"] = Field("A", description="NXT output that tilts the sheet")
-    laser_port: Literal["A", "B", "C"] = Field(
-        "B", description="NXT output that powers the laser diode (constant power)"
-    )
-    gear_ratio: float = Field(
-        1 / 24, gt=0, le=10, description="degrees of sheet tilt per motor degree (24:1 worm: 1/24)"
-    )
-    motor_power: int = Field(30, ge=1, le=100, description="NXT power set point while tilting, %")
-    laser_power: int = Field(100, ge=1, le=100, description="NXT power on the laser port, %")
-    min_battery_mv: int = Field(
-        6500, ge=0, le=10000, description="refuse to scan below this battery voltage (mV)"
-    )
     tilt_limit_deg: float = Field(30.0, gt=0, le=90, description="mechanical tilt range: ±limit")
-    stall_timeout_s: float = Field(
-        1.0, gt=0, description="no tacho progress for this long while running: stalled"
-    )
+    device: LaserDevice = NxtLaserUnit()
 
     @model_validator(mode="after")
-    def _ports_and_range(self) -> Laser:
-        if self.motor_port == self.laser_port:
-            raise ValueError(
-                f"motor_port and laser_port are both {self.motor_port!r}; use two NXT outputs"
-            )
+    def _sweep_in_range(self) -> Laser:
         if self.sweep_deg / 2 > self.tilt_limit_deg:
             raise ValueError(
                 f"sweep_deg {self.sweep_deg} exceeds the tilt range ±{self.tilt_limit_deg}"
@@ -341,8 +240,13 @@ class Holder(_Closed):
 
 
 class RigConfig(_Closed):
-    """Everything the daemon, the simulator and the planner know about a rig."""
+    """Everything the daemon, the simulator and the planner know about a rig.
 
+    ``version`` is the layout of the file; older layouts are migrated when read
+    (``rig.config_migration``), so configs stored in old archives still load.
+    """
+
+    version: Literal[2] = Field(CONFIG_VERSION, description="layout of this config")
     name: str = "default"
     turntable: Turntable = Turntable()
     light_arc: LightArc = LightArc()
@@ -352,6 +256,11 @@ class RigConfig(_Closed):
     holder: Holder = Holder()
     targets: Targets = Targets()
     calibration: str | None = Field(None, description="path of a calibration file")
+
+    @model_validator(mode="before")
+    @classmethod
+    def _migrate(cls, data):
+        return migrate_rig_config(data) if isinstance(data, dict) else data
 
     def camera(self, camera_id: str) -> CameraSpec:
         for cam in self.camera_arc.cameras:
@@ -403,24 +312,43 @@ def _arc_up(signed_theta_deg: float, arc_azimuth_deg: float) -> np.ndarray:
     )
 
 
-def _fields_at(model: type[BaseModel] | None, loc: tuple) -> list[str] | None:
-    """The field names valid at ``loc`` inside ``model`` (for "unknown field" hints)."""
-    for part in loc[:-1]:
+def _locate(model: type[BaseModel] | None, loc: tuple) -> tuple[tuple, type[BaseModel] | None]:
+    """``loc`` without the tags pydantic adds for tagged unions, and the model that
+    holds its last part (None where the walk cannot tell)."""
+    shown: list = []
+    parts = list(loc)
+    while parts:
+        part = parts.pop(0)
+        shown.append(part)
+        if not parts:
+            break
         if model is None or not isinstance(part, str) or part not in model.model_fields:
-            return None
-        model = _model_in(model.model_fields[part].annotation)
-    return sorted(model.model_fields) if model is not None else None
+            model = None
+            continue
+        members = _models_in(model.model_fields[part].annotation)
+        if parts and isinstance(parts[0], int):  # an item of a list of models
+            shown.append(parts.pop(0))
+        kinds = {_kind_of(m): m for m in members}
+        if parts and len(parts) > 1 and parts[0] in kinds:  # a tagged union's tag
+            model = kinds[parts.pop(0)]
+        else:
+            model = members[0] if len(members) == 1 else None
+    return tuple(shown), model
 
 
-def _model_in(annotation) -> type[BaseModel] | None:
+def _models_in(annotation) -> list[type[BaseModel]]:
     if isinstance(annotation, type) and issubclass(annotation, BaseModel):
-        return annotation
+        return [annotation]
+    found: list[type[BaseModel]] = []
     for arg in getattr(annotation, "__args__", ()) + getattr(annotation, "__metadata__", ()):
-        found = _model_in(arg)
-        if found is not None:
-            return found
+        found += [m for m in _models_in(arg) if m not in found]
     origin = getattr(annotation, "__origin__", None)
-    return _model_in(origin) if origin is not None else None
+    return found or (_models_in(origin) if origin is not None else [])
+
+
+def _kind_of(model: type[BaseModel]) -> str | None:
+    field = model.model_fields.get("kind")
+    return field.default if field is not None else None
 
 
 # A value shown in an error: a few levels and items, so a huge or deeply nested
@@ -439,12 +367,21 @@ def format_validation_error(
     """
     lines = []
     for e in err.errors():
-        where = ".".join(str(p) for p in e["loc"]) or "(top level)"
+        loc, holder = _locate(model, e["loc"])
+        where = ".".join(str(p) for p in loc) or "(top level)"
         value = e.get("input")
         if e["type"] == "extra_forbidden":
-            valid = _fields_at(model, e["loc"])
-            hint = f"; valid fields here are {valid}" if valid else ""
+            hint = f"; valid fields here are {sorted(holder.model_fields)}" if holder else ""
             lines.append(f"{where}: unknown field{hint}")
+            continue
+        if e["type"] in ("union_tag_invalid", "union_tag_not_found"):
+            tag = e.get("ctx", {}).get("tag")
+            got = f"kind {tag!r} is not known here" if tag is not None else "kind is missing"
+            valid = e.get("ctx", {}).get("expected_tags")
+            if valid is None and holder is not None and loc[-1] in holder.model_fields:
+                members = _models_in(holder.model_fields[loc[-1]].annotation)
+                valid = ", ".join(repr(_kind_of(m)) for m in members)
+            lines.append(f"{where}: {got}" + (f"; valid kinds are {valid}" if valid else ""))
             continue
         msg = e["msg"].removeprefix("Value error, ")
         shown = "" if isinstance(value, dict) else f" (got {_SHORT.repr(value)})"

@@ -1,11 +1,13 @@
 """The whole simulated rig: every device peer on one world, and the camera server.
 
-``SimulatedRig`` is what ``rig sim SCENE`` serves. It starts the turntable
-drive and lamp bank (Modbus), the light-arc bus (Dynamixel 2.0 on a pty), the
-laser brick (NXT direct commands on a pty, as Bluetooth SPP) and the camera
-server (frames rendered by the ``Simulator`` from the world's state), and it
-writes the rig config whose connections reach them, so an unchanged daemon and
-unchanged drivers run against it.
+``SimulatedRig`` is what ``rig sim SCENE`` serves. It starts, through
+``sim.peers.start_peer``, the peer of every device section's ``kind`` (with
+the default rig: the turntable drive and lamp bank on Modbus, the light-arc
+bus on Dynamixel 2.0 on a pty, the laser brick speaking NXT direct commands on
+a pty as Bluetooth SPP) and the camera server (frames rendered by the
+``Simulator`` from the world's state, for every camera whatever its kind), and
+it writes the rig config whose connections reach them, so an unchanged daemon
+and unchanged drivers run against it.
 """
 
 from __future__ import annotations
@@ -17,18 +19,9 @@ from typing import Any, Literal
 
 from rig.clock import Clock, RealClock
 from rig.config import RigConfig
-from rig.connections import CameraConnection, NxtConnection
+from rig.devices import DEVICE_ROLES, SimCameraConnection
 from rig.errors import ConfigError
-from sim.peers import (
-    MOTION_PEERS,
-    CameraFaults,
-    CameraServer,
-    FakeNxtBrick,
-    MotionPeers,
-    NxtFaults,
-    NxtSerialPeer,
-    start_motion_peers,
-)
+from sim.peers import CameraFaults, CameraServer, Peer, start_peer
 from sim.scene import Scene, load_scene
 from sim.simulator import Simulator
 from sim.world import World
@@ -36,7 +29,7 @@ from sim.world import World
 __all__ = ["FAULT_PEERS", "SimulatedRig"]
 
 log = logging.getLogger(__name__)
-FAULT_PEERS = (*MOTION_PEERS, "laser", "cameras")
+FAULT_PEERS = (*DEVICE_ROLES, "cameras")
 
 
 class SimulatedRig:
@@ -47,7 +40,9 @@ class SimulatedRig:
     scene : Scene or the path of a scene TOML
     clock : the world's clock; a ``ScaledClock`` speeds the rig up for a
         daemon in another process, a ``VirtualClock`` serves in-process tests
-    transport : Modbus over loopback ``"tcp"`` or ``"rtu"`` on ptys
+    transport : Modbus over loopback ``"tcp"`` or ``"rtu"`` on ptys (peers that
+        can serve either a network port or a serial line serve the serial
+        line with ``"rtu"``)
     faults : per peer (``turntable``, ``lamp_bank``, ``light_arc``, ``laser``,
         ``cameras``) its fault table, e.g. ``{"cameras": {"dropped_frames": 1}}``;
         on top of the scene's ``[faults.<peer>]`` tables, key by key
@@ -75,20 +70,20 @@ class SimulatedRig:
         self._transport = transport
         self.world = World(self.scene.rig, clock or RealClock())
         self.simulator: Simulator | None = None
-        self.motion: MotionPeers | None = None
-        self.brick: FakeNxtBrick | None = None
-        self.laser: NxtSerialPeer | None = None
+        self.peers: dict[str, Peer] = {}  # by role, while started
         self.cameras: CameraServer | None = None
 
     def start(self) -> SimulatedRig:
         try:
             self.simulator = Simulator(self.scene)
-            motion_faults = {k: v for k, v in self._faults.items() if k in MOTION_PEERS}
-            self.motion = start_motion_peers(
-                self.world, transport=self._transport, faults=motion_faults
-            )
-            self.brick = FakeNxtBrick(self.world, faults=NxtFaults(**self._faults.get("laser", {})))
-            self.laser = NxtSerialPeer(self.brick)
+            for role in DEVICE_ROLES:
+                self.peers[role] = start_peer(
+                    role,
+                    getattr(self.scene.rig, role),
+                    self.world,
+                    faults=self._faults.get(role),
+                    serial=self._transport == "rtu",
+                )
             simulator = self.simulator
             self.cameras = CameraServer(
                 self.world,
@@ -105,39 +100,30 @@ class SimulatedRig:
 
     def rig_config(self) -> RigConfig:
         """The scene's rig config with every connection pointing at these peers."""
-        if self.motion is None or self.laser is None or self.cameras is None:
+        if self.cameras is None:
             raise RuntimeError("SimulatedRig.rig_config: start() the rig first")
-        config = self.motion.rig_config(self.scene.rig)
-        brick = NxtConnection(
-            transport="serial", serial_port=self.laser.port, retry=config.laser.brick.retry
-        )
+        config = self.scene.rig
+        update = {role: peer.connect(getattr(config, role)) for role, peer in self.peers.items()}
         cameras = tuple(
             cam.model_copy(
                 update={
-                    "connection": CameraConnection(
-                        kind="sim", url=self.cameras.url, retry=cam.connection.retry
+                    "connection": SimCameraConnection(
+                        url=self.cameras.url, retry=cam.connection.retry
                     )
                 }
             )
             for cam in config.camera_arc.cameras
         )
-        return config.model_copy(
-            update={
-                "laser": config.laser.model_copy(update={"brick": brick}),
-                "camera_arc": config.camera_arc.model_copy(update={"cameras": cameras}),
-            }
-        )
+        update["camera_arc"] = config.camera_arc.model_copy(update={"cameras": cameras})
+        return config.model_copy(update=update)
 
     def stop(self) -> None:
         """Stop every peer that runs and release the GL context (idempotent)."""
-        for name in ("cameras", "laser"):
-            peer = getattr(self, name)
-            if peer is not None:
-                peer.close()
-                setattr(self, name, None)
-        if self.motion is not None:
-            self.motion.stop()
-            self.motion = None
+        if self.cameras is not None:
+            self.cameras.close()
+            self.cameras = None
+        for role in reversed(list(self.peers)):
+            self.peers.pop(role).stop()
         if self.simulator is not None:
             self.simulator.close()
             self.simulator = None

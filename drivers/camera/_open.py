@@ -1,4 +1,4 @@
-"""Pick the camera driver a camera's connection names."""
+"""The camera drivers, one per connection kind, registered for the ``camera`` role."""
 
 from __future__ import annotations
 
@@ -7,22 +7,26 @@ import zmq
 from drivers.camera._interface import Camera
 from drivers.camera._opencv import OpenCvCamera
 from drivers.camera._sim import SimCamera
+from drivers.registry import register
 from rig.clock import Clock
 from rig.config import CameraSpec
 
-__all__ = ["open_camera"]
+__all__: list[str] = []  # importing this module registers the kinds
 
 
-def open_camera(spec: CameraSpec, *, clock: Clock, context: zmq.Context | None = None) -> Camera:
-    """The driver for ``spec.connection.kind``: ``sim``, ``opencv`` or ``genicam``.
+@register("camera", "sim")
+def _open_sim(spec: CameraSpec, *, clock: Clock, context: zmq.Context | None = None) -> Camera:
+    """``context`` lets several sim cameras share one ZeroMQ context."""
+    return SimCamera(spec, clock=clock, context=context)
 
-    ``context`` (sim cameras only) lets several cameras share one ZeroMQ context.
-    """
-    kind = spec.connection.kind
-    if kind == "sim":
-        return SimCamera(spec, clock=clock, context=context)
-    if kind == "opencv":
-        return OpenCvCamera(spec, clock=clock)
+
+@register("camera", "opencv")
+def _open_opencv(spec: CameraSpec, *, clock: Clock) -> Camera:
+    return OpenCvCamera(spec, clock=clock)
+
+
+@register("camera", "genicam")
+def _open_genicam(spec: CameraSpec, *, clock: Clock) -> Camera:
     from drivers.camera._genicam import GenicamCamera  # optional extra: import on demand
 
     return GenicamCamera(spec, clock=clock)

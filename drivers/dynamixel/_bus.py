@@ -17,10 +17,11 @@ from typing import TypeVar
 import dynamixel_sdk as sdk
 import serial
 
+from drivers._lock import DeviceLock, serial_lock_key
 from drivers.errors import DeviceError, DeviceFault, DeviceTimeout, ProtocolError
 from drivers.retry import with_retries
 from rig.clock import Clock
-from rig.connections import DynamixelConnection
+from rig.devices import DynamixelServos
 
 __all__ = ["HARDWARE_ERRORS", "DynamixelBus"]
 
@@ -70,7 +71,7 @@ class DynamixelBus:
 
     Parameters
     ----------
-    connection : DynamixelConnection
+    connection : DynamixelServos
         Serial port, baud rate, per-request timeout and retries.
     device : str
         Name in error messages (``"light arc"``).
@@ -78,19 +79,24 @@ class DynamixelBus:
         Time for the backoff between retries.
     """
 
-    def __init__(self, connection: DynamixelConnection, *, device: str, clock: Clock):
+    def __init__(self, connection: DynamixelServos, *, device: str, clock: Clock):
         self.connection = connection
         self.device = device
         self._clock = clock
+        self._lock = DeviceLock(
+            f"dynamixel {serial_lock_key(connection.serial_port)}", device=device
+        )
         self.port = _Port(connection.serial_port, connection.retry.timeout_s)
         self.packets = sdk.PacketHandler(2.0)
         try:
             opened = self.port.setBaudRate(connection.baudrate)
         except (serial.SerialException, OSError) as err:
+            self._lock.release()
             raise DeviceError(
                 device, "open", f"cannot open serial port {connection.serial_port!r}: {err}"
             ) from err
         if not opened:
+            self.close()
             raise DeviceError(
                 device, "open", f"baud rate {connection.baudrate} is not supported by the SDK"
             )
@@ -177,9 +183,12 @@ class DynamixelBus:
         )
 
     def close(self) -> None:
-        """Close the serial port; idempotent."""
-        if self.port.is_open:
-            self.port.closePort()
+        """Close the serial port and release the device; idempotent."""
+        try:
+            if self.port.is_open:
+                self.port.closePort()
+        finally:
+            self._lock.release()
 
     # -- one transaction, retried --------------------------------------------------------
     def _txrx(self, servo_id: int, operation: str, send: Callable[[], tuple]) -> T:

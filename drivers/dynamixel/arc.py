@@ -1,11 +1,11 @@
-"""The light arc: one or more X-series Dynamixel servos turning it together.
+"""An axis (the light arc) turned by one or more X-series Dynamixel servos together.
 
 All servos get the same goal (one SYNC_WRITE, so they start together), and
-waiting polls them with SYNC_READs on the injected clock. Degrees of the arc
-become servo ticks through ``LightArc.arc_deg_to_ticks`` (ticks per turn,
-gear ratio, zero tick). The motion profile (velocity, acceleration) is
-loaded into the servos from the arc's axis limits unless the config gives
-raw values.
+waiting polls them with SYNC_READs on the injected clock. Degrees of the axis
+become servo ticks through ``deg_to_ticks`` (ticks per turn, gear ratio, zero
+tick of the ``DynamixelServos`` section). The motion profile (velocity,
+acceleration) is loaded into the servos from the axis limits unless the
+config gives raw values.
 """
 
 from __future__ import annotations
@@ -14,11 +14,13 @@ import logging
 
 from drivers.dynamixel._bus import DynamixelBus, describe_hardware_error
 from drivers.errors import DeviceError, DeviceFault, DeviceTimeout, MotionStalled
+from drivers.registry import register
 from rig.clock import Clock
-from rig.config import LightArc, RigConfig
+from rig.config import Axis, LightArc
+from rig.devices import DynamixelServos
 from rig.errors import KinematicsError
 
-__all__ = ["DynamixelArc", "X"]
+__all__ = ["DynamixelArc", "X", "deg_to_ticks", "ticks_to_deg"]
 
 log = logging.getLogger(__name__)
 
@@ -42,18 +44,32 @@ class X:
     EXTENDED_RANGE = 1_048_575
 
 
+def deg_to_ticks(servos: DynamixelServos, deg: float) -> int:
+    """Servo goal position (ticks) for an axis angle (deg)."""
+    ticks = deg / 360.0 * servos.gear_ratio * servos.ticks_per_rev
+    return servos.zero_tick + round(ticks)
+
+
+def ticks_to_deg(servos: DynamixelServos, ticks: float) -> float:
+    """Axis angle (deg) of a servo present position (ticks)."""
+    turns = (ticks - servos.zero_tick) / servos.ticks_per_rev
+    return turns / servos.gear_ratio * 360.0
+
+
 _POSITION_MODE, _EXTENDED_MODE = 3, 4
 # one SYNC_READ from goal position (116) to present position (132..135)
 _STATE_START, _STATE_SIZE = X.GOAL_POSITION, X.PRESENT_POSITION + 4 - X.GOAL_POSITION
 
 
 class DynamixelArc:
-    """Driver of an arc; satisfies ``drivers.interfaces.Arc``.
+    """Driver of servos turning an axis; satisfies ``drivers.interfaces.Axis``.
 
     Parameters
     ----------
-    arc : LightArc
-        Servo ids, port, gearing, axis limits and profile.
+    servos : DynamixelServos
+        Servo ids, port, gearing and raw profile.
+    axis : Axis
+        Travel limits (deg), speed and acceleration, settle time.
     clock : Clock
         Time for polling and backoff.
     poll_s : float
@@ -66,8 +82,9 @@ class DynamixelArc:
 
     def __init__(
         self,
-        arc: LightArc,
+        servos: DynamixelServos,
         *,
+        axis: Axis,
         clock: Clock,
         poll_s: float = 0.05,
         in_position_ticks: int = 8,
@@ -75,23 +92,24 @@ class DynamixelArc:
     ):
         if poll_s <= 0:
             raise ValueError(f"{name}: poll_s={poll_s} must be > 0")
-        self.arc = arc
+        self.servos = servos
+        self.axis = axis
+        self.settle_s = axis.settle_s
         self.name = name
-        self.ids = tuple(arc.servo_ids)
+        self.ids = tuple(servos.ids)
         self._clock = clock
         self._poll_s = poll_s
         self._tolerance = in_position_ticks
-        self._bus = DynamixelBus(arc.servos, device=name, clock=clock)
+        self._bus = DynamixelBus(servos, device=name, clock=clock)
         self._tick_range: dict[int, tuple[int, int]] = {}
         self._goal_ticks: int | None = None
         self._target_deg = 0.0
 
-    @classmethod
-    def from_config(cls, config: RigConfig, *, clock: Clock, **options) -> DynamixelArc:
-        """The light arc of a rig config."""
-        return cls(config.light_arc, clock=clock, **options)
-
     # -- setup ---------------------------------------------------------------
+    def home(self) -> None:
+        """``enable``: the servos' encoders are absolute, so there is no homing run."""
+        self.enable()
+
     def enable(self) -> None:
         """Ping each servo, check its mode and errors, load the profile, torque on."""
         for servo_id in self.ids:
@@ -122,13 +140,13 @@ class DynamixelArc:
 
     def profile(self) -> tuple[int, int]:
         """Raw (profile velocity, profile acceleration) loaded into the servos."""
-        turns_per_deg = self.arc.servo_gear_ratio / 360.0
-        velocity = self.arc.servo_profile_velocity or max(
-            1, round(self.arc.axis.speed_deg_s * turns_per_deg * 60.0 / X.VELOCITY_UNIT_RPM)
+        turns_per_deg = self.servos.gear_ratio / 360.0
+        velocity = self.servos.profile_velocity or max(
+            1, round(self.axis.speed_deg_s * turns_per_deg * 60.0 / X.VELOCITY_UNIT_RPM)
         )
-        acceleration = self.arc.servo_profile_acceleration or max(
+        acceleration = self.servos.profile_acceleration or max(
             1,
-            round(self.arc.axis.accel_deg_s2 * turns_per_deg * 3600.0 / X.ACCELERATION_UNIT_RPM2),
+            round(self.axis.accel_deg_s2 * turns_per_deg * 3600.0 / X.ACCELERATION_UNIT_RPM2),
         )
         return velocity, acceleration
 
@@ -136,7 +154,7 @@ class DynamixelArc:
     def move_to(self, deg: float) -> None:
         """Send every servo the goal for arc angle ``deg`` in one SYNC_WRITE, verified."""
         deg = float(deg)
-        axis = self.arc.axis
+        axis = self.axis
         if not axis.min_deg <= deg <= axis.max_deg:
             raise KinematicsError(
                 f"{self.name}: move_to {deg}° is outside the axis range "
@@ -144,7 +162,7 @@ class DynamixelArc:
             )
         if not self._tick_range:
             raise DeviceError(self.name, "move_to", "servos not enabled; call enable() first")
-        goal = self.arc.arc_deg_to_ticks(deg)
+        goal = deg_to_ticks(self.servos, deg)
         for servo_id, (low, high) in self._tick_range.items():
             if not low <= goal <= high:
                 raise DeviceError(
@@ -174,7 +192,7 @@ class DynamixelArc:
         """The arc angle (deg): mean of the servos' present positions."""
         state = self._state("position")
         ticks = [present for _, _, present in state.values()]
-        return self.arc.ticks_to_arc_deg(sum(ticks) / len(ticks))
+        return ticks_to_deg(self.servos, sum(ticks) / len(ticks))
 
     def wait_until_settled(self, timeout_s: float | None = None) -> float:
         """Poll until every servo stops at the goal; return the arc angle (deg).
@@ -194,7 +212,7 @@ class DynamixelArc:
         target_deg = self._target_deg
         op = f"move_to {target_deg:.2f}°"
         if timeout_s is None:
-            timeout_s = 2.0 * float(self.arc.axis.move_time_s(target_deg - self.position())) + 1.0
+            timeout_s = 2.0 * float(self.axis.move_time_s(target_deg - self.position())) + 1.0
         deadline = self._clock.now() + timeout_s
         idle_polls = 0
         while True:
@@ -212,13 +230,13 @@ class DynamixelArc:
             arrived = all(
                 abs(present - goal) <= self._tolerance for _, _, present in state.values()
             )
-            where = self.arc.ticks_to_arc_deg(sum(p for _, _, p in state.values()) / len(state))
+            where = ticks_to_deg(self.servos, sum(p for _, _, p in state.values()) / len(state))
             if arrived and not moving:
                 return where
             idle_polls = 0 if moving else idle_polls + 1
             if idle_polls >= 2:
                 short = {
-                    i: round(self.arc.ticks_to_arc_deg(p), 2) for i, (_, _, p) in state.items()
+                    i: round(ticks_to_deg(self.servos, p), 2) for i, (_, _, p) in state.items()
                 }
                 raise MotionStalled(
                     self.name,
@@ -234,6 +252,13 @@ class DynamixelArc:
                     f"after {timeout_s:.1f} s",
                 )
             self._clock.sleep(self._poll_s)
+
+    def stop(self) -> None:
+        """Hold every servo where it is now (goal = present position)."""
+        state = self._state("stop")
+        here = {servo_id: present for servo_id, (_, _, present) in state.items()}
+        self._bus.sync_write(X.GOAL_POSITION, 4, here, operation="stop")
+        self._goal_ticks = None
 
     def close(self) -> None:
         """Close the bus; idempotent. Torque stays as it is (the arc holds)."""
@@ -269,3 +294,9 @@ class DynamixelArc:
             present = int.from_bytes(data[at : at + 4], "little", signed=True)
             out[servo_id] = (goal, moving, present)
         return out
+
+
+@register("light_arc", "dynamixel")
+def open_light_arc(section: LightArc, *, clock: Clock) -> DynamixelArc:
+    """The light arc of a rig config, on its Dynamixel servos."""
+    return DynamixelArc(section.device, axis=section.axis, clock=clock)

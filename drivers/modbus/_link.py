@@ -19,10 +19,11 @@ from pymodbus.constants import ExcCodes
 from pymodbus.exceptions import ConnectionException, ModbusException, ModbusIOException
 from pymodbus.pdu import ModbusPDU
 
+from drivers._lock import DeviceLock, serial_lock_key
 from drivers.errors import DeviceError, DeviceTimeout, ProtocolError
 from drivers.retry import with_retries
 from rig.clock import Clock
-from rig.connections import ModbusConnection
+from rig.devices import ModbusConnection
 
 __all__ = ["ModbusLink"]
 
@@ -43,6 +44,9 @@ class ModbusLink:
         The device's name in error messages (``"turntable"``).
     clock : Clock
         Time for the backoff between tries.
+
+    The link holds the device lock of its connection and unit id (two
+    daemons cannot drive one device) until ``close``.
     """
 
     def __init__(self, connection: ModbusConnection, *, device: str, clock: Clock):
@@ -55,6 +59,7 @@ class ModbusLink:
             self._client: ModbusTcpClient | ModbusSerialClient = ModbusTcpClient(
                 connection.host, port=connection.port, timeout=timeout, retries=0
             )
+            place = self.where
         else:
             self.where = f"rtu:{connection.serial_port}@{connection.baudrate}"
             self._client = ModbusSerialClient(
@@ -64,6 +69,9 @@ class ModbusLink:
                 timeout=timeout,
                 retries=0,
             )
+            place = serial_lock_key(str(connection.serial_port))
+        # pymodbus connects on the first request: nothing to undo if the lock is refused
+        self._lock = DeviceLock(f"modbus {place} unit {connection.unit_id}", device=device)
 
     # -- registers ---------------------------------------------------------
     def read_holding(self, address: int, count: int, *, operation: str) -> list[int]:
@@ -127,8 +135,11 @@ class ModbusLink:
         return [bool(b) for b in reply.bits[:count]]
 
     def close(self) -> None:
-        """Close the socket or serial port; idempotent."""
-        self._client.close()
+        """Close the socket or serial port and release the device; idempotent."""
+        try:
+            self._client.close()
+        finally:
+            self._lock.release()
 
     # -- one request, retried ------------------------------------------------
     def _request(self, operation: str, what: str, send: Callable[[int], ModbusPDU]) -> ModbusPDU:

@@ -3,7 +3,7 @@
 Lamp *i* (the *i*-th lamp of the light arc) is switched by coil
 ``registers.coils + i``; discrete input ``registers.light_sensors + i`` says
 whether light is actually seen, which catches a burnt-out bulb before a whole
-session is captured in the dark. See ``rig.config.LampBankRegisters``.
+session is captured in the dark. See ``rig.devices.LampBankRegisters``.
 """
 
 from __future__ import annotations
@@ -12,9 +12,10 @@ from collections.abc import Iterable
 
 from drivers.errors import DeviceError, DeviceFault
 from drivers.modbus._link import ModbusLink
+from drivers.registry import register
 from rig.clock import Clock
-from rig.config import LampBankRegisters, RigConfig
-from rig.connections import ModbusConnection
+from rig.config import LampBank
+from rig.devices import ModbusLamps
 
 __all__ = ["ModbusLampBank"]
 
@@ -24,12 +25,11 @@ class ModbusLampBank:
 
     Parameters
     ----------
-    connection : ModbusConnection
-        The bank's address, unit id, timeouts and retries.
+    device : ModbusLamps
+        The bank's address, unit id, timeouts and retries, and where its
+        coils, light sensors and dimmers start.
     lamp_ids : sequence of str
         The lamps in channel order (the light arc's lamps).
-    registers : LampBankRegisters
-        Where the coils, light sensors and dimmers start.
     clock : Clock
         Time for the warm-up wait and the backoff.
     warmup_s : float
@@ -40,10 +40,9 @@ class ModbusLampBank:
 
     def __init__(
         self,
-        connection: ModbusConnection,
+        device: ModbusLamps,
         *,
         lamp_ids: Iterable[str],
-        registers: LampBankRegisters,
         clock: Clock,
         warmup_s: float = 0.05,
         name: str = "lamp bank",
@@ -54,28 +53,10 @@ class ModbusLampBank:
         if warmup_s < 0:
             raise ValueError(f"{name}: warmup_s={warmup_s} must be ≥ 0")
         self.name = name
-        self.registers = registers
+        self.registers = device.registers
         self._clock = clock
         self._warmup_s = warmup_s
-        self._link = ModbusLink(connection, device=name, clock=clock)
-
-    @classmethod
-    def from_config(
-        cls,
-        config: RigConfig,
-        *,
-        clock: Clock,
-        **options,
-    ) -> ModbusLampBank:
-        """The lamp bank of a rig config (lamps in the light arc's order)."""
-        return cls(
-            config.lamp_bank.connection,
-            lamp_ids=[lamp.id for lamp in config.light_arc.lamps],
-            registers=config.lamp_bank.registers,
-            clock=clock,
-            warmup_s=config.lamp_bank.warmup_s,
-            **options,
-        )
+        self._link = ModbusLink(device, device=name, clock=clock)
 
     @property
     def lamp_ids(self) -> tuple[str, ...]:
@@ -157,3 +138,9 @@ class ModbusLampBank:
     def close(self) -> None:
         """Close the connection; idempotent. Lamps keep their state."""
         self._link.close()
+
+
+@register("lamp_bank", "modbus")
+def open_lamp_bank(section: LampBank, *, clock: Clock, lamp_ids: Iterable[str]) -> ModbusLampBank:
+    """The lamp bank of a rig config; ``lamp_ids``: the light arc's lamps, in channel order."""
+    return ModbusLampBank(section.device, lamp_ids=lamp_ids, clock=clock, warmup_s=section.warmup_s)

@@ -2,9 +2,10 @@
 
 The drive takes a target position and a command code (go / home / stop) in
 holding registers and reports its actual position and a status word (moving,
-in position, fault, homed); ``rig.config.TurntableRegisters`` maps them, since
-drives differ. Waiting polls the drive on the injected clock, so a simulated
-session in virtual time does not wait in real time.
+in position, fault, homed); ``rig.devices.DriveRegisters`` maps them, since
+drives differ; positions are counts of ``1 / units_per_deg`` degree. Waiting
+polls the drive on the injected clock, so a simulated session in virtual time
+does not wait in real time.
 """
 
 from __future__ import annotations
@@ -15,9 +16,10 @@ from typing import Literal
 
 from drivers.errors import DeviceFault, DeviceTimeout, MotionStalled
 from drivers.modbus._link import ModbusLink
+from drivers.registry import register
 from rig.clock import Clock
-from rig.config import Axis, RigConfig, TurntableRegisters
-from rig.connections import ModbusConnection
+from rig.config import Axis, Turntable
+from rig.devices import DriveRegisters, ModbusDrive
 from rig.errors import KinematicsError
 
 __all__ = ["DriveStatus", "ModbusTurntable"]
@@ -36,7 +38,7 @@ class DriveStatus:
     homed: bool
 
     @classmethod
-    def decode(cls, word: int, registers: TurntableRegisters) -> DriveStatus:
+    def decode(cls, word: int, registers: DriveRegisters) -> DriveStatus:
         """Read the flags out of a status ``word`` at the map's bit positions."""
         return cls(
             word=word,
@@ -52,16 +54,16 @@ class DriveStatus:
 
 
 class ModbusTurntable:
-    """Driver of the turntable's stepper drive; satisfies ``drivers.interfaces.Turntable``.
+    """Driver of a stepper drive turning an axis; satisfies ``drivers.interfaces.Axis``.
 
     Parameters
     ----------
-    connection : ModbusConnection
-        The drive's address (TCP host/port or RTU serial port), unit id, retries.
+    drive : ModbusDrive
+        The drive's address (TCP host/port or RTU serial port), unit id,
+        retries and register map.
     axis : Axis
-        Travel limits (deg) and the speed/acceleration loaded into the drive.
-    registers : TurntableRegisters
-        The drive's register map.
+        Travel limits (deg), the speed/acceleration loaded into the drive and
+        the settle time.
     clock : Clock
         Time for polling and backoff.
     poll_s : float
@@ -72,10 +74,9 @@ class ModbusTurntable:
 
     def __init__(
         self,
-        connection: ModbusConnection,
+        drive: ModbusDrive,
         *,
         axis: Axis,
-        registers: TurntableRegisters,
         clock: Clock,
         poll_s: float = 0.05,
         name: str = "turntable",
@@ -84,21 +85,16 @@ class ModbusTurntable:
             raise ValueError(f"{name}: poll_s={poll_s} must be > 0")
         self.name = name
         self.axis = axis
-        self.registers = registers
+        self.settle_s = axis.settle_s
+        self.registers = drive.registers
         self._clock = clock
         self._poll_s = poll_s
-        self._link = ModbusLink(connection, device=name, clock=clock)
+        self._link = ModbusLink(drive, device=name, clock=clock)
         self._order: Literal["big", "little"] = (
-            "big" if registers.word_order == "high_first" else "little"
+            "big" if drive.registers.word_order == "high_first" else "little"
         )
         self._target_deg: float | None = None
         self._profile_loaded = False
-
-    @classmethod
-    def from_config(cls, config: RigConfig, *, clock: Clock, **options) -> ModbusTurntable:
-        """The turntable of a rig config."""
-        table = config.turntable
-        return cls(table.drive, axis=table.axis, registers=table.registers, clock=clock, **options)
 
     # -- commands ------------------------------------------------------------
     def home(self, timeout_s: float | None = None) -> None:
@@ -226,3 +222,9 @@ class ModbusTurntable:
 
     def _default_timeout_s(self, delta_deg: float) -> float:
         return 2.0 * float(self.axis.move_time_s(delta_deg)) + self.axis.settle_s + 1.0
+
+
+@register("turntable", "modbus")
+def open_turntable(section: Turntable, *, clock: Clock) -> ModbusTurntable:
+    """The turntable of a rig config, on its Modbus drive."""
+    return ModbusTurntable(section.device, axis=section.axis, clock=clock)

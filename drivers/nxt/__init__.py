@@ -1,7 +1,8 @@
 """LEGO NXT direct commands over USB or Bluetooth serial, and the laser unit they drive.
 
-``NxtLaser.open(config.laser, clock=...)`` is the entry point; ``NxtBrick`` speaks
-the direct commands; the telegram functions are pure bytes in/out.
+``open_device("laser", config.laser, clock=...)`` opens an ``NxtLaser`` (its
+``tilt`` is an ``NxtTilt`` axis); ``NxtBrick`` speaks the direct commands; the
+telegram functions are pure bytes in/out.
 """
 
 from drivers.nxt._brick import NxtBrick, open_transport
@@ -22,12 +23,14 @@ from drivers.nxt._telegram import (
     encode_reset_motor_position,
     encode_set_output_state,
 )
+from drivers.nxt._tilt import NxtTilt
 from drivers.nxt._transport import NxtTransport, SerialTransport, UsbTransport
 
 __all__ = [
     "MOTOR_PORTS",
     "NxtBrick",
     "NxtLaser",
+    "NxtTilt",
     "NxtTransport",
     "Opcode",
     "OutputMode",

@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import TypeVar
 
+from drivers._lock import DeviceLock
 from drivers.errors import DeviceError, DeviceFault, DeviceTimeout, ProtocolError
 from drivers.nxt._telegram import (
     Opcode,
@@ -24,7 +25,7 @@ from drivers.nxt._telegram import (
 from drivers.nxt._transport import NxtTransport, SerialTransport, UsbTransport
 from drivers.retry import with_retries
 from rig.clock import Clock
-from rig.connections import NxtConnection, Retry
+from rig.devices import NxtLaserUnit, Retry
 
 __all__ = ["NxtBrick", "open_transport"]
 
@@ -38,7 +39,7 @@ def _status(opcode: Opcode) -> Callable[[bytes], None]:
     return check
 
 
-def open_transport(connection: NxtConnection, *, usb_backend=None) -> NxtTransport:
+def open_transport(connection: NxtLaserUnit, *, usb_backend=None) -> NxtTransport:
     """The transport ``connection.transport`` names (``usb_backend``: pyusb's, for USB)."""
     if connection.transport == "usb":
         return UsbTransport(
@@ -53,7 +54,9 @@ class NxtBrick:
     Every public method is one request/reply exchange; a garbled reply or none
     in ``retry.timeout_s`` is retried ``retry.retries`` times with backoff, then
     raises ``DeviceTimeout`` / ``ProtocolError`` naming the brick and command.
-    A reply with an error status raises ``DeviceFault`` at once.
+    A reply with an error status raises ``DeviceFault`` at once. The brick
+    holds the device lock of its transport until ``close``; a brick another
+    process holds is refused (the transport is closed again).
     """
 
     def __init__(self, transport: NxtTransport, *, retry: Retry, clock: Clock, device: str):
@@ -61,10 +64,15 @@ class NxtBrick:
         self.retry = retry
         self.clock = clock
         self.device = f"{device} ({transport.name})"
+        try:
+            self._lock = DeviceLock(f"nxt {transport.lock_key}", device=self.device)
+        except DeviceError:
+            transport.close()
+            raise
 
     @classmethod
     def open(
-        cls, connection: NxtConnection, *, clock: Clock, device: str = "NXT brick", usb_backend=None
+        cls, connection: NxtLaserUnit, *, clock: Clock, device: str = "NXT brick", usb_backend=None
     ) -> NxtBrick:
         transport = open_transport(connection, usb_backend=usb_backend)
         return cls(transport, retry=connection.retry, clock=clock, device=device)
@@ -148,4 +156,8 @@ class NxtBrick:
         )
 
     def close(self) -> None:
-        self.transport.close()
+        """Close the transport and release the device; idempotent."""
+        try:
+            self.transport.close()
+        finally:
+            self._lock.release()

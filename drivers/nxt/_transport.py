@@ -18,6 +18,7 @@ import serial
 import usb.core
 import usb.util
 
+from drivers._lock import serial_lock_key
 from drivers.errors import DeviceError
 from drivers.nxt._telegram import TelegramError
 
@@ -32,9 +33,11 @@ MAX_TELEGRAM = 64  # a direct command or reply never exceeds 64 bytes
 
 
 class NxtTransport(Protocol):
-    """One link to a brick; ``name`` says which, for error messages."""
+    """One link to a brick; ``name`` says which, for error messages; ``lock_key``
+    names the device for the one-owner lock (``drivers._lock``)."""
 
     name: str
+    lock_key: str
 
     def send(self, telegram: bytes, *, timeout_s: float) -> None: ...
 
@@ -77,6 +80,7 @@ class UsbTransport:
             usb.util.dispose_resources(dev)
             raise DeviceError(self.name, "open", f"cannot claim the interface: {err}") from err
         self._dev = dev
+        self.lock_key = f"usb bus {dev.bus} address {dev.address}"
 
     def send(self, telegram: bytes, *, timeout_s: float) -> None:
         try:
@@ -116,6 +120,7 @@ class SerialTransport:
 
     def __init__(self, port: str, *, baudrate: int = 115200):
         self.name = f"serial {port}"
+        self.lock_key = serial_lock_key(port)
         try:
             self._port = serial.Serial(port, baudrate=baudrate, timeout=1.0, write_timeout=1.0)
         except serial.SerialException as err:

@@ -7,9 +7,10 @@ laser, trigger every camera of a step together and read them, sweep the laser
 sheet while the cameras record. Drivers are synchronous and retry on their
 own; a ``DeviceError`` reaching the facade has survived those retries.
 
-``build_devices(config, clock=..., scale=...)`` opens the real drivers named
-by a rig config (imported lazily, so the daemon imports without them). Tests
-build ``RigDevices`` from in-process soft devices with the same interfaces.
+``build_devices(config, clock=..., scale=...)`` opens, through
+``drivers.open_device``, the driver each device section's ``kind`` names. Tests
+build ``RigDevices`` from in-process soft devices with the same interfaces
+(``drivers.interfaces``).
 """
 
 from __future__ import annotations
@@ -22,8 +23,8 @@ from typing import Protocol, runtime_checkable
 
 import numpy as np
 
-from drivers.errors import DeviceError
-from drivers.interfaces import Arc, LampBank, Turntable
+from drivers import DeviceError, open_device
+from drivers.interfaces import Axis, LampBank, LaserUnit
 from rig.clock import Clock
 from rig.config import RigConfig
 
@@ -31,7 +32,6 @@ __all__ = [
     "Camera",
     "Captured",
     "DeviceSet",
-    "LaserUnit",
     "RigDevices",
     "ThreadedCamera",
     "build_devices",
@@ -56,20 +56,6 @@ class Camera(Protocol):
     def read(self) -> CameraFrame:
         """Wait for the triggered frame and return it (``DeviceTimeout`` if none came)."""
 
-    def close(self) -> None: ...
-
-
-@runtime_checkable
-class LaserUnit(Protocol):
-    """The laser sheet's tilt motor and diode (``drivers.nxt.NxtLaser``)."""
-
-    def check_battery(self) -> int: ...
-    def set_laser(self, on: bool) -> None: ...
-    def start_tilt(self, target_deg: float) -> None: ...
-    def wait_tilt(self, target_deg: float) -> float: ...
-    def move_tilt(self, target_deg: float) -> float: ...
-    def tilt_deg(self) -> float: ...
-    def stop(self) -> None: ...
     def close(self) -> None: ...
 
 
@@ -162,8 +148,8 @@ class RigDevices:
         config: RigConfig,
         *,
         clock: Clock,
-        turntable: Turntable,
-        arc: Arc,
+        turntable: Axis,
+        arc: Axis,
         lamps: LampBank,
         laser: LaserUnit | None,
         cameras: Mapping[str, Camera],
@@ -182,13 +168,14 @@ class RigDevices:
         """Home the turntable, enable the arc, lamps off; check and level the laser unit."""
         self.lamps.switch(frozenset())
         self.turntable.home()
-        self.arc.enable()
+        self.arc.home()
         self._position = {"turntable_deg": 0.0, "arc_deg": None}
         if laser:
             unit = self._laser_unit()
             unit.check_battery()
             unit.set_laser(False)
-            self._tilt_deg = unit.move_tilt(0.0)
+            unit.tilt.home()
+            self._tilt_deg = 0.0
 
     def move(self, *, turntable_deg: float, arc_deg: float) -> dict[str, float]:
         """Move both axes at once, wait until both stop, then wait the longer settle time."""
@@ -203,8 +190,8 @@ class RigDevices:
         tt = self.turntable.wait_until_settled() if moving_tt else turntable_deg
         arc = self.arc.wait_until_settled() if moving_arc else arc_deg
         settle = max(
-            self.config.turntable.axis.settle_s if moving_tt else 0.0,
-            self.config.light_arc.axis.settle_s if moving_arc else 0.0,
+            self.turntable.settle_s if moving_tt else 0.0,
+            self.arc.settle_s if moving_arc else 0.0,
         )
         self.clock.sleep(settle)
         self._position = {"turntable_deg": turntable_deg, "arc_deg": arc_deg}
@@ -247,22 +234,27 @@ class RigDevices:
         sheet returns to the start afterwards. Returns the frames per camera and
         the tilt (deg) read back at each frame.
         """
-        unit = self._laser_unit()
+        tilt = self._laser_unit().tilt
         start, end = tilt_deg
         if self._tilt_deg != start:
-            self._tilt_deg = unit.move_tilt(start)
+            self._tilt_deg = self._tilt_to(start)
         period = 1.0 / self.config.laser.frame_rate_hz
         captured: dict[str, list[Captured]] = {c: [] for c in cameras}
         tilts = []
-        unit.start_tilt(end)
+        tilt.move_to(end)
         t0 = self.clock.now()
         for sub in range(frames):
             self.clock.sleep(max(0.0, t0 + sub * period - self.clock.now()))
-            tilts.append(float(unit.tilt_deg()))
+            tilts.append(float(tilt.position()))
             self._shoot(cameras, exposure_s, sub, captured)
-        unit.wait_tilt(end)
-        self._tilt_deg = unit.move_tilt(start)
+        tilt.wait_until_settled()
+        self._tilt_deg = self._tilt_to(start)
         return captured, tilts
+
+    def _tilt_to(self, deg: float) -> float:
+        tilt = self._laser_unit().tilt
+        tilt.move_to(deg)
+        return tilt.wait_until_settled()
 
     def _shoot(self, cameras, exposure_s, sub, frames) -> None:
         for camera in cameras:
@@ -278,7 +270,7 @@ class RigDevices:
         errors = []
         actions = [lambda: self.lamps.switch(frozenset()), self.turntable.stop]
         if self.laser_unit is not None:
-            actions += [lambda: self.laser_unit.set_laser(False), self.laser_unit.stop]
+            actions += [lambda: self.laser_unit.set_laser(False), self.laser_unit.tilt.stop]
         for action in actions:
             try:
                 action()
@@ -324,32 +316,28 @@ class RigDevices:
 def build_devices(
     config: RigConfig, *, clock: Clock, scale: float = 1.0, laser: bool = True
 ) -> RigDevices:
-    """Open the real drivers of ``config`` (the simulator's peers answer the same way).
+    """Open the driver of every device ``config`` names (the simulator's peers answer
+    the same way); what opened is closed again if a later one fails.
 
     ``scale`` is the plan's resolution factor (binned in software); with
-    ``laser=False`` the laser brick is not opened (plans without scans).
+    ``laser=False`` the laser unit is not opened (plans without scans).
     """
-    # Imported here so the daemon (and its tests) import without every driver.
-    from drivers.camera import open_camera
-    from drivers.dynamixel import DynamixelArc
-    from drivers.modbus import ModbusLampBank, ModbusTurntable
-    from drivers.nxt import NxtLaser
-
     opened: list = []
+
+    def opening(role: str, section, **options):
+        device = open_device(role, section, clock=clock, **options)
+        opened.append(device)
+        return device
+
     try:
-        turntable = ModbusTurntable.from_config(config, clock=clock)
-        opened.append(turntable)
-        arc = DynamixelArc.from_config(config, clock=clock)
-        opened.append(arc)
-        lamps = ModbusLampBank.from_config(config, clock=clock)
-        opened.append(lamps)
-        unit = NxtLaser.open(config.laser, clock=clock) if laser else None
-        if unit is not None:
-            opened.append(unit)
+        turntable = opening("turntable", config.turntable)
+        arc = opening("light_arc", config.light_arc)
+        lamp_ids = [lamp.id for lamp in config.light_arc.lamps]
+        lamps = opening("lamp_bank", config.lamp_bank, lamp_ids=lamp_ids)
+        unit = opening("laser", config.laser) if laser else None
         cameras = {}
         for spec in config.camera_arc.cameras:
-            camera = open_camera(spec, clock=clock)
-            opened.append(camera)
+            camera = opening("camera", spec)
             cameras[spec.id] = (
                 camera
                 if isinstance(camera, Camera)

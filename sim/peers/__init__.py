@@ -1,10 +1,11 @@
 """Simulated devices that answer the drivers on the wire, all moving one ``sim.world.World``.
 
+- ``start_peer(role, section, world)`` starts the peer of a device section's
+  ``kind`` (``sim.peers.registry``); ``peer.connect(section)`` points the
+  section's device at it, so unchanged drivers reach it.
 - ``TurntableDrivePeer``, ``LampBankPeer``: pymodbus servers (TCP on loopback
   or RTU on a pty) speaking the register maps of ``docs/devices.md``.
 - ``DynamixelBusPeer``: a Protocol 2.0 bus of X-series servos on a pty.
-- ``start_motion_peers``: all three at once, with ``MotionPeers.rig_config``
-  pointing a rig config's connections at them.
 - ``FakeNxtBrick``: the laser unit's LEGO NXT, as a pyusb backend
   (``FakeNxtUsbBackend``) or on a pty (``NxtSerialPeer``).
 - ``CameraServer``: frames rendered from the world, over ZeroMQ.
@@ -19,23 +20,23 @@ from sim.peers._pty import PtyNullModem, RawPty
 from sim.peers.camera_server import CameraFaults, CameraServer
 from sim.peers.dynamixel import DynamixelBusPeer
 from sim.peers.modbus import LampBankPeer, TurntableDrivePeer
-from sim.peers.motion import MOTION_PEERS, MotionPeers, start_motion_peers
 from sim.peers.nxt import FakeNxtBrick, FakeNxtUsbBackend, NxtFaults, NxtSerialPeer
+from sim.peers.registry import Peer, register_peer, start_peer
 
 __all__ = [
-    "MOTION_PEERS",
     "CameraFaults",
     "CameraServer",
     "DynamixelBusPeer",
     "FakeNxtBrick",
     "FakeNxtUsbBackend",
     "LampBankPeer",
-    "MotionPeers",
     "NxtFaults",
     "NxtSerialPeer",
+    "Peer",
     "PtyNullModem",
     "RawPty",
     "ReplyFaults",
     "TurntableDrivePeer",
-    "start_motion_peers",
+    "register_peer",
+    "start_peer",
 ]

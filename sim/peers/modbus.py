@@ -23,10 +23,12 @@ from pymodbus.client.mixin import ModbusClientMixin
 from pymodbus.constants import ExcCodes
 from pymodbus.simulator import DataType, SimData, SimDevice
 
-from rig.config import LampBankRegisters, TurntableRegisters
+from rig.config import LampBank, Turntable
+from rig.devices import DriveRegisters, LampBankRegisters
 from rig.errors import ConfigError
 from sim.peers._faults import ReplyFaults, check_fault_keys
 from sim.peers._modbus_server import ModbusServerThread
+from sim.peers.registry import register_peer
 from sim.world import World
 
 __all__ = ["LampBankPeer", "TurntableDrivePeer"]
@@ -54,6 +56,8 @@ class _ModbusPeer:
         faults = dict(faults or {})
         check_fault_keys(self.name, faults, set(self.FAULT_KEYS))
         self.faults = ReplyFaults.from_dict(faults)
+        self._transport = transport
+        self._host = host
         self._server = ModbusServerThread(
             device,
             name=self.name.replace(" ", "-"),
@@ -84,6 +88,14 @@ class _ModbusPeer:
         """Stop serving, close every connection and port; idempotent."""
         self._server.stop()
 
+    def connect(self, section):
+        """``section`` with its Modbus device on this peer (loopback port or pty)."""
+        if self._transport == "tcp":
+            update = {"protocol": "tcp", "host": self._host, "port": self.port}
+        else:
+            update = {"protocol": "rtu", "serial_port": self.serial_port}
+        return section.model_copy(update={"device": section.device.model_copy(update=update)})
+
     def __enter__(self):
         return self.start()
 
@@ -92,7 +104,7 @@ class _ModbusPeer:
 
 
 class TurntableDrivePeer(_ModbusPeer):
-    """A stepper drive answering the ``TurntableRegisters`` map, moving ``world``'s axis.
+    """A stepper drive answering a ``DriveRegisters`` map, moving ``world``'s axis.
 
     Commands: *go* moves to the target register's position, *home* moves to
     0° and raises the homed bit on arrival, *stop* halts where the axis is. A
@@ -111,7 +123,7 @@ class TurntableDrivePeer(_ModbusPeer):
         self,
         world: World,
         *,
-        registers: TurntableRegisters | None = None,
+        registers: DriveRegisters | None = None,
         axis: str = "turntable",
         unit_id: int = 1,
         transport: Literal["tcp", "rtu"] = "tcp",
@@ -122,7 +134,7 @@ class TurntableDrivePeer(_ModbusPeer):
     ):
         self.world = world
         self.axis = axis
-        self.registers = registers or world.config.turntable.registers
+        self.registers = registers or DriveRegisters()
         self._limits = world.axis(axis).limits
         self._order: Literal["big", "little"] = (
             "big" if self.registers.word_order == "high_first" else "little"
@@ -141,12 +153,6 @@ class TurntableDrivePeer(_ModbusPeer):
         )
         self.set_stall(self._device_faults.get("stall_fraction"))
         self.set_drive_fault(bool(self._device_faults.get("drive_fault", False)))
-
-    @classmethod
-    def from_config(cls, world: World, **options) -> TurntableDrivePeer:
-        """A drive speaking the rig config's register map and unit id."""
-        drive = world.config.turntable.drive
-        return cls(world, unit_id=drive.unit_id, baudrate=drive.baudrate, **options)
 
     # -- fault injection -------------------------------------------------------
     def set_stall(self, fraction: float | None) -> None:
@@ -295,15 +301,6 @@ class LampBankPeer(_ModbusPeer):
         for lamp in self._device_faults.get("stuck_lamps", ()):
             self.stick_lamp(lamp)
 
-    @classmethod
-    def from_config(cls, world: World, **options) -> LampBankPeer:
-        """A bank with the light arc's lamps and the lamp-bank connection's unit id."""
-        bank = world.config.lamp_bank
-        conn = bank.connection
-        return cls(
-            world, registers=bank.registers, unit_id=conn.unit_id, baudrate=conn.baudrate, **options
-        )
-
     # -- fault injection -------------------------------------------------------
     def kill_lamp(self, lamp_id: str) -> None:
         """Make ``lamp_id`` stay dark when switched on."""
@@ -373,3 +370,35 @@ class LampBankPeer(_ModbusPeer):
             registers[word] = (
                 registers[word] | (1 << bit) if value else registers[word] & ~(1 << bit)
             )
+
+
+@register_peer("turntable", "modbus")
+def start_drive(
+    section: Turntable, world: World, *, faults: Mapping[str, Any], serial: bool
+) -> TurntableDrivePeer:
+    """A drive with the section's register map and unit id, started (TCP, or RTU on a pty)."""
+    device = section.device
+    return TurntableDrivePeer(
+        world,
+        registers=device.registers,
+        unit_id=device.unit_id,
+        transport="rtu" if serial else "tcp",
+        baudrate=device.baudrate,
+        faults=faults,
+    ).start()
+
+
+@register_peer("lamp_bank", "modbus")
+def start_lamp_bank(
+    section: LampBank, world: World, *, faults: Mapping[str, Any], serial: bool
+) -> LampBankPeer:
+    """A bank with the light arc's lamps and the section's layout and unit id, started."""
+    device = section.device
+    return LampBankPeer(
+        world,
+        registers=device.registers,
+        unit_id=device.unit_id,
+        transport="rtu" if serial else "tcp",
+        baudrate=device.baudrate,
+        faults=faults,
+    ).start()

@@ -10,7 +10,7 @@ packet and switches torque off, as the real servo's shutdown does.
 
 from __future__ import annotations
 
-from rig.config import LightArc
+from rig.devices import DynamixelServos
 from sim.world import World
 
 __all__ = ["HARDWARE_ERRORS", "SimServo", "Table"]
@@ -62,21 +62,26 @@ class _Error:
 
 
 class SimServo:
-    """A servo on the simulated bus, driving ``axis`` of ``world`` through ``arc``'s gearing."""
+    """A servo on the simulated bus, driving ``axis`` of ``world`` through ``gearing``.
+
+    Ticks and axis degrees are related as the config describes the servos
+    (written here from that description, not taken from the driver):
+    ``ticks = zero_tick + deg / 360 * gear_ratio * ticks_per_rev``.
+    """
 
     def __init__(
         self,
         servo_id: int,
         world: World,
         *,
-        arc: LightArc,
+        gearing: DynamixelServos,
         axis: str = "arc",
         model_number: int = 1020,
         operating_mode: int = 4,
     ):
         self.servo_id = servo_id
         self.world = world
-        self.arc = arc
+        self.gearing = gearing
         self.axis = axis
         self.table = bytearray(Table.SIZE)
         self._put(Table.MODEL_NUMBER, 2, model_number)
@@ -87,7 +92,7 @@ class SimServo:
         self._put(Table.MAX_POSITION_LIMIT, 4, 4095)
         self._put(Table.MIN_POSITION_LIMIT, 4, 0)
         self._put(Table.STATUS_RETURN_LEVEL, 1, 2)
-        self._put(Table.GOAL_POSITION, 4, arc.arc_deg_to_ticks(world.position(axis)))
+        self._put(Table.GOAL_POSITION, 4, self._ticks(world.position(axis)))
         self._put(Table.PRESENT_INPUT_VOLTAGE, 2, 120)  # 12.0 V
         self._put(Table.PRESENT_TEMPERATURE, 1, 32)
 
@@ -148,9 +153,7 @@ class SimServo:
         self.table[address:end] = data
         if not torque_on and self.table[Table.TORQUE_ENABLE] == 1:
             # torque on: the servo holds where it is (goal := present position)
-            self._put(
-                Table.GOAL_POSITION, 4, self.arc.arc_deg_to_ticks(self.world.position(self.axis))
-            )
+            self._put(Table.GOAL_POSITION, 4, self._ticks(self.world.position(self.axis)))
         elif _overlaps(address, end, Table.GOAL_POSITION, 4):
             self._follow_goal()
         return 0
@@ -167,17 +170,25 @@ class SimServo:
         if self.table[Table.TORQUE_ENABLE] != 1:
             return
         goal = self._get(Table.GOAL_POSITION, 4)
-        self.world.move(self.axis, self.arc.ticks_to_arc_deg(goal))
+        self.world.move(self.axis, self._deg(goal))
 
     def _refresh(self) -> None:
         moving = self.world.is_moving(self.axis)
-        ticks = self.arc.arc_deg_to_ticks(self.world.position(self.axis))
+        ticks = self._ticks(self.world.position(self.axis))
         self._put(Table.PRESENT_POSITION, 4, ticks)
         self._put(Table.MOVING, 1, int(moving))
         # moving status: bit 0 in-position, bit 1 profile ongoing
         in_position = abs(ticks - self._get(Table.GOAL_POSITION, 4)) <= 1 and not moving
         self._put(Table.MOVING_STATUS, 1, int(in_position) | int(moving) << 1)
         self._put(Table.REALTIME_TICK, 2, int(self.world.clock.now() * 1000) % 32768)
+
+    def _ticks(self, axis_deg: float) -> int:
+        g = self.gearing
+        return g.zero_tick + round(axis_deg / 360.0 * g.gear_ratio * g.ticks_per_rev)
+
+    def _deg(self, ticks: int) -> float:
+        g = self.gearing
+        return (ticks - g.zero_tick) * 360.0 / (g.ticks_per_rev * g.gear_ratio)
 
     def _put(self, address: int, size: int, value: int) -> None:
         self.table[address : address + size] = int(value).to_bytes(size, "little", signed=value < 0)

@@ -18,10 +18,11 @@ import logging
 import os
 import select
 import threading
-from collections.abc import Iterable, Mapping
+from collections.abc import Mapping
 from typing import Any
 
 from rig.config import LightArc
+from rig.devices import DynamixelServos
 from rig.errors import ConfigError
 from sim.peers._faults import ReplyFaults, check_fault_keys
 from sim.peers._pty import RawPty
@@ -33,6 +34,7 @@ from sim.peers.dynamixel._framing import (
     encode_status,
 )
 from sim.peers.dynamixel._servo import SimServo
+from sim.peers.registry import register_peer
 from sim.world import World
 
 __all__ = ["DynamixelBusPeer"]
@@ -50,10 +52,9 @@ class DynamixelBusPeer:
     ----------
     world : World
         The simulated rig; goal positions move ``axis``.
-    ids : iterable of int
-        The servos on the bus (default: the light arc's ``servo_ids``).
-    arc : LightArc
-        Ticks ↔ degrees of the arc (default: the world config's light arc).
+    servos : DynamixelServos
+        The servos on the bus (``ids``) and their gearing (default: the world
+        config's light arc).
     operating_mode : int
         3 (position, 0..4095 within the position limits) or 4 (extended).
     faults : mapping
@@ -67,18 +68,17 @@ class DynamixelBusPeer:
         self,
         world: World,
         *,
-        ids: Iterable[int] | None = None,
-        arc: LightArc | None = None,
+        servos: DynamixelServos | None = None,
         axis: str = "arc",
         operating_mode: int = 4,
         faults: Mapping[str, Any] | None = None,
     ):
-        arc = arc or world.config.light_arc
-        ids = tuple(ids if ids is not None else arc.servo_ids)
+        gearing = servos or world.config.light_arc.device
         self.world = world
         self.axis = axis
         self.servos = {
-            i: SimServo(i, world, arc=arc, axis=axis, operating_mode=operating_mode) for i in ids
+            i: SimServo(i, world, gearing=gearing, axis=axis, operating_mode=operating_mode)
+            for i in gearing.ids
         }
         faults = dict(faults or {})
         check_fault_keys(self.name, faults, set(self.FAULT_KEYS))
@@ -122,6 +122,11 @@ class DynamixelBusPeer:
         if self._pty is not None:
             self._pty.close()
             self._pty = None
+
+    def connect(self, section):
+        """``section`` with its Dynamixel device on this bus's pty."""
+        device = section.device.model_copy(update={"serial_port": self.serial_port})
+        return section.model_copy(update={"device": device})
 
     def __enter__(self) -> DynamixelBusPeer:
         return self.start()
@@ -242,3 +247,11 @@ class DynamixelBusPeer:
                         servo.servo_id,
                         error,
                     )
+
+
+@register_peer("light_arc", "dynamixel")
+def start_bus(
+    section: LightArc, world: World, *, faults: Mapping[str, Any], serial: bool
+) -> DynamixelBusPeer:
+    """The section's servos on a pty, turning the world's arc, started."""
+    return DynamixelBusPeer(world, servos=section.device, faults=faults).start()

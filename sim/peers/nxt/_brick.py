@@ -7,7 +7,7 @@ payload]``, little-endian fields. It answers SETOUTPUTSTATE (0x04),
 GETOUTPUTSTATE (0x06), RESETMOTORPOSITION (0x0A) and GETBATTERYLEVEL (0x0B);
 any other opcode gets status 0xBE (unknown command opcode).
 
-Wiring of the simulated laser unit (from ``world.config.laser``): the motor on
+Wiring of the simulated laser unit (from ``world.config.laser.device``): the motor on
 ``motor_port`` turns the world's ``laser_tilt`` axis through ``gear_ratio``
 degrees of tilt per motor degree, so motion takes world-clock time on the
 axis' trapezoidal profile; the output ``laser_port`` switches the world's
@@ -91,9 +91,9 @@ class FakeNxtBrick:
         self.world = world
         self.faults = faults or NxtFaults()
         laser = world.config.laser
-        self.gear_ratio = laser.gear_ratio
-        self.tilt_port = _PORTS[laser.motor_port]
-        self.laser_port = _PORTS[laser.laser_port]
+        self.gear_ratio = laser.device.gear_ratio
+        self.tilt_port = _PORTS[laser.device.motor_port]
+        self.laser_port = _PORTS[laser.device.laser_port]
         self.tilt_limit_deg = laser.tilt_limit_deg
         self.outputs = [_Output() for _ in _PORTS]
         self._target_motor_deg: float | None = None

@@ -14,9 +14,16 @@ import os
 import select
 import struct
 import threading
+from collections.abc import Mapping
+from dataclasses import fields
+from typing import Any
 
+from rig.config import Laser
+from sim.peers._faults import check_fault_keys
 from sim.peers._pty import RawPty
-from sim.peers.nxt._brick import FakeNxtBrick
+from sim.peers.nxt._brick import FakeNxtBrick, NxtFaults
+from sim.peers.registry import register_peer
+from sim.world import World
 
 __all__ = ["NxtSerialPeer"]
 
@@ -26,7 +33,7 @@ _MAX_TELEGRAM = 64
 
 
 class NxtSerialPeer:
-    """Serve ``brick`` on a fresh pty until ``close``; use as a context manager."""
+    """Serve ``brick`` on a fresh pty until ``stop``; use as a context manager."""
 
     def __init__(self, brick: FakeNxtBrick):
         self.brick = brick
@@ -41,7 +48,7 @@ class NxtSerialPeer:
         return self
 
     def __exit__(self, *exc) -> None:
-        self.close()
+        self.stop()
 
     def _serve(self) -> None:
         buffer = b""
@@ -72,7 +79,12 @@ class NxtSerialPeer:
                 os.write(self._master, struct.pack("<H", len(reply)) + reply)
         return buffer
 
-    def close(self) -> None:
+    def connect(self, section):
+        """``section`` with its NXT device on this pty (Bluetooth SPP framing)."""
+        device = section.device.model_copy(update={"transport": "serial", "serial_port": self.port})
+        return section.model_copy(update={"device": device})
+
+    def stop(self) -> None:
         """Stop the thread and close the pty (idempotent)."""
         if self._wake_w < 0:
             return
@@ -82,3 +94,16 @@ class NxtSerialPeer:
             os.close(fd)
         self._wake_w = -1
         self._pty.close()
+
+
+@register_peer("laser", "nxt")
+def start_brick(
+    section: Laser, world: World, *, faults: Mapping[str, Any], serial: bool
+) -> NxtSerialPeer:
+    """The laser unit's brick (``NxtFaults`` fields as the fault table) on a pty.
+
+    Always serial: a pty is the one link a driver in another process can open
+    (the USB fake is a pyusb backend, in-process only).
+    """
+    check_fault_keys("laser brick", faults, {field.name for field in fields(NxtFaults)})
+    return NxtSerialPeer(FakeNxtBrick(world, faults=NxtFaults(**faults)))

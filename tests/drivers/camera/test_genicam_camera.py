@@ -12,11 +12,11 @@ import pytest
 harvesters = pytest.importorskip("harvesters", reason="the optional btfrig[genicam] extra")
 genicam = pytest.importorskip("genicam", reason="the optional btfrig[genicam] extra")
 
-from drivers.camera import open_camera  # noqa: E402
+from drivers import open_device  # noqa: E402
 from drivers.errors import DeviceError, DeviceTimeout  # noqa: E402
 from rig.clock import VirtualClock  # noqa: E402
 from rig.config import CameraSpec  # noqa: E402
-from rig.connections import CameraConnection, Retry  # noqa: E402
+from rig.devices import GenicamConnection, Retry  # noqa: E402
 
 CTI = sorted(Path(genicam.__file__).parent.glob("*.cti"))
 pytestmark = pytest.mark.skipif(not CTI, reason="the genicam wheel ships no simulated .cti")
@@ -24,7 +24,7 @@ RETRY = Retry(timeout_s=1.0, retries=1, backoff_s=0.0)
 
 
 def _spec(serial="0", *, channels=1, width=128, retry=RETRY):
-    connection = CameraConnection(kind="genicam", url=serial, cti=str(CTI[0]), retry=retry)
+    connection = GenicamConnection(url=serial, cti=str(CTI[0]), retry=retry)
     return CameraSpec(
         id="gc",
         theta_deg=0,
@@ -38,7 +38,7 @@ def _spec(serial="0", *, channels=1, width=128, retry=RETRY):
 
 @pytest.fixture
 def camera():
-    camera = open_camera(_spec(), clock=VirtualClock())
+    camera = open_device("camera", _spec(), clock=VirtualClock())
     yield camera
     camera.close()
 
@@ -61,24 +61,24 @@ def test_a_missing_feature_is_named(camera):
 
 def test_a_pixel_format_the_camera_lacks_lists_what_it_has():
     with pytest.raises(DeviceError, match=r"wanted RGB8\); the camera offers \('RGBa8', 'Mono8'\)"):
-        open_camera(_spec(channels=3), clock=VirtualClock())
+        open_device("camera", _spec(channels=3), clock=VirtualClock())
 
 
 def test_a_size_out_of_range_is_refused():
     with pytest.raises(DeviceError, match=r"Width=64 was refused"):
-        open_camera(_spec(width=64), clock=VirtualClock()).close()
+        open_device("camera", _spec(width=64), clock=VirtualClock()).close()
 
 
 def test_an_unknown_serial_lists_the_found_ones():
     with pytest.raises(
         DeviceError, match=r"no device with serial '42' .*found serials \['0', '1', '2'\]"
     ):
-        open_camera(_spec("42"), clock=VirtualClock())
+        open_device("camera", _spec("42"), clock=VirtualClock())
 
 
 def test_frames_too_slow_for_the_timeout_give_a_timeout_after_retries():
     slow = _spec(retry=Retry(timeout_s=0.04, retries=1, backoff_s=0.0))
-    camera = open_camera(slow, clock=VirtualClock())
+    camera = open_device("camera", slow, clock=VirtualClock())
     try:
         camera.nodes.AcquisitionFrameRate.value = 1.0  # one frame a second
         with pytest.raises(DeviceTimeout, match=r"did not arrive in 0.050 s .*gave up after 2"):

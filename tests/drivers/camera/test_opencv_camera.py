@@ -6,17 +6,18 @@ import cv2
 import numpy as np
 import pytest
 
-from drivers.camera import OpenCvCamera, open_camera
+from drivers import open_device
+from drivers.camera import OpenCvCamera
 from drivers.errors import DeviceError, ProtocolError
 from rig.clock import VirtualClock
 from rig.config import CameraSpec
-from rig.connections import CameraConnection, Retry
+from rig.devices import OpenCvConnection, Retry
 
 RETRY = Retry(timeout_s=0.1, retries=2, backoff_s=0.0)
 
 
 def _spec(url, **kwargs):
-    connection = CameraConnection(kind="opencv", url=url, retry=RETRY)
+    connection = OpenCvConnection(url=url, retry=RETRY)
     return CameraSpec(id="replay", theta_deg=0, connection=connection, **kwargs)
 
 
@@ -31,7 +32,7 @@ def test_colour_sequence_replays_in_order_as_rgb(tmp_path):
     frames = [rng.integers(0, 256, (48, 64, 3), dtype=np.uint8) for _ in range(3)]
     pattern = _write(tmp_path, [cv2.cvtColor(f, cv2.COLOR_RGB2BGR) for f in frames])
     clock = VirtualClock(10.0)
-    camera = open_camera(_spec(pattern, width=64, height=48), clock=clock)
+    camera = open_device("camera", _spec(pattern, width=64, height=48), clock=clock)
     try:
         assert isinstance(camera, OpenCvCamera) and camera.replay
         camera.configure(exposure_s=0.02, gain=2.0)

@@ -7,11 +7,12 @@ what the motors and lamps had done when its exposure started."""
 import numpy as np
 import pytest
 
-from drivers.camera import Frame, open_camera
+from drivers import open_device
+from drivers.camera import Frame
 from drivers.errors import DeviceError, DeviceTimeout, ProtocolError
 from rig.clock import VirtualClock
 from rig.config import CameraArc, CameraSpec, RigConfig
-from rig.connections import CameraConnection, Retry
+from rig.devices import Retry, SimCameraConnection
 from sim.peers.camera_server import CameraFaults, CameraServer
 from sim.world import World
 
@@ -49,8 +50,10 @@ def server(world):
 
 def _camera(world, server, camera_id="cam0"):
     spec = world.config.camera(camera_id)
-    connection = CameraConnection(kind="sim", url=server.url, retry=RETRY)
-    return open_camera(spec.model_copy(update={"connection": connection}), clock=world.clock)
+    connection = SimCameraConnection(url=server.url, retry=RETRY)
+    return open_device(
+        "camera", spec.model_copy(update={"connection": connection}), clock=world.clock
+    )
 
 
 @pytest.fixture
@@ -183,8 +186,10 @@ def test_bad_settings_are_refused_naming_the_field(camera, kwargs, match):
 
 def test_a_camera_the_server_does_not_know_is_refused_at_once(world, server):
     spec = CameraSpec(id="ghost", theta_deg=10, width=8, height=8)
-    connection = CameraConnection(kind="sim", url=server.url, retry=RETRY)
-    camera = open_camera(spec.model_copy(update={"connection": connection}), clock=world.clock)
+    connection = SimCameraConnection(url=server.url, retry=RETRY)
+    camera = open_device(
+        "camera", spec.model_copy(update={"connection": connection}), clock=world.clock
+    )
     try:
         with pytest.raises(DeviceError, match=r"refused: camera_id 'ghost' is unknown.*camera_id"):
             camera.capture()
@@ -195,9 +200,9 @@ def test_a_camera_the_server_does_not_know_is_refused_at_once(world, server):
 
 def test_no_server_times_out(world):
     spec = CAMERAS[0].model_copy(
-        update={"connection": CameraConnection(kind="sim", url="tcp://127.0.0.1:9", retry=RETRY)}
+        update={"connection": SimCameraConnection(url="tcp://127.0.0.1:9", retry=RETRY)}
     )
-    camera = open_camera(spec, clock=world.clock)
+    camera = open_device("camera", spec, clock=world.clock)
     try:
         with pytest.raises(DeviceTimeout, match=r"camera cam0 .*gave up after 3 tries"):
             camera.capture()

@@ -6,18 +6,17 @@ import pytest
 
 from drivers.dynamixel import DynamixelArc, DynamixelBus
 from drivers.errors import DeviceError, DeviceFault, DeviceTimeout, MotionStalled, ProtocolError
-from drivers.interfaces import Arc
+from drivers.interfaces import Axis
 from rig.clock import VirtualClock
 from rig.config import default_rig_config
-from rig.connections import DynamixelConnection, Retry
+from rig.devices import DynamixelServos, Retry
 from rig.errors import KinematicsError
 from sim.peers import DynamixelBusPeer
 from sim.world import World
 
 FAST_RETRY = Retry(timeout_s=0.2, retries=2, backoff_s=0.01)
-GEARED = default_rig_config().light_arc.model_copy(
-    update={"servo_ids": (1, 2), "servo_gear_ratio": 4.0, "servo_zero_tick": 1000}
-)
+AXIS = default_rig_config().light_arc.axis
+GEARED = DynamixelServos(ids=(1, 2), gear_ratio=4.0, zero_tick=1000)
 
 
 @pytest.fixture
@@ -32,26 +31,26 @@ def world(clock):
 
 @pytest.fixture
 def bus(world):
-    peer = DynamixelBusPeer(world, arc=GEARED).start()
+    peer = DynamixelBusPeer(world, servos=GEARED).start()
     yield peer
     peer.stop()
 
 
-def _arc_config(peer, **update):
-    servos = DynamixelConnection(serial_port=peer.serial_port, retry=FAST_RETRY)
-    return GEARED.model_copy(update={"servos": servos, **update})
+def _servos(peer, **update):
+    update = {"serial_port": peer.serial_port, "retry": FAST_RETRY, **update}
+    return GEARED.model_copy(update=update)
 
 
 @pytest.fixture
 def arc(bus, clock):
-    driver = DynamixelArc(_arc_config(bus), clock=clock)
+    driver = DynamixelArc(_servos(bus), axis=AXIS, clock=clock)
     driver.enable()
     yield driver
     driver.close()
 
 
 def test_satisfies_the_interface(arc):
-    assert isinstance(arc, Arc)
+    assert isinstance(arc, Axis)
 
 
 def test_enable_loads_the_profile_from_the_axis_limits(arc, bus):
@@ -131,7 +130,8 @@ def test_hardware_error_names_the_servo_and_reboot_recovers(arc, bus, world):
 
 def test_alert_bit_on_a_single_read_is_a_device_fault(arc, bus):
     bus.set_hardware_error(1, 0x04)  # overheating
-    raw = DynamixelBus(arc.arc.servos, device="light arc", clock=VirtualClock())
+    arc.close()  # one owner per bus: the raw bus below takes it over
+    raw = DynamixelBus(arc.servos, device="light arc", clock=VirtualClock())
     with pytest.raises(DeviceFault, match=r"servo 1 .*0x04 \(overheating\)"):
         raw.read(1, 132, 4, operation="read")
     raw.close()
@@ -146,8 +146,8 @@ def test_servo_refusals_are_clear_and_not_retried(arc):
 
 
 def test_goal_outside_the_position_mode_range_is_refused(world, clock):
-    with DynamixelBusPeer(world, arc=GEARED, operating_mode=3) as peer:
-        driver = DynamixelArc(_arc_config(peer), clock=clock)
+    with DynamixelBusPeer(world, servos=GEARED, operating_mode=3) as peer:
+        driver = DynamixelArc(_servos(peer), axis=AXIS, clock=clock)
         driver.enable()  # reads limits 0..4095 from the servos
         with pytest.raises(
             DeviceError, match=r"goal tick 5096, outside servo 1's range \[0, 4095\]"
@@ -159,7 +159,8 @@ def test_goal_outside_the_position_mode_range_is_refused(world, clock):
 def test_bad_requests(arc, bus, clock):
     with pytest.raises(KinematicsError, match=r"400.0° is outside .*\[0.0°, 360.0°\]"):
         arc.move_to(400.0)
-    fresh = DynamixelArc(_arc_config(bus), clock=clock)
+    arc.close()  # one owner per bus
+    fresh = DynamixelArc(_servos(bus), axis=AXIS, clock=clock)
     with pytest.raises(DeviceError, match=r"call enable\(\) first"):
         fresh.move_to(10.0)
     fresh.close()
@@ -167,16 +168,14 @@ def test_bad_requests(arc, bus, clock):
 
 
 def test_a_missing_port_is_named(clock):
-    config = GEARED.model_copy(
-        update={"servos": DynamixelConnection(serial_port="/dev/does-not-exist", retry=FAST_RETRY)}
-    )
+    servos = GEARED.model_copy(update={"serial_port": "/dev/does-not-exist", "retry": FAST_RETRY})
     with pytest.raises(DeviceError, match="cannot open serial port '/dev/does-not-exist'"):
-        DynamixelArc(config, clock=clock)
+        DynamixelArc(servos, axis=AXIS, clock=clock)
 
 
 def test_a_servo_missing_from_the_bus_times_out(world, clock):
-    with DynamixelBusPeer(world, ids=(1,), arc=GEARED) as peer:
-        driver = DynamixelArc(_arc_config(peer), clock=clock)  # config says servos 1 and 2
+    with DynamixelBusPeer(world, servos=GEARED.model_copy(update={"ids": (1,)})) as peer:
+        driver = DynamixelArc(_servos(peer), axis=AXIS, clock=clock)  # config says servos 1 and 2
         with pytest.raises(DeviceTimeout, match="servo 2: no status packet"):
             driver.enable()
         driver.close()

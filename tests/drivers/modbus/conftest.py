@@ -4,7 +4,7 @@ import pytest
 
 from rig.clock import VirtualClock
 from rig.config import default_rig_config
-from rig.connections import ModbusConnection, Retry
+from rig.devices import ModbusConnection, ModbusDrive, Retry
 from sim.world import World
 
 # Short real-time I/O timeouts (pymodbus waits in real time); backoff on the virtual clock.
@@ -26,14 +26,18 @@ def transport(request):
     return request.param
 
 
-def _connection_to(peer, transport: str, retry: Retry = FAST_RETRY) -> ModbusConnection:
-    """The connection a driver needs to reach ``peer``: same driver, another port."""
+def _connection_to(
+    peer, transport: str, device: ModbusConnection = ModbusDrive(), retry: Retry = FAST_RETRY
+) -> ModbusConnection:
+    """``device`` (a drive or lamp bank section) reaching ``peer``: same driver, another port."""
     if transport == "tcp":
-        return ModbusConnection(protocol="tcp", host="127.0.0.1", port=peer.port, retry=retry)
-    return ModbusConnection(protocol="rtu", serial_port=peer.serial_port, retry=retry)
+        where = {"protocol": "tcp", "host": "127.0.0.1", "port": peer.port}
+    else:
+        where = {"protocol": "rtu", "serial_port": peer.serial_port}
+    return device.model_copy(update={**where, "retry": retry})
 
 
 @pytest.fixture
 def connection_to():
-    """``connection_to(peer, transport)`` → the ``ModbusConnection`` reaching a peer."""
+    """``connection_to(peer, transport, device)`` → ``device`` reaching a peer."""
     return _connection_to

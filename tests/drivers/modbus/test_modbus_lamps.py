@@ -6,7 +6,8 @@ from pymodbus.client import ModbusTcpClient
 from drivers.errors import DeviceError, DeviceFault, DeviceTimeout
 from drivers.interfaces import LampBank
 from drivers.modbus import ModbusLampBank
-from rig.config import LampBankRegisters
+from drivers.registry import open_device
+from rig.devices import LampBankRegisters, ModbusLamps
 from sim.peers import LampBankPeer
 
 DIMMED = LampBankRegisters(coils=8, light_sensors=100, dimming=True, dimmers=200)
@@ -22,8 +23,9 @@ def bank_peer(world, transport):
 @pytest.fixture
 def bank(bank_peer, world, clock, transport, connection_to):
     lamps = [lamp.id for lamp in world.config.light_arc.lamps]
+    device = ModbusLamps(registers=DIMMED)
     driver = ModbusLampBank(
-        connection_to(bank_peer, transport), lamp_ids=lamps, registers=DIMMED, clock=clock
+        connection_to(bank_peer, transport, device), lamp_ids=lamps, clock=clock
     )
     yield driver
     driver.close()
@@ -85,14 +87,11 @@ def test_bad_requests_name_what_is_valid(bank):
 
 def test_a_bank_without_dimmers_says_so(world, clock, connection_to):
     with LampBankPeer(world) as peer:
-        driver = ModbusLampBank.from_config(world.config, clock=clock)
-        driver.close()
-        driver = ModbusLampBank(
-            connection_to(peer, "tcp"),
-            lamp_ids=driver.lamp_ids,
-            registers=LampBankRegisters(),
-            clock=clock,
+        section = world.config.lamp_bank.model_copy(
+            update={"device": connection_to(peer, "tcp", world.config.lamp_bank.device)}
         )
+        lamp_ids = [lamp.id for lamp in world.config.light_arc.lamps]
+        driver = open_device("lamp_bank", section, clock=clock, lamp_ids=lamp_ids)
         with pytest.raises(DeviceError, match="no dimmers"):
             driver.set_level("lamp1", 0.5)
         driver.switch({"lamp7"})

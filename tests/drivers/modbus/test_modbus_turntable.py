@@ -6,10 +6,9 @@ import pytest
 from pymodbus.client import ModbusTcpClient
 
 from drivers.errors import DeviceError, DeviceFault, DeviceTimeout, MotionStalled
-from drivers.interfaces import Turntable
+from drivers.interfaces import Axis
 from drivers.modbus import ModbusTurntable
-from rig.config import TurntableRegisters
-from rig.connections import ModbusConnection, Retry
+from rig.devices import DriveRegisters, ModbusDrive, Retry
 from rig.errors import KinematicsError
 from sim.peers import TurntableDrivePeer
 
@@ -24,15 +23,13 @@ def drive(world, transport):
 @pytest.fixture
 def turntable(drive, world, clock, transport, connection_to):
     config = world.config.turntable
-    table = ModbusTurntable(
-        connection_to(drive, transport), axis=config.axis, registers=config.registers, clock=clock
-    )
+    table = ModbusTurntable(connection_to(drive, transport), axis=config.axis, clock=clock)
     yield table
     table.close()
 
 
 def test_satisfies_the_interface(turntable):
-    assert isinstance(turntable, Turntable)
+    assert isinstance(turntable, Axis)
 
 
 def test_move_takes_the_profile_time_and_ends_at_the_target(turntable, world, clock):
@@ -146,7 +143,7 @@ def test_a_garbling_drive_fails_after_the_retries(turntable, drive):
 
 
 def test_custom_register_map_and_word_order(world, clock, transport, connection_to):
-    registers = TurntableRegisters(
+    registers = DriveRegisters(
         target_position=100,
         actual_position=110,
         status=120,
@@ -165,9 +162,8 @@ def test_custom_register_map_and_word_order(world, clock, transport, connection_
     )
     with TurntableDrivePeer(world, registers=registers, transport=transport) as peer:
         table = ModbusTurntable(
-            connection_to(peer, transport),
+            connection_to(peer, transport, ModbusDrive(registers=registers)),
             axis=world.config.turntable.axis,
-            registers=registers,
             clock=clock,
         )
         table.move_to(123.4)
@@ -179,13 +175,8 @@ def test_custom_register_map_and_word_order(world, clock, transport, connection_
 def test_target_register_holds_the_documented_encoding(world, clock):
     # Ground truth from a plain Modbus client: int32, 0.01°, high word first, at 0..1.
     with TurntableDrivePeer(world) as peer:
-        conn = ModbusConnection(port=peer.port, retry=Retry(timeout_s=0.2, retries=0))
-        table = ModbusTurntable(
-            conn,
-            axis=world.config.turntable.axis,
-            registers=world.config.turntable.registers,
-            clock=clock,
-        )
+        conn = ModbusDrive(port=peer.port, retry=Retry(timeout_s=0.2, retries=0))
+        table = ModbusTurntable(conn, axis=world.config.turntable.axis, clock=clock)
         table.move_to(300.01)
         table.close()
         client = ModbusTcpClient("127.0.0.1", port=peer.port, timeout=0.2, retries=0)
@@ -195,12 +186,10 @@ def test_target_register_holds_the_documented_encoding(world, clock):
 
 
 def test_a_register_the_drive_lacks_is_a_clear_non_retried_error(world, clock):
-    wrong = TurntableRegisters(status=40)  # the drive has its status at 4
+    wrong = DriveRegisters(status=40)  # the drive has its status at 4
     with TurntableDrivePeer(world) as peer:
-        conn = ModbusConnection(port=peer.port, retry=Retry(timeout_s=0.2, retries=2))
-        table = ModbusTurntable(
-            conn, axis=world.config.turntable.axis, registers=wrong, clock=clock
-        )
+        conn = ModbusDrive(port=peer.port, registers=wrong, retry=Retry(timeout_s=0.2, retries=2))
+        table = ModbusTurntable(conn, axis=world.config.turntable.axis, clock=clock)
         t0 = clock.now()
         with pytest.raises(DeviceError, match=r"ILLEGAL_ADDRESS.*register map") as err:
             table.status()
@@ -212,13 +201,8 @@ def test_a_register_the_drive_lacks_is_a_clear_non_retried_error(world, clock):
 def test_unreachable_drive_is_a_timeout_naming_the_address(world, clock):
     with TurntableDrivePeer(world) as peer:
         port = peer.port
-    conn = ModbusConnection(port=port, retry=Retry(timeout_s=0.2, retries=1, backoff_s=0.01))
-    table = ModbusTurntable(
-        conn,
-        axis=world.config.turntable.axis,
-        registers=world.config.turntable.registers,
-        clock=clock,
-    )
+    conn = ModbusDrive(port=port, retry=Retry(timeout_s=0.2, retries=1, backoff_s=0.01))
+    table = ModbusTurntable(conn, axis=world.config.turntable.axis, clock=clock)
     with pytest.raises(DeviceTimeout, match=f"cannot reach tcp://127.0.0.1:{port}"):
         table.position()
     table.close()

@@ -2,12 +2,12 @@
 pyusb (with the fake brick as its backend) and a pty speaking Bluetooth framing."""
 
 import pytest
+from rig.connections import NxtConnection, Retry
 
 from drivers.errors import DeviceError, DeviceFault, DeviceTimeout, MotionStalled, ProtocolError
 from drivers.nxt import NxtLaser
 from rig.clock import VirtualClock
 from rig.config import RigConfig
-from rig.connections import NxtConnection, Retry
 from sim.peers.nxt import FakeNxtBrick, FakeNxtUsbBackend, NxtSerialPeer
 from sim.world import World
 

@@ -1,13 +1,13 @@
 """All motion peers at once, reached by unchanged drivers through a rewritten rig config."""
 
 import pytest
+from rig.connections import Retry
 
 from drivers.dynamixel import DynamixelArc
 from drivers.errors import DeviceFault
 from drivers.modbus import ModbusLampBank, ModbusTurntable
 from rig.clock import VirtualClock
 from rig.config import default_rig_config
-from rig.connections import Retry
 from rig.errors import ConfigError
 from sim.peers import start_motion_peers
 from sim.world import World
