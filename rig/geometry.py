@@ -18,7 +18,7 @@ from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
-from scipy.spatial import ConvexHull, QhullError
+from scipy.spatial import ConvexHull, QhullError, cKDTree
 
 from rig.errors import ConfigError
 
@@ -90,6 +90,29 @@ _RINGS = {
 }
 
 
+#: Two directions closer than this are the same direction.
+_SAME_DIRECTION_DEG = 1e-6
+
+
+def _first_duplicate(vectors: np.ndarray) -> tuple[int, int] | None:
+    """The first pair ``(i, j)``, ``i < j``, of unit vectors closer than
+    ``_SAME_DIRECTION_DEG``, in row order; None when all differ.
+
+    A KD-tree finds the candidates within the chord of that angle (slightly
+    widened for rounding) in O(n log n); the angle itself decides.
+    """
+    chord = 2.0 * np.sin(np.deg2rad(_SAME_DIRECTION_DEG) / 2.0)
+    pairs = cKDTree(vectors).query_pairs(chord * (1.0 + 1e-6) + 1e-15, output_type="ndarray")
+    if len(pairs) == 0:
+        return None
+    angles = angular_distance_deg(vectors[pairs[:, 0]], vectors[pairs[:, 1]])
+    close = pairs[angles < _SAME_DIRECTION_DEG]
+    if len(close) == 0:
+        return None
+    i, j = close[np.lexsort((close[:, 1], close[:, 0]))[0]]
+    return int(i), int(j)
+
+
 @dataclass(frozen=True)
 class Sampling:
     """An ordered set of directions on the upper hemisphere.
@@ -124,11 +147,9 @@ class Sampling:
         d = d.copy()
         d[:, 1] %= 360.0
         d[d[:, 0] == 0, 1] = 0.0
-        vectors = direction_vector(d[:, 0], d[:, 1])
-        close = angular_distance_deg(vectors[:, None, :], vectors[None, :, :]) < 1e-6
-        np.fill_diagonal(close, False)
-        if close.any():
-            i, j = np.argwhere(close)[0]
+        duplicate = _first_duplicate(direction_vector(d[:, 0], d[:, 1]))
+        if duplicate is not None:
+            i, j = duplicate
             raise ConfigError(
                 f"sampling {self.name!r}: directions {i} and {j} are the same "
                 f"({d[i, 0]}°, {d[i, 1]}°); each direction must appear once"

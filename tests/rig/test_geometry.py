@@ -69,6 +69,42 @@ def test_custom_sampling_validation():
     assert_allclose(s.directions, [[0, 0], [30, 270]])
 
 
+def _brute_force_duplicate(directions):
+    v = direction_vector(directions[:, 0], directions[:, 1])
+    close = angular_distance_deg(v[:, None, :], v[None, :, :]) < 1e-6
+    np.fill_diagonal(close, False)
+    return tuple(int(k) for k in np.argwhere(close)[0]) if close.any() else None
+
+
+@given(
+    st.lists(st.tuples(thetas, phis), min_size=1, max_size=40),
+    st.lists(st.tuples(st.integers(0, 39), st.floats(-2e-6, 2e-6)), max_size=4),
+)
+def test_duplicates_found_as_the_pairwise_check_finds_them(base, copies):
+    """Near-copies (within and beyond the 1e-6° tolerance) are named like the O(n²) check."""
+    directions = list(base)
+    for index, offset in copies:
+        theta, phi = base[index % len(base)]
+        directions.append((float(np.clip(theta + offset, 0.0, 90.0)), phi))
+    directions = np.array(directions)
+    expected = _brute_force_duplicate(np.where(directions[:, :1] == 0, [[0.0, 0.0]], directions))
+    if expected is None:
+        assert len(Sampling("mine", directions)) == len(directions)
+    else:
+        with pytest.raises(ConfigError, match=f"directions {expected[0]} and {expected[1]} are"):
+            Sampling("mine", directions)
+
+
+def test_sixty_thousand_directions_are_checked_without_a_pairwise_matrix():
+    # A pairwise matrix of 60,000 directions needs 86 GB; the tree needs a few MB.
+    rng = np.random.default_rng(3)
+    directions = np.column_stack([rng.uniform(0, 90, 60_000), rng.uniform(0, 360, 60_000)])
+    assert len(Sampling("dense", directions)) == 60_000
+    directions[59_999] = directions[12]
+    with pytest.raises(ConfigError, match="directions 12 and 59999 are the same"):
+        Sampling("dense", directions)
+
+
 def test_nearest_directions_exact_at_table_points():
     s = Sampling.named("H2")
     interp = nearest_directions(s.vectors, s.vectors, k=4)
