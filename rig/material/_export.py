@@ -14,11 +14,15 @@ from pathlib import Path
 
 from rig.archive import Archive, ArchiveError, software_versions
 from rig.material._errors import MaterialError
-from rig.material._material import GROUPS, STORE_FORMAT, archive_provenance, read_material
+from rig.material._material import (
+    GROUPS,
+    STORE_FORMAT,
+    STORE_VERSION,
+    archive_provenance,
+    read_material,
+)
 
 __all__ = ["export_material"]
-
-STORE_VERSION = 1
 
 
 def export_material(archive_path: str | os.PathLike, out_path: str | os.PathLike) -> Path:

@@ -16,6 +16,7 @@ from rig.material._errors import MaterialError
 
 __all__ = [
     "FORMAT_PREFIX",
+    "as_uint8",
     "check_version",
     "format_attrs",
     "other_attrs",
@@ -57,6 +58,20 @@ def check_version(
         found = "no format/version attributes" if version == 0 else f"version {version!r}"
         raise MaterialError(f"{where}: {kind} group has {found}; this btfrig reads version {shown}")
     return int(version)
+
+
+def as_uint8(name: str, value, *, where: str) -> np.ndarray:
+    """``value`` as uint8 (codes, counts); MaterialError naming it when it does not fit."""
+    array = np.asarray(value)
+    if array.dtype == np.uint8:
+        return array
+    if array.size and (
+        not np.issubdtype(array.dtype, np.integer) or array.min() < 0 or array.max() > 255
+    ):
+        raise MaterialError(
+            f"{where}: {name} ({array.dtype}) must hold whole numbers in 0..255 (uint8)"
+        )
+    return array.astype(np.uint8)
 
 
 def other_attrs(attrs: Mapping[str, Any], *skip: str) -> dict[str, Any]:

@@ -21,10 +21,18 @@ from rig.material._errors import MaterialError
 from rig.material._mdf import Mdf, read_mdf
 from rig.material._ps import PsView, read_ps
 
-__all__ = ["GROUPS", "STORE_FORMAT", "Material", "archive_provenance", "read_material"]
+__all__ = [
+    "GROUPS",
+    "STORE_FORMAT",
+    "STORE_VERSION",
+    "Material",
+    "archive_provenance",
+    "read_material",
+]
 
 #: ``format`` of a standalone material store's root group
 STORE_FORMAT = "btfrig.material"
+STORE_VERSION = 1
 #: the groups that make a material (``live`` holds per-frame previews, not the material)
 GROUPS = ("btf", "ps", "mdf")
 
@@ -95,10 +103,10 @@ def read_material(path: str | os.PathLike) -> Material:
     path = Path(path)
     attrs = _root_attributes(path)
     if attrs.get("format") == STORE_FORMAT:
-        if attrs.get("version") != 1:
+        if attrs.get("version") != STORE_VERSION:
             raise MaterialError(
                 f"{path}: material store version {attrs.get('version')!r}; "
-                "this btfrig reads version 1"
+                f"this btfrig reads version {STORE_VERSION}"
             )
         sample_mm = attrs.get("sample_mm")
         if not isinstance(sample_mm, (int, float)) or not sample_mm > 0:

@@ -14,6 +14,7 @@ import numpy as np
 from rig.material._btf_model import check_directions
 from rig.material._errors import MaterialError
 from rig.material._groups import (
+    as_uint8,
     check_version,
     format_attrs,
     other_attrs,
@@ -99,5 +100,5 @@ def _checked(arrays: dict[str, Any], *, where: str) -> dict[str, np.ndarray]:
             raise MaterialError(
                 f"{where}: {name} has shape {value.shape}, expected {distance.shape}"
             )
-        out[name] = value.astype(np.uint8)
+        out[name] = as_uint8(name, value, where=where)
     return out

@@ -17,6 +17,7 @@ import numpy as np
 
 from rig.material._errors import MaterialError
 from rig.material._groups import (
+    as_uint8,
     check_version,
     format_attrs,
     other_attrs,
@@ -154,7 +155,7 @@ def _checked(arrays: dict[str, Any], *, where: str) -> dict[str, np.ndarray]:
         "normals": normals.astype(np.float32),
         "albedo": np.asarray(arrays["albedo"], np.float32),
         "valid": valid,
-        "reason": np.asarray(arrays["reason"]).astype(np.uint8),
+        "reason": as_uint8("reason", arrays["reason"], where=where),
         "height_mm": np.asarray(arrays["height_mm"], np.float32),
     }
     for name in ("normals", "albedo", "height_mm"):

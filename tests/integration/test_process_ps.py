@@ -22,8 +22,8 @@ from typer.testing import CliRunner
 from orchestrator.cli import app
 from orchestrator.daemon import run_local
 from processing.offline import PsStage, run_stages
-from rig.archive import Archive
 from rig.clock import VirtualClock
+from rig.material import read_material
 from sim import Simulator
 from sim.rig import SimulatedRig
 from sim.scene import scene_from_dict
@@ -66,10 +66,8 @@ def plain(tmp_path_factory):
 
 
 def _view(archive):
-    with Archive.open(archive) as arch:
-        (name,) = list(arch.material["ps"])
-        view = arch.material["ps"][name]
-        return {k: view[k][:] for k in ("normals", "albedo", "valid", "reason", "height_mm")}
+    (view,) = read_material(archive).ps.values()
+    return {k: getattr(view, k) for k in ("normals", "albedo", "valid", "reason", "height_mm")}
 
 
 def _angular_error_deg(normals, truth):
@@ -80,6 +78,7 @@ def test_normals_albedo_and_height_match_the_ray_cast_truth(plain):
     archive, truth = plain
     (run,) = run_stages(archive, [PsStage(size=SIZE)])
     assert run.items == 1 and run.summary["valid_fraction"] > 0.99
+    assert read_material(archive).frontal_ps().view_deg[0] < 0.5  # the plan's view (0, 0)
     got = _view(archive)
     assert all(np.isfinite(v).all() for v in got.values())
     err = _angular_error_deg(got["normals"], truth.normals)[got["valid"]]

@@ -167,6 +167,8 @@ def test_bad_mdf_is_named():
         write_mdf(group(), replace(want, count=want.count[:1]))
     with pytest.raises(MaterialError, match=r"≥ 0, or -1.0"):
         write_mdf(group(), replace(want, distance_mm=want.distance_mm - 5.0))
+    with pytest.raises(MaterialError, match=r"count \(int64\) must hold whole numbers in 0\.\.255"):
+        write_mdf(group(), replace(want, count=want.count.astype(np.int64) + 300))
     with pytest.raises(MaterialError, match="view_dirs_deg: 3 directions for 2"):
         write_mdf(group(), replace(want, view_dirs_deg=np.zeros((3, 2), np.float32)))
     g = group()
