@@ -2,17 +2,18 @@
 
 Seed ``000_…`` §4.1–4.2 (per-view-slot PCA, 4-nearest light interpolation,
 view-slot blending) and seed ``001_…`` §5 (one SVD with views as columns).
-The material layout is in ``docs/material.md`` (:mod:`processing.btf.material`);
+The models :class:`CompressedBTF` and :class:`GlobalSVD` are the material format's
+(``rig.material``, ``docs/material.md``), re-exported here;
 ``rig bench btf`` runs :func:`processing.btf.bench.run_bench`.
 """
 
 from processing.btf._compress import compress_btf, compress_global_svd
 from processing.btf._errors import BtfError
 from processing.btf._interpolate import Method, direction_weights, interpolate, reconstruct
-from processing.btf._model import CompressedBTF, GlobalSVD
 from processing.btf._pca import ViewSlot, compress_view, compress_view_svd
 from processing.btf._quality import psnr_db, rmse
 from processing.btf._slots import SlotTable, view_slots
+from rig.material import CompressedBTF, GlobalSVD
 
 __all__ = [
     "BtfError",

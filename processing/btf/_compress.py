@@ -18,8 +18,8 @@ from __future__ import annotations
 import numpy as np
 
 from processing.btf._errors import BtfError
-from processing.btf._model import CompressedBTF, GlobalSVD, check_directions
 from processing.btf._pca import RANK_TOL, compress_view
+from rig.material import CompressedBTF, GlobalSVD, check_directions
 
 __all__ = ["compress_btf", "compress_global_svd"]
 
@@ -59,8 +59,8 @@ def compress_btf(
     CompressedBTF
     """
     n_views, n_lights, n, c = _shape(btf)
-    views = check_directions("view_dirs_deg", view_dirs_deg, n_views)
-    lights = check_directions("light_dirs_deg", light_dirs_deg, n_lights)
+    views = check_directions("view_dirs_deg", view_dirs_deg, n_views, error=BtfError)
+    lights = check_directions("light_dirs_deg", light_dirs_deg, n_lights, error=BtfError)
     dtype = np.dtype(storage)
     mean = np.empty((n_views, n, n, c), dtype)
     basis = np.empty((n_views, components, n, n, c), dtype)
@@ -95,8 +95,8 @@ def compress_global_svd(
     GlobalSVD
     """
     n_views, n_lights, n, c = _shape(btf)
-    views = check_directions("view_dirs_deg", view_dirs_deg, n_views)
-    lights = check_directions("light_dirs_deg", light_dirs_deg, n_lights)
+    views = check_directions("view_dirs_deg", view_dirs_deg, n_views, error=BtfError)
+    lights = check_directions("light_dirs_deg", light_dirs_deg, n_lights, error=BtfError)
     if components < 1:
         raise BtfError(f"components = {components}: must be ≥ 1")
     dtype = np.dtype(storage)

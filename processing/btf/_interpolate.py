@@ -15,8 +15,8 @@ from typing import Literal
 import numpy as np
 
 from processing.btf._errors import BtfError
-from processing.btf._model import CompressedBTF, GlobalSVD
 from rig.geometry import barycentric_weights, direction_vector, nearest_directions
+from rig.material import CompressedBTF, GlobalSVD
 
 __all__ = ["Method", "direction_weights", "interpolate", "reconstruct"]
 

@@ -14,8 +14,8 @@ from __future__ import annotations
 import numpy as np
 
 from processing.btf._errors import BtfError
-from processing.btf._model import check_directions
 from rig.geometry import direction_vector, texel_centers_mm
+from rig.material import check_directions
 
 __all__ = ["SyntheticBTF"]
 
@@ -51,8 +51,8 @@ class SyntheticBTF:
     ) -> None:
         if size < 2:
             raise BtfError(f"size = {size}: need ≥ 2 texels")
-        self.views = check_directions("view_dirs_deg", view_dirs_deg)
-        self.lights = check_directions("light_dirs_deg", light_dirs_deg)
+        self.views = check_directions("view_dirs_deg", view_dirs_deg, error=BtfError)
+        self.lights = check_directions("light_dirs_deg", light_dirs_deg, error=BtfError)
         self.size = int(size)
         self.sample_mm = float(sample_mm)
         self.shininess = float(shininess)

@@ -5,7 +5,7 @@ The archive's ``btf`` steps are grouped into view slots × lights
 registered onto the N×N texel grid (``processing.registration.register_capture``)
 and compressed with ``processing.btf.compress_view`` (seed 000 §4.1), so only
 one slot's normtextures are in memory at a time. The material layout is
-``docs/material.md`` (``processing.btf.material.to_arrays``).
+``docs/material.md`` (written by ``rig.material.write_btf``).
 
 A frame whose registration is flagged (too few or collinear markers…) is never
 warped into the data: its slot is stored empty (``slot_valid`` false) and the
@@ -20,11 +20,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from processing.btf import CompressedBTF, compress_view, view_slots
-from processing.btf.material import to_arrays
 from processing.offline.runner import frame_camera
 from processing.registration import register_capture
 from rig.archive import Archive
 from rig.config import RigConfig
+from rig.material import write_btf
 
 __all__ = ["BtfSlot", "BtfStage"]
 
@@ -98,14 +98,12 @@ class BtfStage:
             np.stack([s.singular_values if s else np.zeros(n_lights, np.float32) for s in slots]),
             np.array([s.rank if s else 0 for s in slots], np.int32),
         )
-        arrays, attrs = to_arrays(model, units="relative radiance per second of exposure")
-        for key, value in arrays.items():
-            group.create_array(key, data=value)
-        group.create_array("slot_valid", data=np.array([s is not None for s in slots]))
         flagged = [f for r in results for f in r["flagged"]]
-        group.attrs.update(
-            attrs, flagged=[list(f) for f in flagged],
-            flagged_columns=["slot", "light", "step", "camera", "reason"],
+        write_btf(
+            group, model, units="relative radiance per second of exposure",
+            slot_valid=np.array([s is not None for s in slots]),
+            attrs={"flagged": [list(f) for f in flagged],
+                   "flagged_columns": ["slot", "light", "step", "camera", "reason"]},
         )  # fmt: skip
         return {"slots": len(slots), "flagged_frames": len(flagged), "components": self.components}
 

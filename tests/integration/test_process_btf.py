@@ -11,12 +11,12 @@ import pytest
 
 from orchestrator.daemon import run_local
 from processing.btf import reconstruct, view_slots
-from processing.btf.material import from_arrays
 from processing.offline import BtfStage, run_stages
 from processing.registration import register_capture
 from rig.archive import Archive
 from rig.clock import VirtualClock
 from rig.config import RigConfig
+from rig.material import btf_from_arrays
 from sim.rig import SimulatedRig
 from sim.scene import scene_from_dict
 
@@ -72,7 +72,7 @@ def test_full_rank_pca_gives_back_every_registered_frame(archive):
     assert run.summary == {"slots": 3, "flagged_frames": 0, "components": 6}
     arrays, attrs = _material(archive)
     assert arrays["slot_valid"].all() and attrs["flagged"] == []
-    model = from_arrays(arrays, attrs)
+    model = btf_from_arrays(arrays, attrs)
     for slot in range(3):
         for light in range(6):
             want = _registered(archive, slot, light)
@@ -85,7 +85,7 @@ def test_fewer_components_cost_accuracy_not_validity(archive):
     errors = []
     for c in (1, 3):
         run_stages(archive, [BtfStage(size=SIZE, components=c)])
-        model = from_arrays(*_material(archive))
+        model = btf_from_arrays(*_material(archive))
         want = _registered(archive, 1, 2)
         errors.append(np.sqrt(np.mean((reconstruct(model, view=1, light=2) - want) ** 2)))
     assert errors[0] > errors[1] > 0

@@ -14,9 +14,9 @@ from processing.btf import (
     rmse,
 )
 from processing.btf.bench import plot_bench, run_bench
-from processing.btf.material import from_arrays, to_arrays
 from processing.btf.synthetic import SyntheticBTF
 from rig.geometry import Sampling
+from rig.material import MaterialError, btf_from_arrays, btf_to_arrays
 
 N = 12
 H2 = Sampling.named("H2").directions
@@ -100,24 +100,24 @@ def test_material_arrays_round_trip(btf, model, kind):
     views, reference = btf
     if kind == "svd":
         model = compress_global_svd(reference, view_dirs_deg=views, light_dirs_deg=H2, components=4)
-    arrays, attrs = to_arrays(model)
+    arrays, attrs = btf_to_arrays(model)
     assert attrs["kind"] == kind
     assert attrs["version"] == 1
     texture = "basis" if kind == "pca" else "eigenmaps"
     assert arrays[texture].dtype == np.float16
     assert arrays["weights"].dtype == np.float32
-    back = from_arrays(arrays, attrs)
+    back = btf_from_arrays(arrays, attrs)
     assert type(back) is type(model)
     for v, li in [(0, 0), (5, 44)]:
         np.testing.assert_array_equal(
             reconstruct(back, view=v, light=li), reconstruct(model, view=v, light=li)
         )
-    with pytest.raises(BtfError, match="version"):
-        from_arrays(arrays, {**attrs, "version": 99})
+    with pytest.raises(MaterialError, match="version 99"):
+        btf_from_arrays(arrays, {**attrs, "version": 99})
     broken = dict(arrays)
     del broken["weights"]
-    with pytest.raises(BtfError, match="weights"):
-        from_arrays(broken, attrs)
+    with pytest.raises(MaterialError, match="weights"):
+        btf_from_arrays(broken, attrs)
 
 
 def test_bench_rows(benchmark, tmp_path):

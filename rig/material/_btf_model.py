@@ -6,21 +6,33 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from processing.btf._errors import BtfError
+from rig.errors import RigError
 from rig.geometry import direction_vector
+from rig.material._errors import MaterialError
 
 __all__ = ["CompressedBTF", "GlobalSVD", "check_directions"]
 
 
-def check_directions(name: str, dirs_deg, count: int | None = None) -> np.ndarray:
-    """(n, 2) float64 (θ, φ) degrees, θ in [0, 90]; BtfError naming ``name`` otherwise."""
+def check_directions(
+    name: str,
+    dirs_deg,
+    count: int | None = None,
+    *,
+    error: type[RigError] = MaterialError,
+) -> np.ndarray:
+    """(n, 2) float64 (θ, φ) degrees, θ in [0, 90]; ``error`` naming ``name`` otherwise.
+
+    ``error`` is the caller's domain error: a stored direction table that is
+    wrong is a :class:`MaterialError`, a wrong argument to a compression a
+    ``processing.btf.BtfError``.
+    """
     d = np.asarray(dirs_deg, dtype=np.float64)
     if d.ndim != 2 or d.shape[1] != 2 or len(d) == 0 or not np.all(np.isfinite(d)):
-        raise BtfError(f"{name}: expected finite (n, 2) [theta_deg, phi_deg], got shape {d.shape}")
+        raise error(f"{name}: expected finite (n, 2) [theta_deg, phi_deg], got shape {d.shape}")
     if count is not None and len(d) != count:
-        raise BtfError(f"{name}: {len(d)} directions for {count} measured images")
+        raise error(f"{name}: {len(d)} directions for {count} measured images")
     if np.any((d[:, 0] < 0) | (d[:, 0] > 90)):
-        raise BtfError(f"{name}: theta must lie in [0, 90] (the upper hemisphere)")
+        raise error(f"{name}: theta must lie in [0, 90] (the upper hemisphere)")
     return d
 
 

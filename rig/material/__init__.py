@@ -1,0 +1,40 @@
+"""The material format: what a session's processing produces, and its one owner.
+
+Every group of a material carries ``format``/``version`` attributes and has one
+writer and one reader here: ``btf`` (compressed BTF), ``ps`` (photometric-stereo
+maps per view), ``mdf`` (mesostructure distance function), ``live`` (the
+workers' per-frame results) and the lamps' flat fields. A material lives in a
+session archive's ``material/`` group or in a standalone store
+(:func:`export_material`); :func:`read_material` reads either.
+``docs/material.md`` describes every group.
+"""
+
+from rig.material._btf import BtfGroup, btf_from_arrays, btf_to_arrays, read_btf, write_btf
+from rig.material._btf_model import CompressedBTF, GlobalSVD, check_directions
+from rig.material._errors import MaterialError
+from rig.material._export import export_material
+from rig.material._material import Material, read_material
+from rig.material._mdf import UNSEEN, Mdf, read_mdf, write_mdf
+from rig.material._ps import PsView, read_ps, write_ps
+
+__all__ = [
+    "UNSEEN",
+    "BtfGroup",
+    "CompressedBTF",
+    "GlobalSVD",
+    "Material",
+    "MaterialError",
+    "Mdf",
+    "PsView",
+    "btf_from_arrays",
+    "btf_to_arrays",
+    "check_directions",
+    "export_material",
+    "read_btf",
+    "read_material",
+    "read_mdf",
+    "read_ps",
+    "write_btf",
+    "write_mdf",
+    "write_ps",
+]

@@ -1,0 +1,160 @@
+"""The ``ps`` group of a material: photometric-stereo maps, one subgroup per view.
+
+``ps/<view>/`` holds ``normals``, ``albedo``, ``valid``, ``reason`` and
+``height_mm`` on the texel grid, and the view's attributes (``view_deg``, the
+camera, the steps…). Version 0 is the layout written before the group carried
+``format``/``version``: the same arrays, no ``view_deg``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from rig.material._errors import MaterialError
+from rig.material._groups import (
+    check_version,
+    format_attrs,
+    other_attrs,
+    read_arrays,
+    require_arrays,
+    write_arrays,
+)
+
+__all__ = ["PsView", "read_ps", "write_ps"]
+
+VERSION = 1
+_ARRAYS = ("normals", "albedo", "valid", "reason", "height_mm")
+#: how far from 1 a valid texel's normal may be (float32 storage of a unit vector)
+_UNIT_TOL = 1e-3
+
+
+@dataclass(frozen=True)
+class PsView:
+    """One view's photometric-stereo maps on the N × N texel grid.
+
+    Attributes
+    ----------
+    name : str
+        The view's name, e.g. ``cam0_tt000.0`` (camera, turntable angle).
+    normals : (N, N, 3) float32
+        Unit normals in the sample frame.
+    albedo : (N, N, C) float32
+        Diffuse albedo, C = 3 (RGB) or 1.
+    valid : (N, N) bool
+        Texels with a trustworthy solve.
+    reason : (N, N) uint8
+        ``processing.photometric.Reason`` per texel (0 where valid).
+    height_mm : (N, N) float32
+        Integrated height over the reference plane.
+    view_deg : (θ, φ) or None
+        The camera's view direction in the sample frame, degrees; None where
+        the group does not record it (version 0).
+    attrs : dict
+        The view's other attributes (camera, turntable_deg, steps, lamps…).
+    """
+
+    name: str
+    normals: np.ndarray
+    albedo: np.ndarray
+    valid: np.ndarray
+    reason: np.ndarray
+    height_mm: np.ndarray
+    view_deg: tuple[float, float] | None = None
+    attrs: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def size(self) -> int:
+        return self.normals.shape[0]
+
+
+def write_ps(group, views: Sequence[PsView], *, attrs: dict[str, Any] | None = None) -> None:
+    """Write ``views`` into the empty zarr ``group`` (the material's ``ps``).
+
+    ``attrs`` are extra JSON-able attributes of the whole group (the solver…).
+    """
+    if not views:
+        raise MaterialError("ps: no views to write; give at least one PsView")
+    sizes = {v.size for v in views}
+    if len(sizes) != 1:
+        raise MaterialError(f"ps: the views use different texel grids N = {sorted(sizes)}")
+    names = [v.name for v in views]
+    if len(set(names)) != len(names):
+        raise MaterialError(f"ps: view names repeat: {sorted(names)}")
+    for view in views:
+        arrays = _checked(_arrays_of(view), where=f"ps view {view.name!r}")
+        sub = group.create_group(view.name)
+        write_arrays(sub, arrays)
+        view_deg = None if view.view_deg is None else [float(a) for a in view.view_deg]
+        sub.attrs.update({**view.attrs, "view_deg": view_deg})
+    group.attrs.update({**(attrs or {}), **format_attrs("ps", VERSION), "size": sizes.pop()})
+
+
+def read_ps(group, *, where: str = "material/ps") -> dict[str, PsView]:
+    """The views of a ``ps`` group (version 0 or 1), by name."""
+    check_version(dict(group.attrs), "ps", (0, VERSION), where=where)
+    views = {}
+    for name, sub in sorted(group.groups()):
+        here = f"{where}/{name}"
+        arrays = _checked(read_arrays(sub), where=here)
+        attrs = dict(sub.attrs)
+        views[name] = PsView(
+            name, **arrays, view_deg=_view_deg(attrs.get("view_deg"), where=here),
+            attrs=other_attrs(attrs, "view_deg"),
+        )  # fmt: skip
+    if not views:
+        raise MaterialError(f"{where}: holds no views")
+    return views
+
+
+def _arrays_of(view: PsView) -> dict[str, np.ndarray]:
+    return {name: getattr(view, name) for name in _ARRAYS}
+
+
+def _view_deg(value, *, where: str) -> tuple[float, float] | None:
+    if value is None:
+        return None
+    angles = np.asarray(value, dtype=np.float64)
+    if angles.shape != (2,) or not np.all(np.isfinite(angles)) or not 0 <= angles[0] <= 90:
+        raise MaterialError(f"{where}: view_deg = {value!r}; expected [theta, phi], θ in [0, 90]")
+    return float(angles[0]), float(angles[1])
+
+
+def _checked(arrays: dict[str, Any], *, where: str) -> dict[str, np.ndarray]:
+    """The five maps in their stored dtypes; MaterialError naming the array otherwise."""
+    require_arrays(arrays, _ARRAYS, where=where)
+    normals = np.asarray(arrays["normals"])
+    if normals.ndim != 3 or normals.shape[2] != 3 or normals.shape[0] != normals.shape[1]:
+        raise MaterialError(f"{where}: normals has shape {normals.shape}, expected (N, N, 3)")
+    n = normals.shape[0]
+    expected = {"albedo": (n, n), "valid": (n, n), "reason": (n, n), "height_mm": (n, n)}
+    for name, shape in expected.items():
+        got = np.shape(arrays[name])
+        if got[:2] != shape or (name == "albedo") != (len(got) == 3):
+            want = f"({n}, {n}, C)" if name == "albedo" else str(shape)
+            raise MaterialError(f"{where}: {name} has shape {got}, expected {want}")
+    if np.shape(arrays["albedo"])[2] not in (1, 3):
+        raise MaterialError(f"{where}: albedo has {np.shape(arrays['albedo'])[2]} channels; 1 or 3")
+    valid = np.asarray(arrays["valid"])
+    if valid.dtype != bool:
+        raise MaterialError(f"{where}: valid has dtype {valid.dtype}, expected bool")
+    out = {
+        "normals": normals.astype(np.float32),
+        "albedo": np.asarray(arrays["albedo"], np.float32),
+        "valid": valid,
+        "reason": np.asarray(arrays["reason"]).astype(np.uint8),
+        "height_mm": np.asarray(arrays["height_mm"], np.float32),
+    }
+    for name in ("normals", "albedo", "height_mm"):
+        if not np.all(np.isfinite(out[name])):
+            raise MaterialError(f"{where}: {name} holds NaN or inf; store finite values")
+    length = np.linalg.norm(out["normals"][valid], axis=-1)
+    if length.size and float(np.abs(length - 1.0).max()) > _UNIT_TOL:
+        raise MaterialError(
+            f"{where}: normals of valid texels have lengths {length.min():.4g}…{length.max():.4g}; "
+            "expected unit vectors"
+        )
+    return out
