@@ -65,6 +65,41 @@ def _any_perpendicular(normals: np.ndarray) -> np.ndarray:
     return perpendicular / np.linalg.norm(perpendicular, axis=1, keepdims=True)
 
 
+def _weld_seams(
+    positions: np.ndarray,
+    normals: np.ndarray,
+    summed_u: np.ndarray,
+    summed_v: np.ndarray,
+    length_scale: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Share the sums between copies of one vertex split by a UV seam.
+
+    A seam (a sphere's date line) splits a vertex into copies that each see the
+    triangles of one side only: a one-sided sum tilts the tangent by half a
+    segment. Copies at the same position with the same normal whose ∂P/∂u and
+    ∂P/∂v all point the same way (within 45°) get the sum of the group; a
+    mirrored seam, whose copies disagree, keeps its own sums.
+    """
+    key = np.round(np.concatenate([positions / max(length_scale, 1e-30), normals], axis=1), 6)
+    _, group, count = np.unique(key, axis=0, return_inverse=True, return_counts=True)
+    group = group.ravel()
+    if count.max() == 1:
+        return summed_u, summed_v
+    welded = []
+    agree = np.ones(len(positions), dtype=bool)
+    for summed in (summed_u, summed_v):
+        total = np.zeros((len(count), 3))
+        np.add.at(total, group, summed)
+        own, _ = _unit_rows(summed, 0.0)
+        shared, _ = _unit_rows(total[group], 0.0)
+        agree &= np.sum(own * shared, axis=1) > np.cos(np.pi / 4)
+        welded.append(total[group])
+    # A group welds only when every copy agrees.
+    group_agrees = np.bincount(group, weights=~agree, minlength=len(count)) == 0
+    weld = (group_agrees[group] & (count[group] > 1))[:, None]
+    return np.where(weld, welded[0], summed_u), np.where(weld, welded[1], summed_v)
+
+
 def vertex_normals(positions: np.ndarray, faces: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Area-weighted vertex normals.
 
@@ -140,6 +175,7 @@ def tangent_frames(
         np.add.at(summed_u, faces[:, k], dp_du)
         np.add.at(summed_v, faces[:, k], dp_dv)
 
+    summed_u, summed_v = _weld_seams(positions, normals, summed_u, summed_v, length_scale)
     in_plane = summed_u - normals * np.sum(normals * summed_u, axis=1, keepdims=True)
     tangent, fallback = _unit_rows(in_plane, max(length_scale * uv_scale, 1e-30))
     if fallback.any():

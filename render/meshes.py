@@ -16,6 +16,7 @@ on the mesh.
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -23,6 +24,7 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from render._cloth import drape
 from render._tangents import tangent_frames, vertex_normals
 from rig.errors import RigError
 
@@ -30,6 +32,7 @@ __all__ = [
     "BUILT_IN",
     "Mesh",
     "MeshError",
+    "cloth",
     "cylinder",
     "load_mesh",
     "mesh_by_name",
@@ -262,11 +265,30 @@ def torus(*, major_mm: float = 50.0, minor_mm: float = 20.0, segments: int = 48)
     return _parametric("torus", surface, major_mm * around, minor_mm * tube)
 
 
+@functools.lru_cache(maxsize=4)
+def cloth(*, size_mm: float = 400.0, sphere_radius_mm: float = 80.0, segments: int = 48) -> Mesh:
+    """A square cloth draped over a sphere that rests on a table, with folds.
+
+    The sphere's centre is the origin and the table is z = −``sphere_radius_mm``;
+    neither is part of the mesh. The cloth is settled by position-based dynamics
+    (:func:`render._cloth.drape`, deterministic, about a second); its UVs are its
+    rest grid in mm, so the sample is not stretched where the cloth is not.
+    """
+    _check_sizes("cloth", size_mm=size_mm, sphere_radius_mm=sphere_radius_mm)
+    _check_segments("cloth", segments, 2)
+    positions = drape(size_mm=size_mm, sphere_radius_mm=sphere_radius_mm, segments=segments)
+    edge = np.linspace(0.0, size_mm, segments + 1)
+    u, v = np.meshgrid(edge, edge)
+    uvs = np.stack([u.ravel(), v.ravel()], axis=1)
+    return mesh_from_arrays(positions, uvs, _grid_faces(segments, segments), name="cloth")
+
+
 BUILT_IN: dict[str, Callable[[], Mesh]] = {
     "plane": plane,
     "sphere": sphere,
     "cylinder": cylinder,
     "torus": torus,
+    "cloth": cloth,
 }
 
 # Formats trimesh reads with texture coordinates (STL is read only to say it has none).
