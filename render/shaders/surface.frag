@@ -212,9 +212,15 @@ uniform float shadow_size;                 // texels per tile side
 
 // Fraction of light l reaching p: 5×5 percentage-closer filtering of the
 // light's depth map (each tap itself bilinear), so shadow edges are soft. The
-// point is pushed off the surface by a texel or two against self-shadowing.
-float lit_fraction(int l, vec3 p, vec3 n) {
-    vec4 clip = light_view_proj[l] * vec4(p + n * 2.0 * shadow_offset[l], 1.0);
+// point is moved towards the light by what the surface's slope in the map adds
+// over the kernel's 3-texel radius (moving along the light ray does not move it
+// in the map), and off the surface by a texel: no self-shadowing acne.
+float lit_fraction(int l, vec3 p, vec3 n, vec3 to_light) {
+    float cos_in = clamp(dot(n, to_light), 0.05, 1.0);
+    float tan_in = sqrt(1.0 - cos_in * cos_in) / cos_in;
+    float texel = shadow_offset[l];
+    vec3 moved = p + n * texel + to_light * texel * (1.0 + 3.0 * tan_in);
+    vec4 clip = light_view_proj[l] * vec4(moved, 1.0);
     if (clip.w <= 0.0) return 1.0;
     vec3 s = clip.xyz / clip.w * 0.5 + 0.5;
     if (any(lessThan(s, vec3(0.0))) || any(greaterThan(s, vec3(1.0)))) return 1.0;
@@ -224,7 +230,7 @@ float lit_fraction(int l, vec3 p, vec3 n) {
         for (int dx = -2; dx <= 2; ++dx) {
             vec2 tap = clamp(s.xy + vec2(dx, dy) / shadow_size, vec2(lo), vec2(1.0 - lo));
             tap.x = (tap.x + float(l)) / float(shadow_tiles);
-            sum += texture(shadow_maps, vec3(tap, s.z - 2e-4));
+            sum += texture(shadow_maps, vec3(tap, s.z));
         }
     }
     return sum / 25.0;
@@ -267,7 +273,7 @@ void main() {
         light_local[l] = to_local * to_light;
         if (light_local[l].z <= 0.0) continue;  // below the horizon: no light, never NaN
 #if SHADOWS == 1
-        e *= lit_fraction(l, v_position, n);
+        e *= lit_fraction(l, v_position, n, to_light);
 #endif
         irradiance[l] = e;
     }
