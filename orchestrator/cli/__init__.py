@@ -18,6 +18,7 @@ from orchestrator.cli import (
     process_cmd,
     session_cmd,
     sim_cmd,
+    view_cmd,
 )
 from orchestrator.cli.common import console
 
@@ -34,6 +35,7 @@ plan_cmd.register(app)
 session_cmd.register(app)
 process_cmd.register(app)
 calibrate_cmd.register(app)
+view_cmd.register(app)
 pending.register(app)
 app.add_typer(sim_cmd.app, name="sim")
 app.add_typer(bench_cmd.app, name="bench")

@@ -58,6 +58,7 @@ AREAS: dict[str, tuple[str, int, Callable]] = {
     "btf": ("processing.btf.bench", 7, _btf),
     "mdf": ("processing.mdf.bench", 8, _plain),
     "calibration": ("orchestrator.calibration_bench", 9, _plain),
+    "render": ("render.bench", 15, _plain),
 }
 
 app = typer.Typer(no_args_is_help=True, help="Benchmarks: accuracy against time, per area.")
