@@ -103,7 +103,6 @@ class Renderer:
             "PS": int("ps" in self.layers),
             "SHADOWS": int(bool(shadows)),
             "MAX_LIGHTS": MAX_LIGHTS,
-            "MAX_C4": 1 if btf is None else (btf.components + 3) // 4,
             "CANDIDATES": CANDIDATES,
         }
         header = "#version 330\n" + "".join(f"#define {k} {v}\n" for k, v in defines.items())
@@ -119,6 +118,7 @@ class Renderer:
         self.vao = vertex_array(self.ctx, self.program, self.vbo, self.ibo)
         self._owned += [self.vbo, self.ibo, self.vao]
         self._units: list = []
+        self.btf_textures = None
         self._set("uv_scale", 1.0 / float(tile))
         if btf is not None:
             self._bind_btf(btf, material.btf_slot_valid, light_method, view_method)
@@ -171,8 +171,7 @@ class Renderer:
                 f"expected ({len(btf.view_dirs_deg)},) with at least one valid view slot"
             )
         textures = upload_btf(self.ctx, btf)
-        self._owned += [t for t in (textures.weights, textures.mean, textures.basis,
-                                    textures.eigen) if t is not None]  # fmt: skip
+        self.btf_textures = textures
         for role, table, method, index in (
             ("view", btf.view_vectors[valid], view_method, np.flatnonzero(valid)),
             ("light", btf.light_vectors, light_method, None),
@@ -214,6 +213,14 @@ class Renderer:
             Radiance in the material's units (its ``btf_units`` times the
             lights' colour · intensity); 0 where no surface is seen.
         """
+        fbo = self.draw(camera, lights)
+        pixels = np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32)
+        image = pixels.reshape(camera.size[1], camera.size[0], 4)[::-1, :, :3]
+        return np.ascontiguousarray(image)
+
+    def draw(self, camera: Camera, lights) -> moderngl.Framebuffer:
+        """Draw the scene into the renderer's float framebuffer of ``camera.size``, no read-back
+        (an interactive view or a timing uses this; :meth:`render` reads the image)."""
         lights = list(lights)
         if len(lights) > MAX_LIGHTS or not all(
             isinstance(light, PointLight | DirectionalLight) for light in lights
@@ -249,9 +256,7 @@ class Renderer:
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         self.ctx.enable_only(moderngl.DEPTH_TEST)
         self.vao.render(moderngl.TRIANGLES)
-        pixels = np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32)
-        image = pixels.reshape(camera.size[1], camera.size[0], 4)[::-1, :, :3]
-        return np.ascontiguousarray(image)
+        return fbo
 
     def release(self) -> None:
         """Free the GPU objects (the shared context stays)."""
@@ -262,6 +267,8 @@ class Renderer:
         self._framebuffers.clear()
         if self.shadows is not None:
             self.shadows.release()
+        if self.btf_textures is not None:
+            self.btf_textures.release()
         for obj in reversed(self._owned):
             obj.release()
         self._owned.clear()

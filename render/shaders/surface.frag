@@ -1,6 +1,6 @@
 // The measured material under point and directional lights (prepended by the
 // renderer: #version, and #defines BTF_KIND 0 none / 1 pca / 2 svd, PS 0/1,
-// SHADOWS 0/1, MAX_LIGHTS, MAX_C4 = components / 4 rounded up, CANDIDATES).
+// SHADOWS 0/1, MAX_LIGHTS, CANDIDATES).
 //
 // Every direction is taken to the fragment's tangent frame (x along +u, y along
 // +v, z the normal): the sample frame of the measurement, where θ, φ are defined.
@@ -37,36 +37,41 @@ ivec2 hemi_cell(vec3 d, int res) {
 
 // The k nearest table directions of q (ties to the lower index) with Shepard
 // weights 1/angle², exactly one at a table direction: rig.geometry.nearest_directions.
+// Candidates are ranked by cosine (the same order as by angle), kept sorted in a
+// vec4 without local arrays, which software rasterisers handle slowly.
 Blend blend_nearest(isampler2DArray cand, sampler2D table, int k, ivec2 cell, vec3 q) {
-    float near[4] = float[4](1e30, 1e30, 1e30, 1e30);
-    int idx[4] = int[4](0, 0, 0, 0);
+    vec4 best = vec4(-2.0);
+    ivec4 idx = ivec4(0);
     for (int layer = 0; layer < CANDIDATES / 4; ++layer) {
         ivec4 c4 = texelFetch(cand, ivec3(cell, layer), 0);
         for (int m = 0; m < 4; ++m) {
             int t = c4[m];
             if (t < 0) break;
             vec3 tv = texelFetch(table, ivec2(0, t), 0).xyz;
-            float angle = atan(length(cross(q, tv)), dot(q, tv));
-            if (angle < near[k - 1]) {
-                int at = k - 1;
-                while (at > 0 && angle < near[at - 1]) {
-                    near[at] = near[at - 1];
-                    idx[at] = idx[at - 1];
-                    --at;
-                }
-                near[at] = angle;
-                idx[at] = t;
+            float c = dot(q, tv);
+            if (c > best.w) {
+                best.w = c;
+                idx.w = t;
+                if (best.w > best.z) { best.zw = best.wz; idx.zw = idx.wz; }
+                if (best.z > best.y) { best.yz = best.zy; idx.yz = idx.zy; }
+                if (best.y > best.x) { best.xy = best.yx; idx.xy = idx.yx; }
             }
         }
     }
     Blend b;
-    b.idx = ivec4(idx[0], idx[1], idx[2], idx[3]);
+    b.idx = idx;
     b.w = vec4(0.0);
-    if (near[0] <= 1e-6) {
+    vec4 angle;
+    for (int m = 0; m < 4; ++m) {
+        vec3 tv = texelFetch(table, ivec2(0, idx[m]), 0).xyz;
+        angle[m] = atan(length(cross(q, tv)), dot(q, tv));
+    }
+    if (angle.x <= 1e-6) {
         b.w.x = 1.0;
         return b;
     }
-    for (int m = 0; m < k; ++m) b.w[m] = 1.0 / (near[m] * near[m]);
+    vec4 inverse_sq = 1.0 / (angle * angle);
+    for (int m = 0; m < 4; ++m) b.w[m] = m < k ? inverse_sq[m] : 0.0;
     b.w /= dot(b.w, vec4(1.0));
     return b;
 }
@@ -131,34 +136,40 @@ uniform sampler2DArray mean_tex;   // layer = slot
 uniform sampler2DArray basis_tex;  // layer = slot·c + k
 
 // Σ_l E_l Σ_j ω_j (mean_j Σ_m τ_lm + Σ_k γ_ljk B_jk), γ_ljk = Σ_m τ_lm p_{j, i_lm, k}
-// (seed 000 eq. (3), (5)): the light sums go into per-slot coefficients first,
-// so each slot costs c + 1 texture fetches however many lights there are.
+// (seed 000 eq. (3), (5)): the light sums go into per-slot RGB coefficients
+// first, four components at a time, so each slot costs c + 1 texture fetches
+// however many lights there are.
 vec3 shade_btf(vec2 st, vec2 sx, vec2 sy, Blend view, Blend lights[MAX_LIGHTS],
                vec3 irradiance[MAX_LIGHTS]) {
+    vec3 mean_coef = vec3(0.0);
+    for (int l = 0; l < n_lights; ++l) mean_coef += irradiance[l] * dot(lights[l].w, vec4(1.0));
     vec3 total = vec3(0.0);
     for (int j = 0; j < 4; ++j) {
         if (view.w[j] == 0.0) continue;
         int slot = view.idx[j];
-        vec3 mean_coef = vec3(0.0);
-        vec3 coef[4 * MAX_C4];
-        for (int k = 0; k < 4 * MAX_C4; ++k) coef[k] = vec3(0.0);
-        for (int l = 0; l < n_lights; ++l) {
-            if (irradiance[l] == vec3(0.0)) continue;
-            for (int m = 0; m < 4; ++m) {
-                float tau = lights[l].w[m];
-                if (tau == 0.0) continue;
-                vec3 e = irradiance[l] * tau;
-                int row = slot * n_table_lights + lights[l].idx[m];
-                mean_coef += e;
-                for (int k4 = 0; k4 < (components + 3) / 4; ++k4) {
+        vec3 slot_rgb = mean_coef * textureGrad(mean_tex, vec3(st, slot), sx, sy).rgb;
+        for (int k4 = 0; k4 < (components + 3) / 4; ++k4) {
+            vec4 red = vec4(0.0), green = vec4(0.0), blue = vec4(0.0);
+            for (int l = 0; l < n_lights; ++l) {
+                if (irradiance[l] == vec3(0.0)) continue;
+                for (int m = 0; m < 4; ++m) {
+                    float tau = lights[l].w[m];
+                    if (tau == 0.0) continue;
+                    vec3 e = irradiance[l] * tau;
+                    int row = slot * n_table_lights + lights[l].idx[m];
                     vec4 p = texelFetch(btf_weights, ivec2(k4, row), 0);
-                    for (int q = 0; q < 4; ++q) coef[4 * k4 + q] += e * p[q];
+                    red += e.r * p;
+                    green += e.g * p;
+                    blue += e.b * p;
                 }
             }
+            for (int q = 0; q < 4; ++q) {
+                int k = 4 * k4 + q;
+                if (k >= components) break;
+                vec3 basis = textureGrad(basis_tex, vec3(st, slot * components + k), sx, sy).rgb;
+                slot_rgb += vec3(red[q], green[q], blue[q]) * basis;
+            }
         }
-        vec3 slot_rgb = mean_coef * textureGrad(mean_tex, vec3(st, slot), sx, sy).rgb;
-        for (int k = 0; k < components; ++k)
-            slot_rgb += coef[k] * textureGrad(basis_tex, vec3(st, slot * components + k), sx, sy).rgb;
         total += view.w[j] * slot_rgb;
     }
     return total;
@@ -171,25 +182,26 @@ uniform sampler2DArray eigen_tex;  // layer = k·n_lights + light
 // Σ_l E_l Σ_m τ_lm Σ_k (Σ_j ω_j W_jk) E_k(x, y, l_m) (seed 001 §5).
 vec3 shade_btf(vec2 st, vec2 sx, vec2 sy, Blend view, Blend lights[MAX_LIGHTS],
                vec3 irradiance[MAX_LIGHTS]) {
-    vec4 omega[MAX_C4];
-    for (int k4 = 0; k4 < MAX_C4; ++k4) omega[k4] = vec4(0.0);
-    for (int j = 0; j < 4; ++j) {
-        if (view.w[j] == 0.0) continue;
-        for (int k4 = 0; k4 < (components + 3) / 4; ++k4)
-            omega[k4] += view.w[j] * texelFetch(btf_weights, ivec2(k4, view.idx[j]), 0);
-    }
     vec3 total = vec3(0.0);
-    for (int l = 0; l < n_lights; ++l) {
-        if (irradiance[l] == vec3(0.0)) continue;
-        for (int m = 0; m < 4; ++m) {
-            float tau = lights[l].w[m];
-            if (tau == 0.0) continue;
-            vec3 texel = vec3(0.0);
-            for (int k = 0; k < components; ++k) {
-                float layer = float(k * n_table_lights + lights[l].idx[m]);
-                texel += omega[k / 4][k % 4] * textureGrad(eigen_tex, vec3(st, layer), sx, sy).rgb;
+    for (int k4 = 0; k4 < (components + 3) / 4; ++k4) {
+        vec4 omega = vec4(0.0);
+        for (int j = 0; j < 4; ++j)
+            if (view.w[j] != 0.0)
+                omega += view.w[j] * texelFetch(btf_weights, ivec2(k4, view.idx[j]), 0);
+        for (int l = 0; l < n_lights; ++l) {
+            if (irradiance[l] == vec3(0.0)) continue;
+            for (int m = 0; m < 4; ++m) {
+                float tau = lights[l].w[m];
+                if (tau == 0.0) continue;
+                vec3 texel = vec3(0.0);
+                for (int q = 0; q < 4; ++q) {
+                    int k = 4 * k4 + q;
+                    if (k >= components) break;
+                    float layer = float(k * n_table_lights + lights[l].idx[m]);
+                    texel += omega[q] * textureGrad(eigen_tex, vec3(st, layer), sx, sy).rgb;
+                }
+                total += irradiance[l] * tau * texel;
             }
-            total += irradiance[l] * tau * texel;
         }
     }
     return total;
