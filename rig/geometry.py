@@ -25,11 +25,13 @@ from rig.errors import ConfigError
 __all__ = [
     "Interpolation",
     "Sampling",
+    "SphericalTriangulation",
     "angular_distance_deg",
     "barycentric_weights",
     "direction_angles",
     "direction_vector",
     "nearest_directions",
+    "spherical_triangulation",
     "texel_centers_mm",
 ]
 
@@ -242,17 +244,30 @@ def nearest_directions(table_vectors, query_vectors, *, k: int = 4) -> Interpola
     return Interpolation(order, weights, near)
 
 
-def barycentric_weights(table_vectors, query_vectors) -> Interpolation:
-    """Blend the 3 table directions of the spherical triangle holding each query.
+@dataclass(frozen=True)
+class SphericalTriangulation:
+    """The spherical triangles that :func:`barycentric_weights` blends over.
 
-    The table is triangulated on the sphere (convex hull, with the table
-    mirrored below the horizon so queries near θ = 90° are covered); weights
-    are the barycentric coordinates of the query in the gnomonic projection of
-    its triangle. Weights are linear-precise within a triangle, continuous
-    across edges and exact at table directions.
+    corners : (t, 3, 3) float64 unit vectors of each triangle's corners (a
+    corner below the horizon is a table direction mirrored in z = 0),
+    owner : (t, 3) int64 the table index of each corner, inverse : (t, 3, 3)
+    float64 with ``inverse[t] @ q`` the (unclipped) barycentric weights of a
+    query q in triangle t's gnomonic projection.
+    """
+
+    corners: np.ndarray
+    owner: np.ndarray
+    inverse: np.ndarray
+
+
+def spherical_triangulation(table_vectors) -> SphericalTriangulation:
+    """Triangulate table directions on the sphere, mirrored below the horizon.
+
+    The convex hull of the table and its mirror image in z = 0, so queries
+    near θ = 90° lie in a triangle too. ValueError for fewer than 3 directions
+    or directions on one great circle.
     """
     table = _as_directions("table_vectors", table_vectors)
-    query = _as_directions("query_vectors", query_vectors)
     n = len(table)
     if n < 3:
         raise ValueError(f"barycentric_weights: need ≥ 3 table directions, got {n}")
@@ -269,13 +284,28 @@ def barycentric_weights(table_vectors, query_vectors) -> Interpolation:
         ) from err
     tri = hull.simplices  # (t, 3)
     corners = points[tri]  # (t, 3 corners, 3 xyz)
-    # Solve corners^T w = q for every triangle and query at once.
-    inv = np.linalg.pinv(np.transpose(corners, (0, 2, 1)))  # (t, 3, 3)
-    w = np.einsum("tij,mj->mti", inv, query)  # (m, t, 3)
+    # corners^T w = q for every triangle: w = inverse q.
+    inverse = np.linalg.pinv(np.transpose(corners, (0, 2, 1)))
+    return SphericalTriangulation(corners, owner[tri], inverse)
+
+
+def barycentric_weights(table_vectors, query_vectors) -> Interpolation:
+    """Blend the 3 table directions of the spherical triangle holding each query.
+
+    The table is triangulated on the sphere (:func:`spherical_triangulation`:
+    the convex hull, with the table mirrored below the horizon so queries near
+    θ = 90° are covered); weights are the barycentric coordinates of the query
+    in the gnomonic projection of its triangle. Weights are linear-precise
+    within a triangle, continuous across edges and exact at table directions.
+    """
+    table = _as_directions("table_vectors", table_vectors)
+    query = _as_directions("query_vectors", query_vectors)
+    mesh = spherical_triangulation(table)
+    w = np.einsum("tij,mj->mti", mesh.inverse, query)  # (m, t, 3)
     best = np.argmax(w.min(axis=2), axis=1)  # the triangle the ray passes through
     wq = np.clip(w[np.arange(len(query)), best], 0.0, None)
     wq /= wq.sum(axis=1, keepdims=True)
-    idx = owner[tri[best]]
+    idx = mesh.owner[best]
     angles = angular_distance_deg(query[:, None, :], table[idx])
     return Interpolation(idx, wq, angles)
 

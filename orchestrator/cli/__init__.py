@@ -22,6 +22,7 @@ from orchestrator.cli import (
     repair_cmd,
     session_cmd,
     sim_cmd,
+    view_cmd,
 )
 from orchestrator.cli.common import RigGroup, console
 
@@ -51,6 +52,7 @@ session_cmd.register(app)
 process_cmd.register(app)
 repair_cmd.register(app)
 calibrate_cmd.register(app)
+view_cmd.register(app)
 pending.register(app)
 app.add_typer(sim_cmd.app, name="sim")
 app.add_typer(bench_cmd.app, name="bench")

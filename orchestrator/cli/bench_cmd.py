@@ -58,6 +58,7 @@ AREAS: dict[str, tuple[str, Callable]] = {
     "btf": ("processing.btf.bench", _btf),
     "mdf": ("processing.mdf.bench", _plain),
     "calibration": ("orchestrator.calibration_bench", _plain),
+    "render": ("render.bench", _plain),
 }
 
 app = typer.Typer(no_args_is_help=True, help="Benchmarks: accuracy against time, per area.")

@@ -17,14 +17,6 @@ __all__ = ["register"]
 
 
 def register(app: typer.Typer) -> None:
-    @app.command()
-    def view(
-        material: Annotated[Path, typer.Argument(help="archive with a material/ group")],
-        out: Annotated[Path | None, typer.Option("--out", help="write a PNG")] = None,
-    ) -> None:
-        """Render a material on a mesh (headless PNG or a window)."""
-        not_built("view", "the GL renderer")
-
     @app.command("import")
     def import_(
         folder: Annotated[Path, typer.Argument(help="a Bonn UBO2003 folder")],

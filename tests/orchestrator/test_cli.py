@@ -52,9 +52,7 @@ def test_bad_plan_exits_2_with_field_names(tmp_path):
     assert "captures.btf.views" in result.output
 
 
-@pytest.mark.parametrize(
-    "args", [["view", "m.zarr"], ["export", "png16", "s.zarr", "--out", "x"]]
-)
+@pytest.mark.parametrize("args", [["export", "png16", "s.zarr", "--out", "x"]])
 def test_unbuilt_commands_say_so_and_fail(args):
     result = runner.invoke(app, args)
     assert result.exit_code == 3

@@ -1,0 +1,63 @@
+"""The process's one headless OpenGL context (EGL), shaders and mesh buffers.
+
+Creating an EGL context costs tens of milliseconds and each holds driver
+threads, so the renderers of a process share one, made on first use: Mesa's
+llvmpipe on a machine without a GPU, the GPU's driver where there is one.
+"""
+
+from __future__ import annotations
+
+from functools import cache
+from importlib.resources import files
+
+import moderngl
+import numpy as np
+
+from render._errors import RenderError
+
+__all__ = ["gl_context", "mesh_buffers", "shader_source", "vertex_array"]
+
+_GL_VERSION = 330
+_ATTRIBUTES = (("in_position", 3), ("in_normal", 3), ("in_uv", 2), ("in_tangent", 4))
+
+
+@cache
+def gl_context() -> moderngl.Context:
+    """The shared standalone context (EGL backend, OpenGL ≥ 3.3 core)."""
+    try:
+        ctx = moderngl.create_context(standalone=True, backend="egl", require=_GL_VERSION)
+    except Exception as err:  # moderngl raises bare Exception for EGL failures
+        raise RenderError(
+            f"no headless OpenGL {_GL_VERSION // 100}.{_GL_VERSION % 100 // 10} context through "
+            f"EGL ({err}); install Mesa's EGL (libegl1, libgl1-mesa-dri) or a GPU driver"
+        ) from err
+    return ctx
+
+
+def shader_source(name: str) -> str:
+    """The text of ``render/shaders/<name>``."""
+    return files("render").joinpath("shaders", name).read_text()
+
+
+def vertex_array(ctx, program, vbo, ibo) -> moderngl.VertexArray:
+    """Bind the interleaved mesh buffer to the attributes ``program`` uses."""
+    layout, names = [], []
+    for name, width in _ATTRIBUTES:
+        if name in program:
+            layout.append(f"{width}f")
+            names.append(name)
+        else:
+            layout.append(f"{4 * width}x")
+    return ctx.vertex_array(program, [(vbo, " ".join(layout), *names)], ibo)
+
+
+def mesh_buffers(ctx, mesh) -> tuple[moderngl.Buffer, moderngl.Buffer]:
+    """The interleaved vertex buffer (position, normal, uv, tangent) and the index buffer."""
+    vertices = np.hstack([
+        np.asarray(mesh.positions, np.float32), np.asarray(mesh.normals, np.float32),
+        np.asarray(mesh.uvs, np.float32), np.asarray(mesh.tangents, np.float32),
+    ])  # fmt: skip
+    if not np.all(np.isfinite(vertices)):
+        raise RenderError(f"mesh {mesh.name!r}: positions, normals, uvs or tangents hold NaN/inf")
+    faces = np.ascontiguousarray(mesh.faces, np.uint32)
+    return ctx.buffer(np.ascontiguousarray(vertices)), ctx.buffer(faces)

@@ -1,0 +1,149 @@
+"""Material arrays → GL textures: the BTF as float16 texture arrays, the weights
+and direction lookups as float32/int32 textures, the photometric-stereo maps.
+
+Texel grids follow ``rig.geometry.texel_centers_mm`` (row 0 at +y); GL's first
+row is at texture coordinate t = 0, the sample's −y edge, so rows are flipped
+on upload. Textures repeat (the sample tiles the surface) and carry mipmaps.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import moderngl
+import numpy as np
+
+from render._errors import RenderError
+from render._lookup import CANDIDATES, DirectionLookup
+from rig.material import GlobalSVD
+
+__all__ = ["BtfTextures", "PsTextures", "lookup_textures", "upload_btf", "upload_ps"]
+
+
+def _layers(ctx: moderngl.Context, name: str, stack: np.ndarray) -> moderngl.TextureArray:
+    """(layers, N, N, C) float16 → a repeating, mipmapped 2-D texture array."""
+    layers, n, _, channels = stack.shape
+    limit = int(ctx.info["GL_MAX_ARRAY_TEXTURE_LAYERS"])
+    if layers > limit:
+        raise RenderError(
+            f"material btf {name}: {layers} texture layers, this GL allows {limit}; "
+            "compress with fewer components"
+        )
+    data = np.ascontiguousarray(stack[:, ::-1], dtype=np.float16)
+    texture = ctx.texture_array((n, n, layers), channels, data, dtype="f2")
+    if channels == 1:
+        texture.swizzle = "RRR1"
+    texture.repeat_x = texture.repeat_y = True
+    texture.build_mipmaps()
+    texture.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+    return texture
+
+
+def _rows(ctx: moderngl.Context, name: str, rows: np.ndarray) -> moderngl.Texture:
+    """(height, width, 4) float32 → a texture read by texelFetch."""
+    height, width = rows.shape[:2]
+    limit = int(ctx.info["GL_MAX_TEXTURE_SIZE"])
+    if height > limit:
+        raise RenderError(f"{name}: {height} rows exceed this GL's texture size {limit}")
+    texture = ctx.texture((width, height), 4, np.ascontiguousarray(rows, np.float32), dtype="f4")
+    texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+    return texture
+
+
+def _coefficients(weights: np.ndarray) -> np.ndarray:
+    """(rows, c) → (rows, ⌈c/4⌉, 4) float32, zero padded."""
+    rows, c = weights.shape
+    padded = np.zeros((rows, 4 * ((c + 3) // 4)), np.float32)
+    padded[:, :c] = weights
+    return padded.reshape(rows, -1, 4)
+
+
+@dataclass
+class BtfTextures:
+    """The BTF on the GPU: ``kind`` "pca" (``mean``, ``basis``) or "svd" (``eigen``)."""
+
+    kind: str
+    components: int
+    n_lights: int
+    weights: moderngl.Texture
+    mean: moderngl.TextureArray | None = None
+    basis: moderngl.TextureArray | None = None
+    eigen: moderngl.TextureArray | None = None
+
+    def release(self) -> None:
+        for texture in (self.weights, self.mean, self.basis, self.eigen):
+            if texture is not None:
+                texture.release()
+
+
+def upload_btf(ctx: moderngl.Context, btf) -> BtfTextures:
+    """Textures of a per-view PCA (``mean``, ``basis``, ``weights``) or global SVD
+    (``eigenmaps``, ``weights``) BTF; see ``docs/material.md``."""
+    n_lights = len(btf.light_dirs_deg)
+    if isinstance(btf, GlobalSVD):
+        c, _, n, _, channels = btf.eigenmaps.shape
+        eigen = _layers(ctx, "eigenmaps", np.reshape(btf.eigenmaps, (c * n_lights, n, n, channels)))
+        weights = _rows(ctx, "btf weights", _coefficients(np.asarray(btf.weights, np.float32)))
+        return BtfTextures("svd", c, n_lights, weights, eigen=eigen)
+    n_views, c, n, _, channels = btf.basis.shape
+    mean = _layers(ctx, "mean", np.asarray(btf.mean))
+    basis = _layers(ctx, "basis", np.reshape(btf.basis, (n_views * c, n, n, channels)))
+    p = np.asarray(btf.weights, np.float32).reshape(n_views * n_lights, c)
+    weights = _rows(ctx, "btf weights", _coefficients(p))
+    return BtfTextures("pca", c, n_lights, weights, mean=mean, basis=basis)
+
+
+@dataclass
+class PsTextures:
+    """Albedo and normal map (sample frame) of one photometric-stereo view."""
+
+    albedo: moderngl.Texture
+    normals: moderngl.Texture
+
+    def release(self) -> None:
+        self.albedo.release()
+        self.normals.release()
+
+
+def _map(ctx: moderngl.Context, image: np.ndarray) -> moderngl.Texture:
+    n_rows, n_cols, channels = image.shape
+    data = np.ascontiguousarray(image[::-1], dtype=np.float32)
+    texture = ctx.texture((n_cols, n_rows), channels, data, dtype="f4")
+    if channels == 1:
+        texture.swizzle = "RRR1"
+    texture.repeat_x = texture.repeat_y = True
+    texture.build_mipmaps()
+    texture.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+    return texture
+
+
+def upload_ps(ctx: moderngl.Context, view) -> PsTextures:
+    """Textures of a ``PsView``; texels not ``valid`` (or not finite) get the
+    frontal normal and zero albedo, so they shade as black, never NaN."""
+    valid = np.asarray(view.valid, bool)
+    normals = np.asarray(view.normals, np.float32)
+    albedo = np.asarray(view.albedo, np.float32)
+    if albedo.ndim == 2:
+        albedo = albedo[..., None]
+    if normals.shape[:2] != valid.shape or albedo.shape[:2] != valid.shape or normals.shape[2] != 3:
+        raise RenderError(
+            f"ps view {view.name!r}: normals {normals.shape}, albedo {albedo.shape} and valid "
+            f"{valid.shape} must share one (N, N) grid, normals with 3 components"
+        )
+    good = valid & np.all(np.isfinite(normals), axis=-1) & np.all(np.isfinite(albedo), axis=-1)
+    normals = np.where(good[..., None], normals, np.float32([0.0, 0.0, 1.0]))
+    albedo = np.where(good[..., None], albedo, 0.0).astype(np.float32)
+    return PsTextures(_map(ctx, albedo), _map(ctx, normals))
+
+
+def lookup_textures(
+    ctx: moderngl.Context, lookup: DirectionLookup
+) -> tuple[moderngl.TextureArray, moderngl.Texture]:
+    """The candidate grid (int32 array texture, 4 per texel) and the table texture."""
+    r = lookup.resolution
+    layers = lookup.candidates.reshape(r, r, CANDIDATES // 4, 4).transpose(2, 0, 1, 3)
+    candidates = ctx.texture_array(
+        (r, r, CANDIDATES // 4), 4, np.ascontiguousarray(layers, np.int32), dtype="i4"
+    )
+    candidates.filter = (moderngl.NEAREST, moderngl.NEAREST)
+    return candidates, _rows(ctx, f"{lookup.method} table", lookup.table[:, None, :])

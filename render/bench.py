@@ -1,0 +1,135 @@
+"""``rig bench render``: frames per second at 800 × 600, against the number of
+components c and of blended view slots, as a ratio to a plain textured quad.
+
+A textured plane fills the frame under one point light (seed 000's setting);
+each per-view-PCA fragment blends 1 (nearest), 3 (barycentric) or 4 (nearest
+four) view slots of c + 1 float16 textures each, from the 4 nearest measured
+lights. The floor is the same plane with one filtered texture fetch per
+fragment, drawn in the same run, so the ratio compares like with like on
+whatever GL this is (llvmpipe on a CPU, or a GPU). Seed 001 reports 27–75
+frames per second on a 2005 GPU.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import moderngl
+import numpy as np
+
+from render._gl import gl_context, shader_source, vertex_array
+from render.camera import Camera
+from render.lights import PointLight
+from render.meshes import plane
+from render.renderer import Renderer
+from rig.geometry import Sampling
+from rig.material import CompressedBTF, GlobalSVD, Material
+
+__all__ = ["run_bench"]
+
+_SIZE = (800, 600)
+_SLOTS = {"nearest": 1, "barycentric": 3, "nearest4": 4}
+
+
+def _material(kind: str, components: int, size: int) -> Material:
+    """A BTF of random float16 texels over 27 view slots × H1's 81 lights."""
+    rng = np.random.default_rng(0)
+    views, lights = Sampling.named("H2").directions[::3], Sampling.named("H1").directions
+    n_views, n_lights = len(views), len(lights)
+    if kind == "pca":
+        btf = CompressedBTF(
+            views, lights, rng.random((n_views, size, size, 3), np.float32).astype(np.float16),
+            rng.uniform(-1, 1, (n_views, components, size, size, 3)).astype(np.float16),
+            rng.normal(0, 0.1, (n_views, n_lights, components)).astype(np.float32),
+            np.ones((n_views, n_lights), np.float32), np.full(n_views, components, np.int32),
+        )  # fmt: skip
+    else:
+        btf = GlobalSVD(
+            views, lights,
+            rng.uniform(-1, 1, (components, n_lights, size, size, 3)).astype(np.float16),
+            rng.normal(0, 0.1, (n_views, components)).astype(np.float32),
+            np.ones(n_views, np.float32), components,
+        )  # fmt: skip
+    return Material(Path("bench"), 20.0, size, btf, np.ones(n_views, bool))
+
+
+def _fps(draw, frames: int) -> float:
+    ctx = gl_context()
+    draw()  # compile, upload, warm the caches
+    ctx.finish()
+    start = time.perf_counter()
+    for _ in range(frames):
+        draw()
+    ctx.finish()
+    return frames / (time.perf_counter() - start)
+
+
+class _PlainQuad:
+    """The speed floor: a renderer's mesh and first mean texture, one fetch per fragment."""
+
+    def __init__(self, renderer: Renderer, size: tuple[int, int]) -> None:
+        ctx = self.ctx = renderer.ctx
+        self.program = ctx.program(
+            vertex_shader=shader_source("surface.vert"), fragment_shader=shader_source("plain.frag")
+        )
+        self.vao = vertex_array(ctx, self.program, renderer.vbo, renderer.ibo)
+        self.program["uv_scale"].value = renderer.program["uv_scale"].value
+        self.program["mean_tex"].value = 0
+        self.texture = renderer.btf_textures.mean
+        self.bounds = renderer.bounds_center, renderer.bounds_radius
+        self.colour = ctx.renderbuffer(size, 4, dtype="f4")
+        self.depth = ctx.depth_renderbuffer(size)
+        self.fbo = ctx.framebuffer([self.colour], self.depth)
+
+    def draw(self, camera: Camera) -> None:
+        near, far = camera.depth_range(*self.bounds)
+        view_proj = camera.projection_matrix(near, far) @ camera.view_matrix()
+        self.program["view_proj"].write(view_proj.T.astype(np.float32).tobytes())
+        self.texture.use(location=0)
+        self.fbo.use()
+        self.fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        self.ctx.enable_only(moderngl.DEPTH_TEST)
+        self.vao.render(moderngl.TRIANGLES)
+
+    def release(self) -> None:
+        for obj in (self.fbo, self.colour, self.depth, self.vao, self.program):
+            obj.release()
+
+
+def run_bench(*, quick: bool = False, size: tuple[int, int] = _SIZE) -> list[dict]:
+    """Rows: ``kind``, ``components``, ``view_slots``, ``fps``, ``ratio_to_plain``
+    (fps over the plain quad's), ``plain_fps``, ``size``, ``gl_renderer``.
+
+    ``quick``: c ∈ {4, 16}, 1 and 4 view slots, 64² textures, 2 timed frames
+    (else c ∈ {1, 4, 8, 16}, 1/3/4 slots and the SVD, 128² textures, 5 frames).
+    ``size``: the frame's width and height in pixels.
+    """
+    components = (4, 16) if quick else (1, 4, 8, 16)
+    methods = ("nearest", "nearest4") if quick else ("nearest", "barycentric", "nearest4")
+    texels, frames = (64, 2) if quick else (128, 5)
+    mesh = plane(size_mm=400.0, segments=4)
+    camera = Camera.perspective((0, -90, 70), (0, 10, 0), fov_deg=60, size=size)
+    lights = [PointLight((30.0, -20.0, 80.0), intensity=1e4)]
+    runs = [("pca", c, m) for c in components for m in methods]
+    if not quick:
+        runs += [("svd", c, "nearest4") for c in components]
+    with Renderer(_material("pca", 1, texels), mesh, shadows=False) as floor:
+        plain = _PlainQuad(floor, size)
+        try:
+            plain_fps = _fps(lambda: plain.draw(camera), frames)
+        finally:
+            plain.release()
+    rows = []
+    for kind, c, method in runs:
+        with Renderer(_material(kind, c, texels), mesh, view_method=method,
+                      shadows=False) as renderer:  # fmt: skip
+            fps = _fps(lambda r=renderer: r.draw(camera, lights), frames)
+            gl_renderer = renderer.ctx.info["GL_RENDERER"]
+        rows.append({
+            "kind": kind, "components": c,
+            "view_slots": _SLOTS[method] if kind == "pca" else 4, "fps": round(fps, 3),
+            "ratio_to_plain": round(fps / plain_fps, 4), "plain_fps": round(plain_fps, 2),
+            "size": f"{size[0]}x{size[1]}", "gl_renderer": gl_renderer,
+        })  # fmt: skip
+    return rows

@@ -1,0 +1,280 @@
+"""The renderer: a measured material on a mesh under point and directional lights.
+
+One program per renderer, compiled for what the material holds (a per-view
+PCA or global-SVD BTF, photometric-stereo maps, or both); textures, lookups
+and buffers are made once and reused for every frame. Per fragment the view
+and light directions go to the tangent frame, become (θ, φ), and blend the
+measured view slots and lights exactly as ``processing.btf.interpolate``
+(seed 000 §4.2 eq. (3)–(5), seed 001 §5), with macro shadows from per-light
+shadow maps filtered to soft edges. See ``docs/render.md``.
+"""
+
+from __future__ import annotations
+
+import moderngl
+import numpy as np
+
+from render._errors import RenderError
+from render._gl import gl_context, mesh_buffers, shader_source, vertex_array
+from render._lookup import CANDIDATES, build_lookup
+from render._shadows import ShadowMaps
+from render._textures import lookup_textures, upload_btf, upload_ps
+from render.camera import Camera
+from render.lights import MAX_LIGHTS, DirectionalLight, PointLight
+from rig.material import CompressedBTF, Material
+
+__all__ = ["MAX_LIGHTS", "Renderer"]
+
+_METHODS = ("nearest", "nearest4", "barycentric")
+_LAYERS = ("btf", "ps")
+
+
+class Renderer:
+    """Draws ``material`` on ``mesh``; :meth:`render` gives a linear float image.
+
+    Parameters
+    ----------
+    material : rig.material.Material
+        Its BTF (``pca`` or ``svd``) and/or its frontal photometric-stereo view.
+    mesh : render.meshes.Mesh
+        Positions in scene units, UVs in mm of surface.
+    tile_mm : float, optional
+        mm of surface one repeat of the sample covers (texture coordinate =
+        uv / tile_mm); the sample's own side ``material.sample_mm`` by default
+        (true scale).
+    layers : tuple of {"btf", "ps"}, optional
+        What shades the surface; everything the material holds by default.
+        ``"ps"`` alone: Lambert on the bump-mapped normals, times the albedo,
+        plus the specular lobe. With ``"btf"``: the BTF (whose normtextures
+        already hold the diffuse shading of the mesostructure) plus only the
+        specular lobe of the bump-mapped normals.
+    light_method, view_method : {"nearest4", "barycentric", "nearest"}
+        How measured lights and view slots are blended (``processing.btf.interpolate``).
+    specular, shininess : float
+        Blinn–Phong lobe of the PS layer (weight ≥ 0, exponent > 0); 0 = none.
+    shadows : bool
+        Macro shadows of the mesh (shadow maps, 5×5 PCF).
+    shadow_size : int
+        Texels per side of each light's shadow map.
+
+    Notes
+    -----
+    View slots with ``material.btf_slot_valid`` false are skipped: the view
+    blend is built over the valid slots only, so their weights sum to one and
+    a direction at an empty slot takes its valid neighbours.
+    """
+
+    def __init__(
+        self,
+        material: Material,
+        mesh,
+        *,
+        tile_mm: float | None = None,
+        layers: tuple[str, ...] | None = None,
+        light_method: str = "nearest4",
+        view_method: str = "nearest4",
+        specular: float = 0.0,
+        shininess: float = 40.0,
+        shadows: bool = True,
+        shadow_size: int = 1024,
+    ) -> None:
+        self.layers = self._check_layers(material, layers)
+        tile = material.sample_mm if tile_mm is None else tile_mm
+        if not (np.isfinite(tile) and tile > 0):
+            raise RenderError(f"tile_mm = {tile_mm}: must be a positive number of mm")
+        for name, method in (("light_method", light_method), ("view_method", view_method)):
+            if method not in _METHODS:
+                raise RenderError(f"{name} = {method!r}: valid are {_METHODS}")
+        if not (np.isfinite(specular) and specular >= 0 and np.isfinite(shininess)
+                and shininess > 0):  # fmt: skip
+            raise RenderError(
+                f"specular = {specular}, shininess = {shininess}: need specular ≥ 0, shininess > 0"
+            )
+        self.ctx = gl_context()
+        self.mesh = mesh
+        self._owned: list = []
+        positions = np.asarray(mesh.positions, np.float64)
+        lo, hi = positions.min(axis=0), positions.max(axis=0)
+        self.bounds_center = (lo + hi) / 2
+        self.bounds_radius = max(float(np.linalg.norm(hi - lo)) / 2, 1e-6)
+        btf = material.btf if "btf" in self.layers else None
+        defines = {
+            "BTF_KIND": 0 if btf is None else (1 if isinstance(btf, CompressedBTF) else 2),
+            "PS": int("ps" in self.layers),
+            "SHADOWS": int(bool(shadows)),
+            "MAX_LIGHTS": MAX_LIGHTS,
+            "CANDIDATES": CANDIDATES,
+        }
+        header = "#version 330\n" + "".join(f"#define {k} {v}\n" for k, v in defines.items())
+        try:
+            self.program = self.ctx.program(
+                vertex_shader=shader_source("surface.vert"),
+                fragment_shader=header + shader_source("surface.frag"),
+            )
+        except moderngl.Error as err:
+            raise RenderError(f"the surface shader does not compile on this GL: {err}") from err
+        self._owned.append(self.program)
+        self.vbo, self.ibo = mesh_buffers(self.ctx, mesh)
+        self.vao = vertex_array(self.ctx, self.program, self.vbo, self.ibo)
+        self._owned += [self.vbo, self.ibo, self.vao]
+        self._units: list = []
+        self.btf_textures = None
+        self._set("uv_scale", 1.0 / float(tile))
+        if btf is not None:
+            self._bind_btf(btf, material.btf_slot_valid, light_method, view_method)
+        if "ps" in self.layers:
+            ps = upload_ps(self.ctx, material.frontal_ps())
+            self._owned += [ps.albedo, ps.normals]
+            self._bind("ps_albedo", ps.albedo)
+            self._bind("ps_normals", ps.normals)
+            self._set("specular", float(specular))
+            self._set("shininess", float(shininess))
+        self.shadows = (
+            ShadowMaps(self.ctx, self.vbo, self.ibo, size=shadow_size) if shadows else None
+        )
+        self._framebuffers: dict[tuple[int, int], moderngl.Framebuffer] = {}
+
+    @staticmethod
+    def _check_layers(material, layers) -> tuple[str, ...]:
+        held = tuple(
+            name for name, part in (("btf", material.btf), ("ps", material.frontal_ps()))
+            if part is not None
+        )  # fmt: skip
+        wanted = held if layers is None else tuple(layers)
+        unknown = [name for name in wanted if name not in _LAYERS]
+        if unknown:
+            raise RenderError(f"layers {unknown}: valid are {_LAYERS}")
+        missing = [name for name in wanted if name not in held]
+        if missing or not wanted:
+            raise RenderError(
+                f"material {str(material.source)!r} holds {list(held) or 'nothing to render'}; "
+                f"cannot render layers {missing or list(wanted)}"
+            )
+        return wanted
+
+    def _set(self, name: str, value) -> None:
+        if name in self.program:
+            self.program[name].value = value
+
+    def _bind(self, name: str, texture) -> None:
+        unit = len(self._units)
+        self._units.append(texture)
+        if name in self.program:
+            self.program[name].value = unit
+
+    def _bind_btf(self, btf, slot_valid, light_method: str, view_method: str) -> None:
+        valid = np.ones(len(btf.view_dirs_deg), bool) if slot_valid is None else slot_valid
+        valid = np.asarray(valid, bool)
+        if valid.shape != (len(btf.view_dirs_deg),) or not valid.any():
+            raise RenderError(
+                f"btf_slot_valid has shape {valid.shape} with {int(valid.sum())} valid slots; "
+                f"expected ({len(btf.view_dirs_deg)},) with at least one valid view slot"
+            )
+        textures = upload_btf(self.ctx, btf)
+        self.btf_textures = textures
+        for role, table, method, index in (
+            ("view", btf.view_vectors[valid], view_method, np.flatnonzero(valid)),
+            ("light", btf.light_vectors, light_method, None),
+        ):
+            lookup = build_lookup(table, method, index=index)
+            candidates, texels = lookup_textures(self.ctx, lookup)
+            self._owned += [candidates, texels]
+            self._bind(f"{role}_cand", candidates)
+            self._bind(f"{role}_table", texels)
+            self._set(f"{role}_method", lookup.code)
+            self._set(f"{role}_k", lookup.k)
+        self._set("n_table_lights", textures.n_lights)
+        self._set("components", textures.components)
+        self._bind("btf_weights", textures.weights)
+        for name, texture in (("mean_tex", textures.mean), ("basis_tex", textures.basis),
+                              ("eigen_tex", textures.eigen)):  # fmt: skip
+            if texture is not None:
+                self._bind(name, texture)
+
+    def _framebuffer(self, size: tuple[int, int]) -> moderngl.Framebuffer:
+        if size not in self._framebuffers:
+            colour = self.ctx.renderbuffer(size, 4, dtype="f4")
+            depth = self.ctx.depth_renderbuffer(size)
+            self._framebuffers[size] = self.ctx.framebuffer([colour], depth)
+        return self._framebuffers[size]
+
+    def render(self, camera: Camera, lights) -> np.ndarray:
+        """The linear image of the scene.
+
+        Parameters
+        ----------
+        camera : Camera
+        lights : sequence of PointLight / DirectionalLight
+            At most :data:`MAX_LIGHTS`.
+
+        Returns
+        -------
+        (H, W, 3) float32
+            Radiance in the material's units (its ``btf_units`` times the
+            lights' colour · intensity); 0 where no surface is seen.
+        """
+        fbo = self.draw(camera, lights)
+        pixels = np.frombuffer(fbo.read(components=4, dtype="f4"), np.float32)
+        image = pixels.reshape(camera.size[1], camera.size[0], 4)[::-1, :, :3]
+        return np.ascontiguousarray(image)
+
+    def draw(self, camera: Camera, lights) -> moderngl.Framebuffer:
+        """Draw the scene into the renderer's float framebuffer of ``camera.size``, no read-back
+        (an interactive view or a timing uses this; :meth:`render` reads the image)."""
+        lights = list(lights)
+        if len(lights) > MAX_LIGHTS or not all(
+            isinstance(light, PointLight | DirectionalLight) for light in lights
+        ):
+            raise RenderError(
+                f"lights: expected up to {MAX_LIGHTS} PointLight/DirectionalLight, got "
+                f"{[type(light).__name__ for light in lights]}"
+            )
+        place = np.zeros((MAX_LIGHTS, 4), np.float32)
+        emission = np.zeros((MAX_LIGHTS, 3), np.float32)
+        for i, light in enumerate(lights):
+            if isinstance(light, PointLight):
+                place[i] = (*light.position, 1.0)
+            else:
+                place[i] = (*light.unit_direction, 0.0)
+            emission[i] = light.emission
+        self.program["n_lights"].value = len(lights)
+        self.program["light_place"].write(place.tobytes())
+        self.program["light_emission"].write(emission.tobytes())
+        if self.shadows is not None and lights:
+            self.shadows.draw(lights, self.bounds_center, self.bounds_radius)
+            self.shadows.bind(self.program, unit=len(self._units))
+        near, far = camera.depth_range(self.bounds_center, self.bounds_radius)
+        view_proj = camera.projection_matrix(near, far) @ camera.view_matrix()
+        self.program["view_proj"].write(view_proj.T.astype(np.float32).tobytes())
+        self._set("orthographic", camera.fov_deg is None)
+        self._set("eye", tuple(camera.eye))
+        self._set("toward_camera", tuple(-camera.forward))
+        for unit, texture in enumerate(self._units):
+            texture.use(location=unit)
+        fbo = self._framebuffer(camera.size)
+        fbo.use()
+        fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        self.ctx.enable_only(moderngl.DEPTH_TEST)
+        self.vao.render(moderngl.TRIANGLES)
+        return fbo
+
+    def release(self) -> None:
+        """Free the GPU objects (the shared context stays)."""
+        for fbo in self._framebuffers.values():
+            for attachment in (*fbo.color_attachments, fbo.depth_attachment):
+                attachment.release()
+            fbo.release()
+        self._framebuffers.clear()
+        if self.shadows is not None:
+            self.shadows.release()
+        if self.btf_textures is not None:
+            self.btf_textures.release()
+        for obj in reversed(self._owned):
+            obj.release()
+        self._owned.clear()
+
+    def __enter__(self) -> Renderer:
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.release()

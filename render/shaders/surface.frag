@@ -1,0 +1,327 @@
+// The measured material under point and directional lights (prepended by the
+// renderer: #version, and #defines BTF_KIND 0 none / 1 pca / 2 svd, PS 0/1,
+// SHADOWS 0/1, MAX_LIGHTS, CANDIDATES).
+//
+// Every direction is taken to the fragment's tangent frame (x along +u, y along
+// +v, z the normal): the sample frame of the measurement, where θ, φ are defined.
+
+in vec3 v_position;
+in vec3 v_normal;
+in vec4 v_tangent;
+in vec2 v_uv;
+out vec4 frag;
+
+uniform vec3 eye;              // camera position (perspective)
+uniform vec3 toward_camera;    // unit, for an orthographic camera
+uniform bool orthographic;
+uniform float uv_scale;        // 1 / tile_mm: sample repeats per UV unit
+uniform int n_lights;
+uniform vec4 light_place[MAX_LIGHTS];   // xyz position (w = 1) or direction to the light (w = 0)
+uniform vec3 light_emission[MAX_LIGHTS];
+
+struct Blend { ivec4 idx; vec4 w; };
+
+vec3 safe_normalize(vec3 v, vec3 fallback) {
+    float len2 = dot(v, v);
+    return len2 > 1e-24 ? v * inversesqrt(len2) : fallback;
+}
+
+// ---- direction lookups (render/_lookup.py builds the candidate tables) ----
+
+ivec2 hemi_cell(vec3 d, int res) {
+    vec3 a = abs(d);
+    vec2 p = d.xy / (a.x + a.y + d.z);
+    vec2 uv = vec2(p.x + p.y, p.x - p.y);
+    return clamp(ivec2(floor((uv * 0.5 + 0.5) * float(res))), ivec2(0), ivec2(res - 1));
+}
+
+// The k nearest table directions of q (ties to the lower index) with Shepard
+// weights 1/angle², exactly one at a table direction: rig.geometry.nearest_directions.
+// Candidates are ranked by cosine (the same order as by angle), kept sorted in a
+// vec4 without local arrays, which software rasterisers handle slowly.
+Blend blend_nearest(isampler2DArray cand, sampler2D table, int k, ivec2 cell, vec3 q) {
+    vec4 best = vec4(-2.0);
+    ivec4 idx = ivec4(0);
+    for (int layer = 0; layer < CANDIDATES / 4; ++layer) {
+        ivec4 c4 = texelFetch(cand, ivec3(cell, layer), 0);
+        for (int m = 0; m < 4; ++m) {
+            int t = c4[m];
+            if (t < 0) break;
+            vec3 tv = texelFetch(table, ivec2(0, t), 0).xyz;
+            float c = dot(q, tv);
+            if (c > best.w) {
+                best.w = c;
+                idx.w = t;
+                if (best.w > best.z) { best.zw = best.wz; idx.zw = idx.wz; }
+                if (best.z > best.y) { best.yz = best.zy; idx.yz = idx.zy; }
+                if (best.y > best.x) { best.xy = best.yx; idx.xy = idx.yx; }
+            }
+        }
+    }
+    Blend b;
+    b.idx = idx;
+    b.w = vec4(0.0);
+    vec4 angle;
+    for (int m = 0; m < 4; ++m) {
+        vec3 tv = texelFetch(table, ivec2(0, idx[m]), 0).xyz;
+        angle[m] = atan(length(cross(q, tv)), dot(q, tv));
+    }
+    if (angle.x <= 1e-6) {
+        b.w.x = 1.0;
+        return b;
+    }
+    vec4 inverse_sq = 1.0 / (angle * angle);
+    for (int m = 0; m < 4; ++m) b.w[m] = m < k ? inverse_sq[m] : 0.0;
+    b.w /= dot(b.w, vec4(1.0));
+    return b;
+}
+
+// The spherical triangle holding q, barycentric weights in its gnomonic
+// projection: rig.geometry.barycentric_weights.
+Blend blend_barycentric(isampler2DArray cand, sampler2D table, ivec2 cell, vec3 q) {
+    float best = -1e30;
+    vec3 weights = vec3(1.0, 0.0, 0.0);
+    int tri = -1;
+    for (int layer = 0; layer < CANDIDATES / 4; ++layer) {
+        ivec4 c4 = texelFetch(cand, ivec3(cell, layer), 0);
+        for (int m = 0; m < 4; ++m) {
+            int t = c4[m];
+            if (t < 0) break;
+            vec3 w = vec3(dot(texelFetch(table, ivec2(0, 4 * t), 0).xyz, q),
+                          dot(texelFetch(table, ivec2(0, 4 * t + 1), 0).xyz, q),
+                          dot(texelFetch(table, ivec2(0, 4 * t + 2), 0).xyz, q));
+            float low = min(w.x, min(w.y, w.z));
+            if (low > best) {
+                best = low;
+                weights = w;
+                tri = t;
+            }
+        }
+    }
+    Blend b;
+    b.idx = ivec4(0);
+    b.w = vec4(0.0);
+    if (tri < 0) return b;
+    b.idx.xyz = ivec3(texelFetch(table, ivec2(0, 4 * tri + 3), 0).xyz + 0.5);
+    weights = max(weights, vec3(0.0));
+    float total = weights.x + weights.y + weights.z;
+    b.w.xyz = total > 0.0 ? weights / total : vec3(1.0, 0.0, 0.0);
+    return b;
+}
+
+// q in the tangent frame; below the horizon it is laid onto it (θ = 90°).
+Blend blend_directions(isampler2DArray cand, sampler2D table, int method, int k, vec3 q) {
+    q = safe_normalize(vec3(q.xy, max(q.z, 0.0)), vec3(0.0, 0.0, 1.0));
+    ivec2 cell = hemi_cell(q, textureSize(cand, 0).x);
+    return method == 1 ? blend_barycentric(cand, table, cell, q)
+                       : blend_nearest(cand, table, k, cell, q);
+}
+
+#if BTF_KIND > 0
+uniform isampler2DArray view_cand;
+uniform sampler2D view_table;
+uniform int view_method;
+uniform int view_k;
+uniform isampler2DArray light_cand;
+uniform sampler2D light_table;
+uniform int light_method;
+uniform int light_k;
+uniform int n_table_lights;    // measured light directions
+uniform int components;        // c
+uniform sampler2D btf_weights; // pca: row slot·n_lights + light; svd: row slot; c/4 RGBA texels
+#endif
+
+#if BTF_KIND == 1
+uniform sampler2DArray mean_tex;   // layer = slot
+uniform sampler2DArray basis_tex;  // layer = slot·c + k
+
+// Σ_l E_l Σ_j ω_j (mean_j Σ_m τ_lm + Σ_k γ_ljk B_jk), γ_ljk = Σ_m τ_lm p_{j, i_lm, k}
+// (seed 000 eq. (3), (5)): the light sums go into per-slot RGB coefficients
+// first, four components at a time, so each slot costs c + 1 texture fetches
+// however many lights there are.
+vec3 shade_btf(vec2 st, vec2 sx, vec2 sy, Blend view, Blend lights[MAX_LIGHTS],
+               vec3 irradiance[MAX_LIGHTS]) {
+    vec3 mean_coef = vec3(0.0);
+    for (int l = 0; l < n_lights; ++l) mean_coef += irradiance[l] * dot(lights[l].w, vec4(1.0));
+    vec3 total = vec3(0.0);
+    for (int j = 0; j < 4; ++j) {
+        if (view.w[j] == 0.0) continue;
+        int slot = view.idx[j];
+        vec3 slot_rgb = mean_coef * textureGrad(mean_tex, vec3(st, slot), sx, sy).rgb;
+        for (int k4 = 0; k4 < (components + 3) / 4; ++k4) {
+            vec4 red = vec4(0.0), green = vec4(0.0), blue = vec4(0.0);
+            for (int l = 0; l < n_lights; ++l) {
+                if (irradiance[l] == vec3(0.0)) continue;
+                for (int m = 0; m < 4; ++m) {
+                    float tau = lights[l].w[m];
+                    if (tau == 0.0) continue;
+                    vec3 e = irradiance[l] * tau;
+                    int row = slot * n_table_lights + lights[l].idx[m];
+                    vec4 p = texelFetch(btf_weights, ivec2(k4, row), 0);
+                    red += e.r * p;
+                    green += e.g * p;
+                    blue += e.b * p;
+                }
+            }
+            for (int q = 0; q < 4; ++q) {
+                int k = 4 * k4 + q;
+                if (k >= components) break;
+                vec3 basis = textureGrad(basis_tex, vec3(st, slot * components + k), sx, sy).rgb;
+                slot_rgb += vec3(red[q], green[q], blue[q]) * basis;
+            }
+        }
+        total += view.w[j] * slot_rgb;
+    }
+    return total;
+}
+#endif
+
+#if BTF_KIND == 2
+uniform sampler2DArray eigen_tex;  // layer = k·n_lights + light
+
+// Σ_l E_l Σ_m τ_lm Σ_k (Σ_j ω_j W_jk) E_k(x, y, l_m) (seed 001 §5).
+vec3 shade_btf(vec2 st, vec2 sx, vec2 sy, Blend view, Blend lights[MAX_LIGHTS],
+               vec3 irradiance[MAX_LIGHTS]) {
+    vec3 total = vec3(0.0);
+    for (int k4 = 0; k4 < (components + 3) / 4; ++k4) {
+        vec4 omega = vec4(0.0);
+        for (int j = 0; j < 4; ++j)
+            if (view.w[j] != 0.0)
+                omega += view.w[j] * texelFetch(btf_weights, ivec2(k4, view.idx[j]), 0);
+        for (int l = 0; l < n_lights; ++l) {
+            if (irradiance[l] == vec3(0.0)) continue;
+            for (int m = 0; m < 4; ++m) {
+                float tau = lights[l].w[m];
+                if (tau == 0.0) continue;
+                vec3 texel = vec3(0.0);
+                for (int q = 0; q < 4; ++q) {
+                    int k = 4 * k4 + q;
+                    if (k >= components) break;
+                    float layer = float(k * n_table_lights + lights[l].idx[m]);
+                    texel += omega[q] * textureGrad(eigen_tex, vec3(st, layer), sx, sy).rgb;
+                }
+                total += irradiance[l] * tau * texel;
+            }
+        }
+    }
+    return total;
+}
+#endif
+
+#if PS == 1
+uniform sampler2D ps_albedo;
+uniform sampler2D ps_normals;      // sample frame = tangent frame
+uniform float specular;            // Blinn–Phong weight
+uniform float shininess;
+#endif
+
+#if SHADOWS == 1
+uniform sampler2DShadow shadow_maps;       // atlas: light l's depth map is tile l of shadow_tiles
+uniform mat4 light_view_proj[MAX_LIGHTS];
+uniform float shadow_offset[MAX_LIGHTS];   // scene size of one shadow-map texel
+uniform int shadow_tiles;
+uniform float shadow_size;                 // texels per tile side
+
+// Fraction of light l reaching p: 5×5 percentage-closer filtering of the
+// light's depth map (each tap itself bilinear), so shadow edges are soft. The
+// point is moved towards the light by what the surface's slope in the map adds
+// over the kernel's 3-texel radius (moving along the light ray does not move it
+// in the map), and off the surface by a texel: no self-shadowing acne.
+float lit_fraction(int l, vec3 p, vec3 n, vec3 to_light) {
+    float cos_in = clamp(dot(n, to_light), 0.05, 1.0);
+    float tan_in = sqrt(1.0 - cos_in * cos_in) / cos_in;
+    float texel = shadow_offset[l];
+    vec3 moved = p + n * texel + to_light * texel * (1.0 + 3.0 * tan_in);
+    vec4 clip = light_view_proj[l] * vec4(moved, 1.0);
+    if (clip.w <= 0.0) return 1.0;
+    vec3 s = clip.xyz / clip.w * 0.5 + 0.5;
+    if (any(lessThan(s, vec3(0.0))) || any(greaterThan(s, vec3(1.0)))) return 1.0;
+    float lo = 0.5 / shadow_size;
+    float sum = 0.0;
+    for (int dy = -2; dy <= 2; ++dy) {
+        for (int dx = -2; dx <= 2; ++dx) {
+            vec2 tap = clamp(s.xy + vec2(dx, dy) / shadow_size, vec2(lo), vec2(1.0 - lo));
+            tap.x = (tap.x + float(l)) / float(shadow_tiles);
+            sum += texture(shadow_maps, vec3(tap, s.z));
+        }
+    }
+    return sum / 25.0;
+}
+#endif
+
+void main() {
+    vec3 n = safe_normalize(v_normal, vec3(0.0, 0.0, 1.0));
+    vec3 to_eye = orthographic ? toward_camera : safe_normalize(eye - v_position, n);
+    // Two-sided: the back of a surface shows the material seen from its other side.
+    if (!gl_FrontFacing) n = -n;
+    float hand = (v_tangent.w < 0.0 ? -1.0 : 1.0) * (gl_FrontFacing ? 1.0 : -1.0);
+    vec3 t = v_tangent.xyz - n * dot(n, v_tangent.xyz);
+    vec3 any_side = abs(n.x) < 0.9 ? vec3(1.0, 0.0, 0.0) : vec3(0.0, 1.0, 0.0);
+    t = safe_normalize(t, safe_normalize(cross(any_side, n), vec3(1.0, 0.0, 0.0)));
+    vec3 b = hand * cross(n, t);
+    mat3 to_local = transpose(mat3(t, b, n));
+
+    vec2 st = v_uv * uv_scale;
+    vec2 sx = dFdx(st);
+    vec2 sy = dFdy(st);
+    vec3 view_local = to_local * to_eye;
+
+    vec3 irradiance[MAX_LIGHTS];
+    vec3 light_local[MAX_LIGHTS];
+    for (int l = 0; l < MAX_LIGHTS; ++l) {
+        irradiance[l] = vec3(0.0);
+        light_local[l] = vec3(0.0, 0.0, 1.0);
+        if (l >= n_lights) continue;
+        vec3 to_light;
+        vec3 e = light_emission[l];
+        if (light_place[l].w > 0.5) {
+            vec3 d = light_place[l].xyz - v_position;
+            float r2 = max(dot(d, d), 1e-12);
+            to_light = d * inversesqrt(r2);
+            e /= r2;
+        } else {
+            to_light = safe_normalize(light_place[l].xyz, vec3(0.0, 0.0, 1.0));
+        }
+        light_local[l] = to_local * to_light;
+        if (light_local[l].z <= 0.0) continue;  // below the horizon: no light, never NaN
+#if SHADOWS == 1
+        e *= lit_fraction(l, v_position, n, to_light);
+#endif
+        irradiance[l] = e;
+    }
+
+    vec3 colour = vec3(0.0);
+#if BTF_KIND > 0
+    Blend view = blend_directions(view_cand, view_table, view_method, view_k, view_local);
+    Blend lights[MAX_LIGHTS];
+    for (int l = 0; l < MAX_LIGHTS; ++l) {
+        lights[l].idx = ivec4(0);
+        lights[l].w = vec4(0.0);
+        if (irradiance[l] != vec3(0.0))
+            lights[l] = blend_directions(light_cand, light_table, light_method, light_k,
+                                         light_local[l]);
+    }
+    colour += shade_btf(st, sx, sy, view, lights, irradiance);
+#endif
+#if PS == 1
+    // Bump mapping (seed 004): the measured normal, in the tangent frame, bends the
+    // shading normal. Alone: Lambert + Blinn–Phong. Under a BTF, whose normtextures
+    // already hold the diffuse shading, only the specular lobe is added.
+    vec3 bump = texture(ps_normals, st).xyz;
+    vec3 bumped = safe_normalize(bump, vec3(0.0, 0.0, 1.0));
+    vec3 albedo = texture(ps_albedo, st).rgb;
+    for (int l = 0; l < n_lights; ++l) {
+        if (irradiance[l] == vec3(0.0)) continue;
+        float cos_in = dot(bumped, light_local[l]);
+        if (cos_in <= 0.0) continue;
+        vec3 h = safe_normalize(light_local[l] + view_local, bumped);
+        float lobe = specular > 0.0 ? specular * pow(max(dot(bumped, h), 0.0), shininess) : 0.0;
+#if BTF_KIND == 0
+        colour += irradiance[l] * (albedo * cos_in + lobe);
+#else
+        colour += irradiance[l] * lobe;
+#endif
+    }
+#endif
+    frag = vec4(colour, 1.0);
+}

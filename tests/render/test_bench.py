@@ -1,0 +1,14 @@
+"""``rig bench render`` rows, on a small frame so the test stays quick."""
+
+import math
+
+from render.bench import run_bench
+
+
+def test_bench_rows_give_speed_as_a_ratio_to_the_plain_quad():
+    rows = run_bench(quick=True, size=(64, 48))
+    assert [(r["components"], r["view_slots"]) for r in rows] == [(4, 1), (4, 4), (16, 1), (16, 4)]
+    for row in rows:
+        assert row["size"] == "64x48"
+        assert row["fps"] > 0 and math.isfinite(row["fps"])
+        assert math.isclose(row["ratio_to_plain"], row["fps"] / row["plain_fps"], rel_tol=0.01)

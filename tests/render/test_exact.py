@@ -1,0 +1,82 @@
+"""The GPU renderer against the CPU reference, texel by texel.
+
+A quad seen orthographically from +z with one pixel per texel, its shading
+frame turned so the camera sees it from a chosen direction in the sample
+frame (``conftest.tilted_quad``): every pixel must equal
+``processing.btf.interpolate`` at that view and light direction, measured or
+not, for both kinds of BTF and both blending methods; PS shading must equal a
+numpy Lambert of the same maps.
+
+Tolerance: the GPU reads the same float16 texels the CPU does but sums in
+float32 (the CPU in float64) and computes the blend weights in float32. The
+difference allowed is 2⁻¹¹ (float16's relative precision, half a unit in the
+last place of the stored texels) of the largest texel of the reference: the
+float32 sums stay hundreds of times below it, while a wrong neighbour or
+weight (the nearest-direction blend instead, say) misses it 30–260 times.
+"""
+
+import numpy as np
+import pytest
+
+from processing.btf import interpolate
+from render import Camera, DirectionalLight, Renderer
+from rig.geometry import direction_vector
+from tests.render.conftest import LIGHTS, SAMPLE_MM, VIEWS, N, material, ps_view, tilted_quad
+
+FLOAT16_EPS = 2.0**-11
+
+CASES = {
+    "measured frontal": ((0.0, 0.0), (0.0, 0.0)),
+    "measured oblique": (tuple(VIEWS[7]), tuple(LIGHTS[20])),
+    "unmeasured": ((23.0, 41.0), (47.0, 200.0)),
+    "unmeasured steep": ((64.0, 137.0), (78.0, 301.0)),
+    "measured view, unmeasured light": (tuple(VIEWS[12]), (12.5, 93.0)),
+}
+
+
+def frontal_camera() -> Camera:
+    return Camera.orthographic((0, 0, 100), (0, 0, 0), up=(0, 1, 0), height=SAMPLE_MM, size=(N, N))
+
+
+def render_at(model_material, view_deg, light_deg, **options) -> np.ndarray:
+    mesh, frame = tilted_quad(view_deg)
+    light = DirectionalLight(tuple(frame @ direction_vector(*light_deg)))
+    with Renderer(model_material, mesh, shadows=False, **options) as renderer:
+        return renderer.render(frontal_camera(), [light])
+
+
+@pytest.mark.parametrize("kind", ["pca", "svd"])
+@pytest.mark.parametrize("method", ["nearest4", "barycentric"])
+@pytest.mark.parametrize("case", CASES)
+def test_btf_matches_cpu_interpolation(kind, method, case, request):
+    model = request.getfixturevalue(f"{kind}_model")
+    view_deg, light_deg = CASES[case]
+    image = render_at(material(model), view_deg, light_deg, light_method=method, view_method=method)
+    expected = interpolate(
+        model, view_deg=view_deg, light_deg=light_deg, light_method=method, view_method=method
+    )
+    tolerance = FLOAT16_EPS * np.abs(expected).max()
+    np.testing.assert_allclose(image, expected, atol=tolerance, rtol=0)
+
+
+def numpy_ps_shading(ps, view_local, light_local, *, specular, shininess) -> np.ndarray:
+    """albedo · max(0, n·l) + specular · max(0, n·h)^shininess where n·l > 0 and l_z > 0."""
+    n = ps.normals.astype(np.float64)
+    cos_in = n @ light_local
+    half = (light_local + view_local) / np.linalg.norm(light_local + view_local)
+    lobe = specular * np.clip(n @ half, 0.0, None) ** shininess
+    lit = (cos_in > 0) & (light_local[2] > 0)
+    return np.where(lit[..., None], ps.albedo * cos_in[..., None] + lobe[..., None], 0.0)
+
+
+@pytest.mark.parametrize(
+    ("view_deg", "light_deg"), [((0.0, 0.0), (30.0, 45.0)), ((41.0, 250.0), (63.0, 17.0))]
+)
+def test_ps_shading_matches_numpy_lambert(view_deg, light_deg):
+    ps = ps_view()
+    image = render_at(material(ps=ps), view_deg, light_deg, specular=0.3, shininess=20.0)
+    expected = numpy_ps_shading(
+        ps, direction_vector(*view_deg), direction_vector(*light_deg), specular=0.3, shininess=20.0
+    )
+    assert (expected > 0.05).mean() > 0.5  # most texels lit: the comparison means something
+    np.testing.assert_allclose(image, expected, atol=1e-5, rtol=1e-4)
