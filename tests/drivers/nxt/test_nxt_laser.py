@@ -182,7 +182,9 @@ def test_real_usb_path_is_the_same_code_without_a_fake_backend(world):
 
 def test_real_serial_path_names_the_missing_port(world):
     section = _section(world, transport="serial", serial_port="/dev/rfcomm-none", retry=RETRY)
-    with pytest.raises(DeviceError, match=r"serial /dev/rfcomm-none: open failed: cannot open"):
+    with pytest.raises(
+        DeviceError, match=r"laser brick \(serial /dev/rfcomm-none\): open failed: cannot open"
+    ):
         open_device("laser", section, clock=world.clock)
 
 
