@@ -27,7 +27,11 @@ class Axis(Protocol):
     settle_s: float
 
     def home(self) -> None:
-        """Make the axis ready to move with a known zero (homing, torque on) and wait."""
+        """Make the axis ready to move, its position known, and wait.
+
+        A drive with a homing run (the turntable) and the laser tilt end at
+        0°; servos with absolute encoders switch torque on and stay put.
+        """
 
     def move_to(self, deg: float) -> None:
         """Start a move to ``deg``; returns at once (see ``wait_until_settled``).

@@ -22,10 +22,11 @@ from typing import Any
 
 from drivers.errors import DeviceError
 from rig.clock import Clock
+from rig.devices import DEVICE_ROLES
 
 __all__ = ["ROLES", "open_device", "register"]
 
-ROLES = ("turntable", "light_arc", "lamp_bank", "laser", "camera")
+ROLES = (*DEVICE_ROLES, "camera")
 
 Opener = Callable[..., Any]
 _OPENERS: dict[tuple[str, str], Opener] = {}

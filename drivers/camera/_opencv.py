@@ -18,6 +18,7 @@ import logging
 import cv2
 import numpy as np
 
+from drivers._lock import DeviceLock, serial_lock_key
 from drivers.camera._checks import check_image, updated_settings
 from drivers.camera._interface import CameraSettings, Frame
 from drivers.errors import DeviceError, DeviceTimeout
@@ -44,6 +45,12 @@ class OpenCvCamera:
         url = spec.connection.url
         self.replay = not url.strip().isdigit()
         self.device = f"camera {spec.id} (opencv {url})"
+        # a recorded sequence may be read by any number; a live camera has one owner
+        self._lock = (
+            None
+            if self.replay
+            else DeviceLock(f"v4l2 {serial_lock_key(f'/dev/video{int(url)}')}", device=self.device)
+        )
         if self.replay:
             self._capture = cv2.VideoCapture(url, cv2.CAP_IMAGES)
         else:
@@ -52,6 +59,7 @@ class OpenCvCamera:
             params += [cv2.CAP_PROP_READ_TIMEOUT_MSEC, timeout_ms]
             self._capture = cv2.VideoCapture(int(url), cv2.CAP_ANY, params)
         if not self._capture.isOpened():
+            self.close()
             what = "no image matches the pattern" if self.replay else "no such video device"
             raise DeviceError(self.device, "open", f"{what} (connection.url={url!r})")
         self._frames = int(self._capture.get(cv2.CAP_PROP_FRAME_COUNT)) if self.replay else 0
@@ -127,5 +135,7 @@ class OpenCvCamera:
         )
 
     def close(self) -> None:
-        """Release the capture; idempotent."""
+        """Release the capture and the device; idempotent."""
         self._capture.release()
+        if self._lock is not None:
+            self._lock.release()

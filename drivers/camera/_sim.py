@@ -21,6 +21,7 @@ import zlib
 import numpy as np
 import zmq
 
+from drivers._lock import DeviceLock
 from drivers.camera._checks import check_image, dtype_for, expected_shape, updated_settings
 from drivers.camera._interface import CameraSettings, Frame
 from drivers.errors import DeviceError, DeviceTimeout, ProtocolError
@@ -57,6 +58,8 @@ class SimCamera:
         self.retry = spec.connection.retry
         self.device = f"camera {spec.id} (sim {spec.connection.url})"
         self.settings = CameraSettings(exposure_s=0.01, gain=1.0, bit_depth=spec.bit_depth)
+        # one server serves every camera: the device is the camera at that server
+        self._lock = DeviceLock(f"sim camera {spec.connection.url} {spec.id}", device=self.device)
         self._own_context = context is None
         self._context = zmq.Context() if context is None else context
         self._socket = self._context.socket(zmq.DEALER)
@@ -191,3 +194,4 @@ class SimCamera:
         self._socket.close(linger=0)
         if self._own_context:
             self._context.term()
+        self._lock.release()

@@ -169,7 +169,7 @@ class DynamixelArc:
                     self.name,
                     "move_to",
                     f"{deg}° is goal tick {goal}, outside servo {servo_id}'s range "
-                    f"[{low}, {high}]; check servo_zero_tick and the operating mode",
+                    f"[{low}, {high}]; check light_arc.device.zero_tick and the operating mode",
                 )
         op = f"move_to {deg:.2f}°"
         self._bus.sync_write(X.GOAL_POSITION, 4, dict.fromkeys(self.ids, goal), operation=op)

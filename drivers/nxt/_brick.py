@@ -74,7 +74,11 @@ class NxtBrick:
     def open(
         cls, connection: NxtLaserUnit, *, clock: Clock, device: str = "NXT brick", usb_backend=None
     ) -> NxtBrick:
-        transport = open_transport(connection, usb_backend=usb_backend)
+        """Open the transport ``connection`` names; errors name ``device`` and the link."""
+        try:
+            transport = open_transport(connection, usb_backend=usb_backend)
+        except DeviceError as err:
+            raise type(err)(f"{device} ({err.device})", err.operation, err.detail) from err
         return cls(transport, retry=connection.retry, clock=clock, device=device)
 
     def request(

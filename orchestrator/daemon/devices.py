@@ -165,7 +165,7 @@ class RigDevices:
         self._tilt_deg = 0.0
 
     def home(self, *, laser: bool) -> None:
-        """Home the turntable, enable the arc, lamps off; check and level the laser unit."""
+        """Lamps off, home the turntable and the arc; check the laser unit, tilt it to 0."""
         self.lamps.switch(frozenset())
         self.turntable.home()
         self.arc.home()

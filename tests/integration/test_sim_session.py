@@ -94,7 +94,7 @@ def test_dead_lamp_pauses_the_session_and_resume_retries_the_step(scene, tmp_pat
             assert status["state"] == "paused", status
             fault = status["session"]["fault"]
             assert "lamp" in fault["device"] and lamp in fault["detail"], fault
-            sim.motion.lamp_bank.revive_lamp(lamp)
+            sim.peers["lamp_bank"].revive_lamp(lamp)
             client.resume(connect=endpoints)
             return client.wait_for_state(
                 endpoints, client.TERMINAL_STATES, settled=True, timeout_s=60
@@ -123,13 +123,13 @@ def test_drive_fault_while_homing_fails_the_session_naming_the_drive(scene, tmp_
 def test_stalled_turntable_pauses_naming_it_and_resume_finishes(scene, tmp_path):
     clock = VirtualClock()
     with SimulatedRig(scene, clock=clock) as sim:
-        sim.motion.turntable.set_stall(0.5)  # every move stops halfway
+        sim.peers["turntable"].set_stall(0.5)  # every move stops halfway
 
         def unjam_and_resume(endpoints, status):
             assert status["state"] == "paused", status
             fault = status["session"]["fault"]
             assert "turntable" in fault["device"], fault
-            sim.motion.turntable.set_stall(None)
+            sim.peers["turntable"].set_stall(None)
             client.resume(connect=endpoints)
             return client.wait_for_state(
                 endpoints, client.TERMINAL_STATES, settled=True, timeout_s=60
@@ -150,7 +150,7 @@ def test_scene_fault_tables_are_injected_and_bad_peers_refused(tmp_path):
     scene["render"]["scale"] = 0.1
     scene["faults"] = {"laser": {"battery_mv": 6000}}
     with SimulatedRig(scene_from_dict(scene), clock=VirtualClock()) as sim:
-        assert sim.brick.faults.battery_mv == 6000
+        assert sim.peers["laser"].brick.faults.battery_mv == 6000
     scene["faults"] = {"toaster": {"burn": True}}
     with pytest.raises(ConfigError, match=r"unknown peer\(s\) \['toaster'\]; valid are"):
         SimulatedRig(scene_from_dict(scene), clock=VirtualClock())

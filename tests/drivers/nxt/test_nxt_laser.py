@@ -2,12 +2,13 @@
 pyusb (with the fake brick as its backend) and a pty speaking Bluetooth framing."""
 
 import pytest
-from rig.connections import NxtConnection, Retry
 
+from drivers import open_device
 from drivers.errors import DeviceError, DeviceFault, DeviceTimeout, MotionStalled, ProtocolError
-from drivers.nxt import NxtLaser
+from drivers.interfaces import Axis, LaserUnit
 from rig.clock import VirtualClock
 from rig.config import RigConfig
+from rig.devices import Retry
 from sim.peers.nxt import FakeNxtBrick, FakeNxtUsbBackend, NxtSerialPeer
 from sim.world import World
 
@@ -24,22 +25,37 @@ def brick(world):
     return FakeNxtBrick(world)
 
 
+def _section(world, **device):
+    """The world's laser section with its NXT device changed as given."""
+    laser = world.config.laser
+    return laser.model_copy(update={"device": laser.device.model_copy(update=device)})
+
+
 @pytest.fixture(params=["usb", "serial"])
 def laser(request, world, brick):
     """An ``NxtLaser`` on the fake brick over one transport; closed afterwards."""
     if request.param == "usb":
-        connection = NxtConnection(transport="usb", retry=RETRY)
-        config = world.config.laser.model_copy(update={"brick": connection})
-        driver = NxtLaser.open(config, clock=world.clock, usb_backend=FakeNxtUsbBackend(brick))
+        section = _section(world, transport="usb", retry=RETRY)
+        backend = FakeNxtUsbBackend(brick)
+        driver = open_device("laser", section, clock=world.clock, usb_backend=backend)
         yield driver
         driver.close()
     else:
         with NxtSerialPeer(brick) as peer:
-            connection = NxtConnection(transport="serial", serial_port=peer.port, retry=RETRY)
-            config = world.config.laser.model_copy(update={"brick": connection})
-            driver = NxtLaser.open(config, clock=world.clock)
+            section = _section(world, transport="serial", serial_port=peer.port, retry=RETRY)
+            driver = open_device("laser", section, clock=world.clock)
             yield driver
             driver.close()
+
+
+def test_satisfies_the_interfaces(laser):
+    assert isinstance(laser, LaserUnit)
+    assert isinstance(laser.tilt, Axis)
+
+
+def _move(laser, deg: float) -> float:
+    laser.tilt.move_to(deg)
+    return laser.tilt.wait_until_settled()
 
 
 def test_device_name_says_which_transport(laser):
@@ -69,44 +85,46 @@ def test_laser_switch_reaches_the_world(laser, world):
 
 
 def test_move_tilts_the_world_axis_through_the_gear_ratio(laser, world):
-    gear = world.config.laser.gear_ratio
-    laser.zero_tilt()
+    gear = world.config.laser.device.gear_ratio
+    laser.tilt.zero()
     t0 = world.clock.now()
-    reached = laser.move_tilt(6.0)
+    reached = _move(laser, 6.0)
     # 6° of tilt at 1/24 °/motor-degree: 144 motor degrees, whole counts.
     assert reached == pytest.approx(round(6.0 / gear) * gear)
     assert world.position("laser_tilt") == pytest.approx(reached, abs=0.5 * gear)
-    assert laser.tilt_deg() == pytest.approx(reached)
+    assert laser.tilt.position() == pytest.approx(reached)
     # The move took world time: at least distance / speed of the tilt axis.
     assert world.clock.now() - t0 >= 6.0 / world.config.laser.sweep_speed_deg_s - 1e-9
-    back = laser.move_tilt(-6.0)
+    back = _move(laser, -6.0)
     assert back == pytest.approx(round(-6.0 / gear) * gear)
     assert world.position("laser_tilt") == pytest.approx(back, abs=0.5 * gear)
 
 
 def test_zero_tilt_makes_the_present_position_zero(laser, world):
-    laser.zero_tilt()
-    laser.move_tilt(3.0)
-    laser.zero_tilt()
-    assert laser.tilt_deg() == 0.0
-    laser.move_tilt(-2.0)
-    assert world.position("laser_tilt") == pytest.approx(1.0, abs=world.config.laser.gear_ratio)
+    laser.tilt.zero()
+    _move(laser, 3.0)
+    laser.tilt.zero()
+    assert laser.tilt.position() == 0.0
+    _move(laser, -2.0)
+    assert world.position("laser_tilt") == pytest.approx(
+        1.0, abs=world.config.laser.device.gear_ratio
+    )
 
 
 def test_target_outside_the_tilt_range_is_refused_before_anything_moves(laser, brick):
     before = brick.telegrams
     with pytest.raises(DeviceError, match=r"tilt to 40.0°.*outside the unit's tilt range ±30.0°"):
-        laser.move_tilt(40.0)
+        _move(laser, 40.0)
     assert brick.telegrams == before
 
 
 def test_stall_is_detected_and_the_motor_stopped(laser, world, brick):
-    laser.zero_tilt()
+    laser.tilt.zero()
     brick.faults.stall_fraction = 0.5
     with pytest.raises(
         MotionStalled, match=r"stopped at 2\.\d+° tilt .*no progress for 1.0 s"
     ) as info:
-        laser.move_tilt(5.0)
+        _move(laser, 5.0)
     assert info.value.device == laser.device
     assert world.position("laser_tilt") == pytest.approx(2.5, abs=0.05)
     assert not world.is_moving("laser_tilt")
@@ -114,11 +132,13 @@ def test_stall_is_detected_and_the_motor_stopped(laser, world, brick):
 
 
 def test_lost_replies_are_retried_and_a_move_is_not_doubled(laser, world, brick):
-    laser.zero_tilt()
+    laser.tilt.zero()
     brick.faults.lost_replies = 2  # the GET before the move, then the move's own reply
-    reached = laser.move_tilt(4.0)
-    assert reached == pytest.approx(4.0, abs=world.config.laser.gear_ratio)
-    assert world.position("laser_tilt") == pytest.approx(4.0, abs=world.config.laser.gear_ratio)
+    reached = _move(laser, 4.0)
+    assert reached == pytest.approx(4.0, abs=world.config.laser.device.gear_ratio)
+    assert world.position("laser_tilt") == pytest.approx(
+        4.0, abs=world.config.laser.device.gear_ratio
+    )
     assert brick.faults.lost_replies == 0
 
 
@@ -151,18 +171,32 @@ def test_a_deaf_brick_times_out_after_the_retries(laser, brick):
 def test_a_move_to_a_deaf_brick_fails_naming_the_target(laser, brick):
     brick.faults.deaf = True
     with pytest.raises(DeviceTimeout, match=r"tilt to 2.0° failed"):
-        laser.move_tilt(2.0)
+        _move(laser, 2.0)
 
 
 def test_real_usb_path_is_the_same_code_without_a_fake_backend(world):
     # No NXT is plugged into CI: libusb (or its absence) says so, by name.
-    config = world.config.laser.model_copy(update={"brick": NxtConnection(retry=RETRY)})
     with pytest.raises(DeviceError, match=r"laser brick|usb 0694:0002: open failed"):
-        NxtLaser.open(config, clock=world.clock)
+        open_device("laser", _section(world, retry=RETRY), clock=world.clock)
 
 
 def test_real_serial_path_names_the_missing_port(world):
-    connection = NxtConnection(transport="serial", serial_port="/dev/rfcomm-none", retry=RETRY)
-    config = world.config.laser.model_copy(update={"brick": connection})
-    with pytest.raises(DeviceError, match=r"serial /dev/rfcomm-none: open failed: cannot open"):
-        NxtLaser.open(config, clock=world.clock)
+    section = _section(world, transport="serial", serial_port="/dev/rfcomm-none", retry=RETRY)
+    with pytest.raises(
+        DeviceError, match=r"laser brick \(serial /dev/rfcomm-none\): open failed: cannot open"
+    ):
+        open_device("laser", section, clock=world.clock)
+
+
+def test_a_tilt_that_crawls_times_out_and_the_motor_is_braked(laser, world, brick):
+    # The brick keeps turning (no stall) but far slower than the unit's tilt speed:
+    # the wait is bounded by twice the expected move time plus 1 s, not forever.
+    laser.tilt.zero()
+    laser.tilt.speed_deg_s = 100.0  # expected: 4° in 0.04 s; the world tilts at 1°/s
+    t0 = world.clock.now()
+    laser.tilt.move_to(4.0)
+    with pytest.raises(DeviceTimeout, match=r"tilt to 4.0° failed: still moving at .* after 1.1 s"):
+        laser.tilt.wait_until_settled()
+    assert world.clock.now() - t0 == pytest.approx(1.1, abs=0.1)
+    assert not world.is_moving("laser_tilt")
+    assert brick.outputs[brick.tilt_port].power == 0

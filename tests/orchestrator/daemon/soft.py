@@ -72,18 +72,13 @@ class SoftRig:
 class SoftAxis:
     def __init__(self, rig: SoftRig, name: str, axis: Axis):
         self.rig, self.name, self.axis = rig, name, axis
+        self.settle_s = axis.settle_s
         self._target = None
 
     def home(self) -> None:
         self._check("home")
         self.rig.clock.sleep(float(self.axis.move_time_s(getattr(self.rig, self._attr))))
         setattr(self.rig, self._attr, 0.0)
-
-    def enable(self) -> None:
-        self._check("enable")
-
-    def disable(self) -> None:
-        pass
 
     @property
     def _attr(self) -> str:
@@ -149,39 +144,50 @@ class SoftLamps:
         self.rig.closed += 1
 
 
+class SoftTilt:
+    name = "laser tilt"
+    settle_s = 0.0
+
+    def __init__(self, rig: SoftRig):
+        self.rig = rig
+        self._start = (0.0, 0.0, 0.0)  # (t, from, to)
+
+    def home(self) -> None:
+        self.move_to(0.0)
+        self.wait_until_settled()
+
+    def move_to(self, deg: float) -> None:
+        self._start = (self.rig.clock.now(), self.position(), deg)
+
+    def position(self) -> float:
+        t0, a, b = self._start
+        speed = self.rig.config.laser.sweep_speed_deg_s
+        done = min(1.0, (self.rig.clock.now() - t0) * speed / abs(b - a)) if b != a else 1.0
+        return a + (b - a) * done
+
+    def wait_until_settled(self, timeout_s: float | None = None) -> float:
+        t0, a, b = self._start
+        end = t0 + abs(b - a) / self.rig.config.laser.sweep_speed_deg_s
+        self.rig.clock.sleep(max(0.0, end - self.rig.clock.now()))
+        return b
+
+    def stop(self) -> None:
+        pass
+
+    def close(self) -> None:
+        pass
+
+
 class SoftLaser:
     def __init__(self, rig: SoftRig):
         self.rig = rig
-        self._tilt = 0.0
-        self._start = (0.0, 0.0, 0.0)  # (t, from, to)
+        self.tilt = SoftTilt(rig)
 
     def check_battery(self) -> int:
         return 8000
 
     def set_laser(self, on: bool) -> None:
         self.rig.laser_on = on
-
-    def start_tilt(self, target_deg: float) -> None:
-        self._start = (self.rig.clock.now(), self.tilt_deg(), target_deg)
-
-    def tilt_deg(self) -> float:
-        t0, a, b = self._start
-        speed = self.rig.config.laser.sweep_speed_deg_s
-        done = min(1.0, (self.rig.clock.now() - t0) * speed / abs(b - a)) if b != a else 1.0
-        return a + (b - a) * done
-
-    def wait_tilt(self, target_deg: float) -> float:
-        t0, a, b = self._start
-        end = t0 + abs(b - a) / self.rig.config.laser.sweep_speed_deg_s
-        self.rig.clock.sleep(max(0.0, end - self.rig.clock.now()))
-        return b
-
-    def move_tilt(self, target_deg: float) -> float:
-        self.start_tilt(target_deg)
-        return self.wait_tilt(target_deg)
-
-    def stop(self) -> None:
-        pass
 
     def close(self) -> None:
         self.rig.closed += 1

@@ -12,7 +12,7 @@ from sim.peers import DynamixelBusPeer
 from sim.peers.dynamixel import PacketReader, encode
 from sim.world import World
 
-ARC = default_rig_config().light_arc.model_copy(update={"servo_ids": (1, 2)})
+SERVOS = default_rig_config().light_arc.device.model_copy(update={"ids": (1, 2)})
 
 
 def h(text: str) -> bytes:
@@ -26,7 +26,7 @@ def world():
 
 @pytest.fixture
 def bus(world):
-    peer = DynamixelBusPeer(world, arc=ARC).start()
+    peer = DynamixelBusPeer(world, servos=SERVOS).start()
     yield peer
     peer.stop()
 
@@ -144,14 +144,14 @@ def test_reply_faults(line, bus):
 
 def test_fault_table(world):
     peer = DynamixelBusPeer(
-        world, arc=ARC, faults={"hardware_error": {2: 0x04}, "stall_fraction": 0.25}
+        world, servos=SERVOS, faults={"hardware_error": {2: 0x04}, "stall_fraction": 0.25}
     )
     assert peer.servos[2].hardware_error == 0x04
     assert world.arc.stall_fraction == 0.25
     with pytest.raises(ConfigError, match=r"unknown fault\(s\) \['smoke'\]; valid are"):
         DynamixelBusPeer(world, faults={"smoke": True})
     with pytest.raises(ConfigError, match="no servo 9 on the bus"):
-        DynamixelBusPeer(world, arc=ARC, faults={"hardware_error": {9: 1}})
+        DynamixelBusPeer(world, servos=SERVOS, faults={"hardware_error": {9: 1}})
 
 
 def test_stop_is_idempotent_and_closes_the_pty(world):

@@ -8,7 +8,8 @@ from pymodbus.client import ModbusSerialClient, ModbusTcpClient
 from pymodbus.constants import ExcCodes
 
 from rig.clock import VirtualClock
-from rig.config import LampBankRegisters, default_rig_config
+from rig.config import default_rig_config
+from rig.devices import LampBankRegisters
 from rig.errors import ConfigError
 from sim.peers import LampBankPeer, PtyNullModem, ReplyFaults, TurntableDrivePeer
 from sim.world import World

@@ -57,7 +57,7 @@ def test_tacho_limited_move_takes_world_time_and_counts_degrees(brick, world):
     state = _output_state(brick.handle(bytes.fromhex("00 06 00")))
     assert (state["status"], state["run"], state["limit"], state["power"]) == (0, 0x20, 240, 50)
     assert state["rotation"] == 0
-    tilt = 240 * world.config.laser.gear_ratio  # 10° of sheet tilt
+    tilt = 240 * world.config.laser.device.gear_ratio  # 10° of sheet tilt
     world.clock.sleep(tilt / world.config.laser.sweep_speed_deg_s / 2)  # half way in time
     mid = _output_state(brick.handle(bytes.fromhex("00 06 00")))
     assert 60 < mid["rotation"] < 180

@@ -1,0 +1,76 @@
+"""``build_devices`` opens every role through the registry, on the simulator's peers."""
+
+import pytest
+
+from drivers.errors import DeviceError
+from orchestrator.daemon import build_devices
+from rig.clock import VirtualClock
+from rig.config import default_rig_config
+from rig.devices import DEVICE_ROLES, Retry
+from sim.peers import CameraServer, start_peer
+from sim.world import World
+
+FAST = Retry(timeout_s=0.2, retries=1, backoff_s=0.01)
+
+
+@pytest.fixture
+def world():
+    return World(default_rig_config(), VirtualClock())
+
+
+@pytest.fixture
+def peers(world):
+    started = {role: start_peer(role, getattr(world.config, role), world) for role in DEVICE_ROLES}
+    yield started
+    for peer in started.values():
+        peer.stop()
+
+
+def _on_peers(config, peers, **laser_device):
+    update = {}
+    for role, peer in peers.items():
+        section = peer.connect(getattr(config, role))
+        changes = {"retry": FAST, **(laser_device if role == "laser" else {})}
+        update[role] = section.model_copy(
+            update={"device": section.device.model_copy(update=changes)}
+        )
+    cameras = config.camera_arc.model_copy(update={"cameras": config.camera_arc.cameras[:1]})
+    return config.model_copy(update={**update, "camera_arc": cameras})
+
+
+def _render(camera_id, snapshot, exposure_s):
+    raise AssertionError("no frame is captured here")
+
+
+def test_every_role_opens_and_a_second_daemon_is_refused(world, peers):
+    with CameraServer(world, _render) as cameras:
+        config = _on_peers(world.config, peers)
+        spec = config.camera_arc.cameras[0]
+        connection = spec.connection.model_copy(update={"url": cameras.url})
+        cam = config.camera_arc.model_copy(
+            update={"cameras": (spec.model_copy(update={"connection": connection}),)}
+        )
+        config = config.model_copy(update={"camera_arc": cam})
+        devices = build_devices(config, clock=world.clock)
+        try:
+            devices.home(laser=True)
+            moved = devices.move(turntable_deg=90.0, arc_deg=20.0)
+            with pytest.raises(
+                DeviceError, match=r"turntable: open failed: .* is in use by process"
+            ):
+                build_devices(config, clock=world.clock)
+        finally:
+            devices.close()
+    assert moved == pytest.approx({"turntable_deg": 90.0, "arc_deg": 20.0}, abs=0.05)
+    snap = world.snapshot()
+    assert (snap.turntable_deg, snap.arc_deg) == pytest.approx((90.0, 20.0), abs=0.05)
+
+
+def test_a_device_that_fails_to_open_closes_those_opened_before(world, peers):
+    broken = _on_peers(world.config, peers, serial_port="/dev/rfcomm-none")
+    with pytest.raises(DeviceError, match=r"laser brick \(serial /dev/rfcomm-none\): open failed"):
+        build_devices(broken, clock=world.clock)
+    # the turntable, arc and lamp bank were closed again: their locks are free
+    fixed = _on_peers(world.config, peers)
+    devices = build_devices(fixed, clock=world.clock, laser=True)
+    devices.close()
