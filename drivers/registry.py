@@ -15,37 +15,24 @@ being listed anywhere. Roles: ``turntable``, ``light_arc`` (axes: return a
 
 from __future__ import annotations
 
-import importlib
-import pkgutil
 from collections.abc import Callable
 from typing import Any
 
 from drivers.errors import DeviceError
 from rig.clock import Clock
 from rig.devices import DEVICE_ROLES
+from rig.registry import KindRegistry
 
 __all__ = ["ROLES", "open_device", "register"]
 
 ROLES = (*DEVICE_ROLES, "camera")
 
-Opener = Callable[..., Any]
-_OPENERS: dict[tuple[str, str], Opener] = {}
-_discovered = False
+_REGISTRY = KindRegistry("drivers", ROLES)
 
 
-def register(role: str, kind: str) -> Callable[[Opener], Opener]:
+def register(role: str, kind: str) -> Callable[[Callable], Callable]:
     """Decorator: ``opener(section, *, clock, **options)`` opens ``kind`` devices in ``role``."""
-    if role not in ROLES:
-        raise ValueError(f"register: unknown role {role!r}; valid are {list(ROLES)}")
-
-    def add(opener: Opener) -> Opener:
-        existing = _OPENERS.get((role, kind))
-        if existing is not None and existing is not opener:
-            raise ValueError(f"register: {role}/{kind} is registered twice")
-        _OPENERS[(role, kind)] = opener
-        return opener
-
-    return add
+    return _REGISTRY.register(role, kind)
 
 
 def open_device(role: str, section: Any, *, clock: Clock, **options: Any) -> Any:
@@ -56,25 +43,11 @@ def open_device(role: str, section: Any, *, clock: Clock, **options: Any) -> Any
     kind when no family serves them, and whatever the driver raises on open.
     """
     kind = section.device.kind
-    opener = _OPENERS.get((role, kind))
+    opener = _REGISTRY.lookup(role, kind)
     if opener is None:
-        _discover()
-        opener = _OPENERS.get((role, kind))
-    if opener is None:
-        served = sorted(k for r, k in _OPENERS if r == role)
+        served = _REGISTRY.served(role)
         raise DeviceError(
             role, "open", f"no driver for kind {kind!r}; the installed drivers serve {served}"
         )
     return opener(section, clock=clock, **options)
 
-
-def _discover() -> None:
-    global _discovered
-    if _discovered:
-        return
-    import drivers
-
-    for module in pkgutil.iter_modules(drivers.__path__):
-        if not module.name.startswith("_"):
-            importlib.import_module(f"drivers.{module.name}")
-    _discovered = True

@@ -17,13 +17,12 @@ every camera kind.
 
 from __future__ import annotations
 
-import importlib
-import pkgutil
 from collections.abc import Callable, Mapping
 from typing import Any, Protocol
 
 from rig.devices import DEVICE_ROLES
 from rig.errors import ConfigError
+from rig.registry import KindRegistry
 from sim.world import World
 
 __all__ = ["Peer", "register_peer", "start_peer"]
@@ -39,24 +38,12 @@ class Peer(Protocol):
         """Stop answering and release ports and threads; idempotent."""
 
 
-Starter = Callable[..., Peer]
-_STARTERS: dict[tuple[str, str], Starter] = {}
-_discovered = False
+_REGISTRY = KindRegistry("sim.peers", DEVICE_ROLES)
 
 
-def register_peer(role: str, kind: str) -> Callable[[Starter], Starter]:
+def register_peer(role: str, kind: str) -> Callable[[Callable], Callable]:
     """Decorator: ``starter(section, world, *, faults, serial)`` starts ``kind`` in ``role``."""
-    if role not in DEVICE_ROLES:
-        raise ValueError(f"register_peer: unknown role {role!r}; valid are {list(DEVICE_ROLES)}")
-
-    def add(starter: Starter) -> Starter:
-        existing = _STARTERS.get((role, kind))
-        if existing is not None and existing is not starter:
-            raise ValueError(f"register_peer: {role}/{kind} is registered twice")
-        _STARTERS[(role, kind)] = starter
-        return starter
-
-    return add
+    return _REGISTRY.register(role, kind)
 
 
 def start_peer(
@@ -79,25 +66,11 @@ def start_peer(
         TCP or RTU), serve the serial line, on a pty
     """
     kind = section.device.kind
-    starter = _STARTERS.get((role, kind))
+    starter = _REGISTRY.lookup(role, kind)
     if starter is None:
-        _discover()
-        starter = _STARTERS.get((role, kind))
-    if starter is None:
-        served = sorted(k for r, k in _STARTERS if r == role)
+        served = _REGISTRY.served(role)
         raise ConfigError(
             f"{role}.device: no simulated peer for kind {kind!r}; the simulator has {served}"
         )
     return starter(section, world, faults=dict(faults or {}), serial=serial)
 
-
-def _discover() -> None:
-    global _discovered
-    if _discovered:
-        return
-    import sim.peers
-
-    for module in pkgutil.iter_modules(sim.peers.__path__):
-        if not module.name.startswith("_"):
-            importlib.import_module(f"sim.peers.{module.name}")
-    _discovered = True
