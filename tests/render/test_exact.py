@@ -18,7 +18,7 @@ weight (the nearest-direction blend instead, say) misses it 30–260 times.
 import numpy as np
 import pytest
 
-from processing.btf import interpolate
+from processing.btf import compress_btf, interpolate
 from render import Camera, DirectionalLight, Renderer
 from rig.geometry import direction_vector
 from tests.render.conftest import LIGHTS, SAMPLE_MM, VIEWS, N, material, ps_view, tilted_quad
@@ -80,3 +80,14 @@ def test_ps_shading_matches_numpy_lambert(view_deg, light_deg):
     )
     assert (expected > 0.05).mean() > 0.5  # most texels lit: the comparison means something
     np.testing.assert_allclose(image, expected, atol=1e-5, rtol=1e-4)
+
+
+def test_grey_btf_shades_all_three_channels_alike(synthetic_btf):
+    """A one-channel material (C = 1) renders grey: each channel equals the CPU's value."""
+    grey = np.asarray(synthetic_btf)[..., 1:2]
+    model = compress_btf(grey, view_dirs_deg=VIEWS, light_dirs_deg=LIGHTS, components=4)
+    image = render_at(material(model), (23.0, 41.0), (47.0, 200.0))
+    expected = interpolate(model, view_deg=(23.0, 41.0), light_deg=(47.0, 200.0))
+    assert expected.shape == (N, N, 1)
+    np.testing.assert_allclose(image, np.repeat(expected, 3, axis=2),
+                               atol=FLOAT16_EPS * np.abs(expected).max())  # fmt: skip
