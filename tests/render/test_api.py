@@ -106,3 +106,10 @@ def test_renderer_errors_name_the_option(pca_model):
         pytest.raises(RenderError, match=f"up to {MAX_LIGHTS}"),
     ):
         renderer.render(frontal_camera(), too_many)
+
+
+def test_no_lights_give_a_black_image(pca_model):
+    with Renderer(material(pca_model), plane(size_mm=SAMPLE_MM)) as renderer:
+        image = renderer.render(frontal_camera(), [])
+    assert image.shape == (16, 16, 3)
+    assert not image.any()
