@@ -1,8 +1,9 @@
 """The renderer: a measured material on a mesh under point and directional lights.
 
-One program per renderer, compiled for what the material holds (a per-view
-PCA or global-SVD BTF, photometric-stereo maps, or both); textures, lookups
-and buffers are made once and reused for every frame. Per fragment the view
+A renderer compiles its shader for what the material holds (a per-view PCA or
+global-SVD BTF, photometric-stereo maps, or both) and for each number of
+lights it is asked for; textures, lookups, programs and buffers are made once
+and reused for every frame. Per fragment the view
 and light directions go to the tangent frame, become (θ, φ), and blend the
 measured view slots and lights exactly as ``processing.btf.interpolate``
 (seed 000 §4.2 eq. (3)–(5), seed 001 §5), with macro shadows from per-light
