@@ -43,6 +43,7 @@ Blend blend_nearest(isampler2DArray cand, sampler2D table, int k, ivec2 cell, ve
     ivec4 idx = ivec4(0);
     for (int layer = 0; layer < CANDIDATES / 4; ++layer) {
         ivec4 c4 = texelFetch(cand, ivec3(cell, layer), 0);
+        if (c4.x < 0) break;  // lists are −1 padded: nothing beyond
         for (int m = 0; m < 4; ++m) {
             int t = c4[m];
             if (t < 0) break;
@@ -83,6 +84,7 @@ Blend blend_barycentric(isampler2DArray cand, sampler2D table, ivec2 cell, vec3 
     int tri = -1;
     for (int layer = 0; layer < CANDIDATES / 4; ++layer) {
         ivec4 c4 = texelFetch(cand, ivec3(cell, layer), 0);
+        if (c4.x < 0) break;  // lists are −1 padded: nothing beyond
         for (int m = 0; m < 4; ++m) {
             int t = c4[m];
             if (t < 0) break;
