@@ -74,7 +74,7 @@ class _PlainQuad:
             vertex_shader=shader_source("surface.vert"), fragment_shader=shader_source("plain.frag")
         )
         self.vao = vertex_array(ctx, self.program, renderer.vbo, renderer.ibo)
-        self.program["uv_scale"].value = renderer.program["uv_scale"].value
+        self.program["uv_scale"].value = renderer.uv_scale
         self.program["mean_tex"].value = 0
         self.texture = renderer.btf_textures.mean
         self.bounds = renderer.bounds_center, renderer.bounds_radius

@@ -5,6 +5,7 @@ import pytest
 
 from processing.btf import interpolate
 from render import MAX_LIGHTS, Camera, DirectionalLight, PointLight, Renderer, RenderError
+from render.lights import MAX_EMISSION
 from render.meshes import plane
 from rig.geometry import direction_vector
 from tests.render.conftest import SAMPLE_MM, material, ps_view, tilted_quad
@@ -85,6 +86,8 @@ def test_camera_and_light_errors_name_the_field():
         DirectionalLight((0, 0, 1), intensity=-1)
     with pytest.raises(RenderError, match="colour"):
         PointLight((0, 0, 1), colour=(1, 1))
+    with pytest.raises(RenderError, match="at most 1e"):
+        PointLight((0, 0, 1), colour=(1, 2, 1), intensity=MAX_EMISSION)
 
 
 def test_renderer_errors_name_the_option(pca_model):
@@ -106,3 +109,10 @@ def test_renderer_errors_name_the_option(pca_model):
         pytest.raises(RenderError, match=f"up to {MAX_LIGHTS}"),
     ):
         renderer.render(frontal_camera(), too_many)
+
+
+def test_no_lights_give_a_black_image(pca_model):
+    with Renderer(material(pca_model), plane(size_mm=SAMPLE_MM)) as renderer:
+        image = renderer.render(frontal_camera(), [])
+    assert image.shape == (16, 16, 3)
+    assert not image.any()
