@@ -93,7 +93,7 @@ def reporting_errors(*, debug: bool = False) -> Iterator[None]:
         if debug:
             err_console.print_exception()
         # rich markup would eat bracketed text of the message ("[…]", "[dask]")
-        err_console.print(f"[red]error:[/red] {escape(message)}")
+        err_console.print(f"[red]error:[/red] {escape(message)}", soft_wrap=True)  # paths whole
         raise typer.Exit(code) from err
 
 
