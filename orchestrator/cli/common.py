@@ -14,7 +14,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from typer.core import TyperGroup
 
 from rig.config import RigConfig, default_rig_config, load_rig_config
-from rig.errors import ConfigError, PlanError, RigError
+from rig.errors import ConfigError, KinematicsError, PlanError, RigError
 
 __all__ = [
     "EXIT_FAILURE",
@@ -57,7 +57,7 @@ EXTRAS = {
 
 def _report(err: Exception) -> tuple[str, int]:
     """The one-line reason and exit code of an error that ends a command."""
-    if isinstance(err, PlanError | ConfigError):
+    if isinstance(err, PlanError | ConfigError | KinematicsError):  # what was asked is wrong
         return str(err), EXIT_INVALID
     if isinstance(err, RigError):
         return str(err), EXIT_FAILURE
