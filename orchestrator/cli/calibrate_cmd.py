@@ -11,10 +11,11 @@ import typer
 from orchestrator.cli.common import (
     EXIT_FAILURE,
     SessionProgress,
+    check_new_archive,
     console,
     load_config_option,
 )
-from rig.errors import ConfigError
+from rig.errors import ConfigError, RigError
 
 __all__ = ["register"]
 
@@ -112,9 +113,7 @@ def _plan(target: str, rig, archive: Path, *, poses: int, cameras) -> str:
 def _capture(target: str, rig, plan: str, archive: Path, *, sim: bool, scale: float) -> None:
     from orchestrator.daemon import run_local
 
-    if archive.exists():
-        raise ConfigError(f"--archive {archive} exists; give a new path or use --from {archive}")
-    archive.parent.mkdir(parents=True, exist_ok=True)
+    check_new_archive(archive, "--archive", otherwise=f"compute from it with --from {archive}")
     plan_path = archive.with_suffix(".plan.toml")
     plan_path.write_text(plan)
     console.print(f"plan: {plan_path}")
@@ -132,7 +131,7 @@ def _capture(target: str, rig, plan: str, archive: Path, *, sim: bool, scale: fl
         with SessionProgress() as view:
             final = run_local(plan_path, rig, archive=archive, on_event=view)
     if final.get("state") != "done":
-        raise ConfigError(f"the calibration session ended {final.get('state')}: {final}")
+        raise RigError(f"the calibration session ended {final.get('state')}: {final}")
 
 
 def _compute(target: str, source: Path, rig, out: Path | None, apply: list[Path]) -> dict:

@@ -215,6 +215,13 @@ def test_run_refuses_an_archive_under_a_file(tmp_path):
     _fails_cleanly(result, 2, "exists", "rig resume")
 
 
+def test_replay_refuses_an_output_under_a_file(tmp_path):
+    (tmp_path / "afile").write_text("")
+    target = tmp_path / "afile" / "r.zarr"
+    result = runner.invoke(app, ["replay", "any.zarr", "--out", str(target)])
+    _fails_cleanly(result, 2, f"--out {target}", f"{tmp_path / 'afile'} is a file")
+
+
 def test_a_damaged_archive_is_named(tmp_path):
     damaged = tmp_path / "d.zarr"
     damaged.mkdir()
