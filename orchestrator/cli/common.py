@@ -57,7 +57,7 @@ EXTRAS = {
 
 
 def _report(err: Exception) -> tuple[str, int]:
-    """The one-line reason and exit code of an error that ends a command."""
+    """The message and exit code of an error that ends a command."""
     if isinstance(err, PlanError | ConfigError | KinematicsError):  # what was asked is wrong
         return str(err), EXIT_INVALID
     if isinstance(err, RigError):
