@@ -255,19 +255,17 @@ scan_step_deg = 4.0
 """
 
 
-@pytest.fixture(scope="module")
-def saturated(tmp_path_factory):
-    """A finished session of a scene so bright that every frame clips."""
+def _record(tmp: Path, radiometry: dict) -> Path:
+    """A finished session of the bumps scene, with ``radiometry`` replaced."""
     from orchestrator.daemon import run_local
     from rig.clock import VirtualClock
     from sim.rig import SimulatedRig
     from sim.scene import scene_from_dict
 
-    tmp = tmp_path_factory.mktemp("saturated")
     scene = tomllib.loads(Path("examples/scenes/bumps.toml").read_text())
     scene["render"]["scale"] = 0.2
     scene["effects"] = ["laser", "saturation"]
-    scene["radiometry"] = {"full_scale_exposure": 1e-6}
+    scene["radiometry"] = radiometry
     (tmp / "plan.toml").write_text(SATURATED_PLAN)
     clock = VirtualClock()
     with SimulatedRig(scene_from_dict(scene), clock=clock) as sim:
@@ -276,18 +274,32 @@ def saturated(tmp_path_factory):
     return tmp / "s.zarr"
 
 
-def test_a_stage_that_can_use_nothing_is_skipped_and_the_others_run(saturated, tmp_path):
+@pytest.fixture(scope="module")
+def saturated(tmp_path_factory):
+    """A session of a scene so bright that every frame clips."""
+    return _record(tmp_path_factory.mktemp("saturated"), {"full_scale_exposure": 1e-6})
+
+
+@pytest.fixture(scope="module")
+def black(tmp_path_factory):
+    """A session of lamps so weak that every frame is black."""
+    return _record(tmp_path_factory.mktemp("black"), {"intensity_w_sr": 1e-9})
+
+
+@pytest.mark.parametrize("session", ["saturated", "black"])
+def test_a_stage_that_can_use_nothing_is_skipped_and_the_others_run(request, session, tmp_path):
     from rig.archive import Archive
 
+    archive = request.getfixturevalue(session)
     previews = tmp_path / "previews"
-    args = ["process", str(saturated), "--stages", "btf,mdf", "--size", "16"]
+    args = ["process", str(archive), "--stages", "btf,mdf", "--size", "16"]
     result = runner.invoke(app, [*args, "--previews", str(previews)])
     _fails_cleanly(result, 1, "1 of 2 stage(s) skipped: btf")
     assert "btf: skipped — no view slot could be registered" in result.output
     assert "3 frame(s) flagged: TOO_FEW_MARKERS ×3" in result.output
     assert "mdf: 1 item(s) → material/mdf" in result.output
-    with Archive.open(saturated, mode="r") as archive:
-        assert "mdf" in archive.material and "btf" not in archive.material
+    with Archive.open(archive, mode="r") as recorded:
+        assert "mdf" in recorded.material and "btf" not in recorded.material
     assert [p.name for p in previews.iterdir()] == ["cam0_tt000.0_mdf.png"]
 
 
