@@ -171,6 +171,10 @@ def test_daemon_options_are_checked(args, needles):
 
 
 def test_brackets_in_a_message_are_shown(tmp_path):
+    plan = tmp_path / "p.toml"
+    plan.write_text('[sample]\nname = "x"\n[captures]\n')
+    result = runner.invoke(app, ["plan", str(plan)])
+    _fails_cleanly(result, 2, "add [captures.btf], .ps, .mdf or .fixed")
     result = runner.invoke(app, ["process", str(tmp_path / "a.zarr"), "--stages", "foo"])
     _fails_cleanly(result, 2, "unknown stage(s) ['foo']; valid are ['btf', 'mdf', 'ps']")
 
