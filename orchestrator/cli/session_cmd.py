@@ -43,10 +43,14 @@ def register(app: typer.Typer) -> None:
             str, typer.Option("--on-fault", help="pause (resume retries the step) or fail")
         ] = "pause",
         curve_secret_key: Annotated[
-            Path | None, typer.Option(help="the server's secret CURVE certificate")
+            Path | None,
+            typer.Option(exists=True, dir_okay=False, help="the server's secret CURVE certificate"),
         ] = None,
         curve_clients_dir: Annotated[
-            Path | None, typer.Option(help="folder of the allowed clients' public certificates")
+            Path | None,
+            typer.Option(
+                exists=True, file_okay=False, help="folder of the allowed clients' public certs"
+            ),
         ] = None,
     ) -> None:
         """Run the control daemon: owns the devices and one session at a time."""

@@ -170,6 +170,11 @@ def test_daemon_options_are_checked(args, needles):
     _fails_cleanly(runner.invoke(app, ["daemon", *args]), 2, *needles)
 
 
+def test_daemon_certificates_must_exist(tmp_path):
+    result = runner.invoke(app, ["daemon", "--curve-secret-key", str(tmp_path / "none.key")])
+    assert result.exit_code == 2 and "does not exist" in result.output
+
+
 def test_brackets_in_a_message_are_shown(tmp_path):
     plan = tmp_path / "p.toml"
     plan.write_text('[sample]\nname = "x"\n[captures]\n')
