@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
+from string import Formatter
 from typing import Annotated
 
 import numpy as np
@@ -216,6 +217,20 @@ class Resolution(_Closed):
 
 class Output(_Closed):
     archive: str = Field("sessions/{sample}.zarr", description="{sample} is replaced")
+
+    @field_validator("archive")
+    @classmethod
+    def _only_sample_in_braces(cls, value: str) -> str:
+        problem = "only {sample} may stand in braces (a literal brace is doubled: {{ or }})"
+        try:
+            fields = [
+                (f, spec, conv) for _, f, spec, conv in Formatter().parse(value) if f is not None
+            ]
+        except ValueError:  # a single brace
+            raise ValueError(problem) from None
+        if any(f != "sample" or spec or conv for f, spec, conv in fields):
+            raise ValueError(problem)
+        return value
 
 
 class Plan(_Closed):

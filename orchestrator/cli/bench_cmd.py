@@ -106,7 +106,7 @@ def _make(area: str):
         if json_out is not None:
             json_out.write_text(json.dumps(rows, indent=2, default=float))
 
-    command.__doc__ = f"Benchmark the {area} stage: accuracy against time."
+    command.__doc__ = f"Run the {area} benchmark (against baselines measured in the same run)."
     return command
 
 

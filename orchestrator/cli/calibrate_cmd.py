@@ -6,14 +6,16 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
+from rich.markup import escape
 
 from orchestrator.cli.common import (
     EXIT_FAILURE,
     SessionProgress,
+    check_new_archive,
     console,
     load_config_option,
 )
-from rig.errors import ConfigError
+from rig.errors import ConfigError, RigError
 
 __all__ = ["register"]
 
@@ -111,12 +113,10 @@ def _plan(target: str, rig, archive: Path, *, poses: int, cameras) -> str:
 def _capture(target: str, rig, plan: str, archive: Path, *, sim: bool, scale: float) -> None:
     from orchestrator.daemon import run_local
 
-    if archive.exists():
-        raise ConfigError(f"--archive {archive} exists; give a new path or use --from {archive}")
-    archive.parent.mkdir(parents=True, exist_ok=True)
+    check_new_archive(archive, "--archive", otherwise=f"compute from it with --from {archive}")
     plan_path = archive.with_suffix(".plan.toml")
     plan_path.write_text(plan)
-    console.print(f"plan: {plan_path}")
+    console.print(escape(f"plan: {plan_path}"))
     if sim:
         from rig.clock import VirtualClock
         from sim.calibration import target_scene
@@ -131,7 +131,7 @@ def _capture(target: str, rig, plan: str, archive: Path, *, sim: bool, scale: fl
         with SessionProgress() as view:
             final = run_local(plan_path, rig, archive=archive, on_event=view)
     if final.get("state") != "done":
-        raise ConfigError(f"the calibration session ended {final.get('state')}: {final}")
+        raise RigError(f"the calibration session ended {final.get('state')}: {final}")
 
 
 def _compute(target: str, source: Path, rig, out: Path | None, apply: list[Path]) -> dict:
@@ -147,11 +147,11 @@ def _compute(target: str, source: Path, rig, out: Path | None, apply: list[Path]
     provenance = Provenance.now(source.resolve(), software_versions())
     updated = current.with_section(target, section, provenance).model_copy(update=fields)
     write_calibration(updated, path)
-    console.print(f"calibration: {path} ({target})")
+    console.print(escape(f"calibration: {path} ({target})"))
     for session in apply:
         with Archive.open(session, mode="a") as recorded:
             version = recorded.set_calibration(updated.model_dump(mode="json", exclude_none=True))
-        console.print(f"{session}: calibration version {version}")
+        console.print(escape(f"{session}: calibration version {version}"))
     return failed
 
 
@@ -163,7 +163,7 @@ def _cameras(source: Path, path: Path):
     if not found:
         raise ConfigError(f"no camera could be calibrated from {source}: {failed}")
     console.print(camera_report(found, failed))
-    console.print(f"plot: {plot_camera_residuals(found, path.with_suffix('.cameras.png'))}")
+    console.print(escape(f"plot: {plot_camera_residuals(found, path.with_suffix('.cameras.png'))}"))
     return {camera_id: camera_result(cam) for camera_id, cam in found.items()}, failed, {}
 
 
@@ -191,7 +191,7 @@ def _response(source: Path, path: Path):
     if not curves:
         raise ConfigError(f"no response curve could be calibrated from {source}: {failed}")
     console.print(response_report(curves, failed))
-    console.print(f"plot: {plot_response(curves, path.with_suffix('.response.png'))}")
+    console.print(escape(f"plot: {plot_response(curves, path.with_suffix('.response.png'))}"))
     section = {
         camera_id: ResponseResult(curve=curve.curve.tolist(), exposures=exposures)
         for camera_id, curve in curves.items()
@@ -209,10 +209,10 @@ def _lamps(source: Path, path: Path):
     if not results:
         raise ConfigError(f"no lamp could be calibrated from {source}: {failed}")
     console.print(lamp_report(results, run, failed))
-    console.print(f"plot: {plot_lamps(results, path.with_suffix('.lamps.png'))}")
+    console.print(escape(f"plot: {plot_lamps(results, path.with_suffix('.lamps.png'))}"))
     extra = {}
     if run.flat_field is not None:
         maps = write_flat_field(path.with_suffix(".flatfield.zarr"), run.flat_field)
-        console.print(f"flat fields: {maps} (seen by {run.flat_field.camera})")
+        console.print(escape(f"flat fields: {maps} (seen by {run.flat_field.camera})"))
         extra = {"lamps_flat_field": maps.name}
     return results, failed, extra

@@ -14,7 +14,7 @@ from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 from typer.core import TyperGroup
 
 from rig.config import RigConfig, default_rig_config, load_rig_config
-from rig.errors import ConfigError, PlanError, RigError
+from rig.errors import ConfigError, KinematicsError, PlanError, RigError
 
 __all__ = [
     "EXIT_FAILURE",
@@ -23,6 +23,7 @@ __all__ = [
     "EXTRAS",
     "RigGroup",
     "SessionProgress",
+    "check_new_archive",
     "console",
     "load_config_option",
     "not_built",
@@ -56,8 +57,8 @@ EXTRAS = {
 
 
 def _report(err: Exception) -> tuple[str, int]:
-    """The one-line reason and exit code of an error that ends a command."""
-    if isinstance(err, PlanError | ConfigError):
+    """The message and exit code of an error that ends a command."""
+    if isinstance(err, PlanError | ConfigError | KinematicsError):  # what was asked is wrong
         return str(err), EXIT_INVALID
     if isinstance(err, RigError):
         return str(err), EXIT_FAILURE
@@ -93,7 +94,7 @@ def reporting_errors(*, debug: bool = False) -> Iterator[None]:
         if debug:
             err_console.print_exception()
         # rich markup would eat bracketed text of the message ("[…]", "[dask]")
-        err_console.print(f"[red]error:[/red] {escape(message)}")
+        err_console.print(f"[red]error:[/red] {escape(message)}", soft_wrap=True)  # paths whole
         raise typer.Exit(code) from err
 
 
@@ -113,9 +114,7 @@ def load_config_option(path: Path | None) -> RigConfig:
 def prepare_folder(path: Path, option: str) -> Path:
     """Create the folder ``path`` (for ``option``, e.g. ``"--previews DIR"``); a
     ``ConfigError`` naming both and why when it cannot be made."""
-    blocking = next((p for p in (path, *path.parents) if p.exists() and not p.is_dir()), None)
-    if blocking is not None:
-        raise ConfigError(f"{option}: {blocking} is a file, not a folder; give another path")
+    _refuse_file_on_the_way(path, option)
     try:
         path.mkdir(parents=True, exist_ok=True)
     except OSError as err:
@@ -123,6 +122,20 @@ def prepare_folder(path: Path, option: str) -> Path:
             f"{option}: cannot create the folder {path} ({err.strerror}); give a writable one"
         ) from None
     return path
+
+
+def check_new_archive(path: Path, option: str, *, otherwise: str) -> None:
+    """Refuse an archive path (given as ``option``) that exists or lies under a file,
+    before a daemon starts; ``otherwise`` says what to do with an existing one."""
+    if path.exists():
+        raise ConfigError(f"{option} {path} exists; give a new path, or {otherwise}")
+    _refuse_file_on_the_way(path.parent, f"{option} {path}")
+
+
+def _refuse_file_on_the_way(folder: Path, option: str) -> None:
+    blocking = next((p for p in (folder, *folder.parents) if p.exists() and not p.is_dir()), None)
+    if blocking is not None:
+        raise ConfigError(f"{option}: {blocking} is a file, not a folder; give another path")
 
 
 def not_built(command: str, what: str) -> None:

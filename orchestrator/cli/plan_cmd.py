@@ -6,6 +6,7 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
+from rich.markup import escape
 from rich.table import Table
 
 from orchestrator.cli.common import console, load_config_option
@@ -75,7 +76,10 @@ def register(app: typer.Typer) -> None:
         """Validate a plan; with --estimate, compile it for the rig and say what it costs."""
         the_plan = load_plan(plan_file)
         rig = load_config_option(config)
-        console.print(f"plan [bold]{plan_file}[/bold] is valid (sample {the_plan.sample.name})")
+        console.print(
+            f"plan [bold]{escape(str(plan_file))}[/bold] is valid "
+            f"(sample {escape(the_plan.sample.name)})"
+        )
         if residuals:
             _print_residuals(the_plan, rig)
         if not (estimate or steps):

@@ -153,5 +153,5 @@ def register(app: typer.Typer) -> None:
         if skipped:
             raise RigError(
                 f"{len(skipped)} of {len(runs)} stage(s) skipped: {', '.join(skipped)} "
-                "(why is said above); the other stages' results are in material/"
+                "(the reasons are above); the other stages' results are in material/"
             )

@@ -10,7 +10,7 @@ from typing import Annotated
 import typer
 from rich.markup import escape
 
-from orchestrator.cli.common import SessionProgress, console, prepare_folder
+from orchestrator.cli.common import SessionProgress, check_new_archive, console
 from rig.errors import ConfigError, RigError
 
 __all__ = ["register"]
@@ -43,10 +43,14 @@ def register(app: typer.Typer) -> None:
             str, typer.Option("--on-fault", help="pause (resume retries the step) or fail")
         ] = "pause",
         curve_secret_key: Annotated[
-            Path | None, typer.Option(help="the server's secret CURVE certificate")
+            Path | None,
+            typer.Option(exists=True, dir_okay=False, help="the server's secret CURVE certificate"),
         ] = None,
         curve_clients_dir: Annotated[
-            Path | None, typer.Option(help="folder of the allowed clients' public certificates")
+            Path | None,
+            typer.Option(
+                exists=True, file_okay=False, help="folder of the allowed clients' public certs"
+            ),
         ] = None,
     ) -> None:
         """Run the control daemon: owns the devices and one session at a time."""
@@ -172,13 +176,9 @@ def register(app: typer.Typer) -> None:
         if config is not None and sim is not None:
             raise ConfigError("--config and --sim: give one (the scene names its rig)")
         # The daemon runs here: its archive's folder must be one this machine can make.
+        option = "--archive" if archive is not None else "the plan's output.archive"
         archive = archive if archive is not None else load_plan(plan).archive_path()
-        if archive.exists():
-            raise ConfigError(
-                f"--archive {archive} exists; give a new path, or continue its session with "
-                f"`rig resume {archive}` (to a running `rig daemon`)"
-            )
-        prepare_folder(archive.parent, f"--archive {archive}")
+        check_new_archive(archive, option, otherwise="`rig resume` an unfinished one")
         with SessionProgress() as view:
             if sim is None:
                 final = run_local(
@@ -221,6 +221,7 @@ def register(app: typer.Typer) -> None:
         from orchestrator.daemon import replay_local
 
         target = out if out is not None else archive.with_suffix(".replay.zarr")
+        check_new_archive(target, "--out", otherwise="remove that replay first")
         with SessionProgress() as view:
             final = replay_local(
                 archive, out=target, speed=None if max_speed else speed, workers=workers,

@@ -9,6 +9,7 @@ from pathlib import Path
 from typing import Annotated, Literal
 
 import typer
+from rich.markup import escape
 from typer.core import TyperGroup
 
 from orchestrator.cli.common import console
@@ -98,10 +99,12 @@ def serve(
         ) as sim:
             path = write_rig_config(sim.rig_config(), config_out)
             console.print(
-                f"simulated rig {sim.scene.rig.name!r} of scene {scene} is up "
-                f"(time ×{speed:g}); rig config written to {path}"
+                escape(
+                    f"simulated rig {sim.scene.rig.name!r} of scene {scene} is up "
+                    f"(time ×{speed:g}); rig config written to {path}"
+                )
             )
-            console.print(f"next: rig daemon --config {path}   (Ctrl-C here stops the rig)")
+            console.print(escape(f"next: rig daemon --config {path}   (Ctrl-C here stops the rig)"))
             stop.wait()
     finally:
         for sig, handler in handlers.items():
@@ -125,4 +128,4 @@ def render(
 
     written = write_preview(scene, out, cameras=cameras, lamps=lamps)
     for path in written:
-        console.print(f"wrote {path}")
+        console.print(escape(f"wrote {path}"))

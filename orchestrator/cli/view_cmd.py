@@ -8,7 +8,7 @@ from typing import Annotated
 import numpy as np
 import typer
 
-from orchestrator.cli.common import EXIT_INVALID, console, err_console, reporting_errors
+from orchestrator.cli.common import EXIT_INVALID, console, err_console
 from orchestrator.cli.view_scene import (
     CAMERA_FORMS,
     LIGHT_FORMS,
@@ -117,15 +117,14 @@ def register(app: typer.Typer) -> None:
         camera_spec = parse_camera(camera)
         image_size = parse_size(size)
         _check_out(out, turntable, window)
-        with reporting_errors():
-            if window:
-                from render.window import require_display
+        if window:
+            from render.window import require_display
 
-                require_display()  # before the material and the mesh are read
-            _run(
-                material, mesh, lights, camera_spec, fov_deg, image_size, tile_mm, exposure,
-                out, turntable, window,
-            )  # fmt: skip
+            require_display()  # before the material and the mesh are read
+        _run(
+            material, mesh, lights, camera_spec, fov_deg, image_size, tile_mm, exposure,
+            out, turntable, window,
+        )  # fmt: skip
 
 
 def _run(

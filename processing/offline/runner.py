@@ -218,15 +218,18 @@ def run_stages(
 def _client(cluster_or_address):
     """A Dask client of a local cluster, or of the scheduler at an address."""
     from distributed import Client
+    from distributed.comm import get_address_host_port
 
     if not isinstance(cluster_or_address, str):
         return Client(cluster_or_address)
-    try:
-        return Client(cluster_or_address, timeout=10)
+    try:  # before a client starts its threads
+        get_address_host_port(cluster_or_address)
     except ValueError as err:
         raise ConfigError(
             f"scheduler {cluster_or_address!r} is not a Dask scheduler address ({err}); "
             "give one as tcp://HOST:PORT"
         ) from None
+    try:
+        return Client(cluster_or_address, timeout=10)
     except OSError as err:
         raise RigError(f"no Dask scheduler answers at {cluster_or_address!r}: {err}") from None

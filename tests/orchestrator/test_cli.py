@@ -1,10 +1,12 @@
 import sys
+import tomllib
 from pathlib import Path
 
 import pytest
 from typer.testing import CliRunner
 
 from orchestrator.cli import app
+from orchestrator.cli.common import EXTRAS
 
 EXAMPLES = Path(__file__).parents[2] / "examples" / "plans"
 runner = CliRunner()
@@ -111,14 +113,6 @@ def test_process_of_a_missing_archive_names_it(tmp_path):
     assert "nowhere.zarr" in result.output and "no archive here" in result.output
 
 
-def test_process_without_dask_names_the_extra(tmp_path, monkeypatch):
-    monkeypatch.setitem(sys.modules, "distributed", None)  # as if btfrig[dask] were not installed
-    result = runner.invoke(app, ["process", str(tmp_path / "s.zarr")])
-    assert result.exit_code == 1, result.output
-    assert "btfrig[dask]" in result.output
-    assert "Traceback" not in result.output
-
-
 def test_sim_render_without_the_simulator_names_the_extra(tmp_path, monkeypatch):
     for name in [m for m in sys.modules if m == "sim" or m.startswith("sim.")]:
         monkeypatch.delitem(sys.modules, name)  # so the simulator is imported afresh
@@ -127,3 +121,216 @@ def test_sim_render_without_the_simulator_names_the_extra(tmp_path, monkeypatch)
     result = runner.invoke(app, args)
     assert result.exit_code == 1, result.output
     assert "btfrig[sim]" in result.output
+# -- one error path: exit 2 for invalid input, 1 for a failure, one message, no traceback --
+
+
+def _fails_cleanly(result, code: int, *needles: str) -> None:
+    assert result.exit_code == code, result.output
+    assert "Traceback" not in result.output, result.output
+    assert result.output.count("error:") == 1, result.output
+    for needle in needles:
+        assert needle in result.output, (needle, result.output)
+
+
+def _nested(depth: int) -> str:
+    return f'[sample]\nname = "x"\n[output]\narchive = {"[" * depth}{"]" * depth}\n'
+
+
+@pytest.mark.parametrize(
+    ("content", "needle"),
+    [
+        (b"\xff\xfe[sample]\n", "not UTF-8"),
+        (_nested(3000).encode(), "nests arrays or inline tables too deeply"),
+        (_nested(300).encode(), "output.archive: Input should be a valid string"),
+    ],
+)
+def test_plan_that_cannot_be_read_is_named(tmp_path, content, needle):
+    plan = tmp_path / "p.toml"
+    plan.write_bytes(content)
+    result = runner.invoke(app, ["plan", str(plan)])
+    _fails_cleanly(result, 2, str(plan), needle)
+    assert len(result.output) < 1000  # a huge input is shown shortened
+
+
+def test_plan_that_is_a_folder_is_named(tmp_path):
+    _fails_cleanly(runner.invoke(app, ["plan", str(tmp_path)]), 2, str(tmp_path), "is a folder")
+
+
+def test_binary_rig_config_and_scene_are_named(tmp_path):
+    binary = tmp_path / "b.toml"
+    binary.write_bytes(b"\x00\x9f\x92\x96 binary")
+    result = runner.invoke(app, ["plan", str(EXAMPLES / "demo.toml"), "-c", str(binary)])
+    _fails_cleanly(result, 2, f"rig config {binary}", "not UTF-8")
+    result = runner.invoke(app, ["sim", "render", str(binary), "--out", str(tmp_path / "o")])
+    _fails_cleanly(result, 2, f"scene {binary}", "not UTF-8")
+
+
+@pytest.mark.parametrize(
+    ("args", "needles"),
+    [
+        (["--on-fault", "explode"], ["--on-fault explode", "'pause' or 'fail'"]),
+        (["--port", "70000"], ["--port 70000", "65532"]),
+    ],
+)
+def test_daemon_options_are_checked(args, needles):
+    _fails_cleanly(runner.invoke(app, ["daemon", *args]), 2, *needles)
+
+
+def test_daemon_certificates_must_exist(tmp_path):
+    result = runner.invoke(app, ["daemon", "--curve-secret-key", str(tmp_path / "none.key")])
+    assert result.exit_code == 2 and "does not exist" in result.output
+
+
+def test_brackets_in_a_message_are_shown(tmp_path):
+    plan = tmp_path / "p.toml"
+    plan.write_text('[sample]\nname = "x"\n[captures]\n')
+    result = runner.invoke(app, ["plan", str(plan)])
+    _fails_cleanly(result, 2, "add [captures.btf], .ps, .mdf or .fixed")
+    result = runner.invoke(app, ["process", str(tmp_path / "a.zarr"), "--stages", "foo"])
+    _fails_cleanly(result, 2, "unknown stage(s) ['foo']; valid are ['btf', 'mdf', 'ps']")
+
+
+def test_debug_shows_the_traceback(tmp_path):
+    _fails_cleanly(runner.invoke(app, ["plan", str(tmp_path)]), 2)
+    result = runner.invoke(app, ["--debug", "plan", str(tmp_path)])
+    assert result.exit_code == 2
+    assert "Traceback" in result.output and "is a folder" in result.output
+
+
+def test_an_unexpected_error_is_one_message(monkeypatch):
+    def broken(path):
+        raise ZeroDivisionError("division by zero")
+
+    monkeypatch.setattr("orchestrator.cli.plan_cmd.load_plan", broken)
+    result = runner.invoke(app, ["plan", str(EXAMPLES / "demo.toml")])
+    _fails_cleanly(result, 1, "unexpected ZeroDivisionError: division by zero", "rig --debug")
+
+
+def test_process_without_dask_names_the_extra(monkeypatch, tmp_path):
+    monkeypatch.setitem(sys.modules, "distributed", None)  # as if not installed
+    result = runner.invoke(app, ["process", str(tmp_path / "a.zarr")])
+    _fails_cleanly(result, 1, "'distributed' is not installed", "pip install 'btfrig[dask]'")
+
+
+def test_every_extra_named_for_a_missing_package_exists():
+    extras = tomllib.loads(Path("pyproject.toml").read_text())["project"]["optional-dependencies"]
+    assert set(EXTRAS.values()) <= set(extras)
+    for module, extra in EXTRAS.items():
+        if module not in ("OpenGL", "distributed"):  # installed as PyOpenGL, dask[distributed]
+            assert any(req.lower().startswith(module.lower()) for req in extras[extra]), module
+
+
+def test_run_refuses_an_archive_under_a_file(tmp_path):
+    (tmp_path / "afile").write_text("")
+    target = tmp_path / "afile" / "x.zarr"
+    args = ["run", str(EXAMPLES / "demo.toml"), "--sim", "examples/scenes/bumps.toml"]
+    result = runner.invoke(app, [*args, "--archive", str(target)])
+    _fails_cleanly(result, 2, f"--archive {target}", f"{tmp_path / 'afile'} is a file")
+    result = runner.invoke(app, [*args, "--archive", str(tmp_path / "afile")])
+    _fails_cleanly(result, 2, "exists", "rig resume")
+
+
+def test_replay_refuses_an_output_under_a_file(tmp_path):
+    (tmp_path / "afile").write_text("")
+    target = tmp_path / "afile" / "r.zarr"
+    result = runner.invoke(app, ["replay", "any.zarr", "--out", str(target)])
+    _fails_cleanly(result, 2, f"--out {target}", f"{tmp_path / 'afile'} is a file")
+
+
+def test_a_damaged_archive_is_named(tmp_path):
+    damaged = tmp_path / "d.zarr"
+    damaged.mkdir()
+    (damaged / "zarr.json").write_text("not json")
+    for args in (["process", str(damaged)], ["replay", str(damaged), "--max"]):
+        _fails_cleanly(runner.invoke(app, args), 1, f"{damaged}/zarr.json")
+
+
+def test_a_second_daemon_on_a_taken_port_says_so():
+    from orchestrator.daemon import DaemonSettings, daemon_thread
+    from rig.config import default_rig_config
+
+    with daemon_thread(default_rig_config(), settings=DaemonSettings(port=0)) as first:
+        port = int(first.control.rsplit(":", 1)[1])
+        result = runner.invoke(app, ["daemon", "--port", str(port)])
+    _fails_cleanly(result, 1, f"ports {port}–{port + 3}", "Address already in use", "--port")
+
+
+# -- a saturated session: nothing registers, so btf has nothing to compress --
+
+SATURATED_PLAN = """
+[sample]
+name = "saturated"
+[captures.btf]
+views = [[0, 0]]
+lights = {theta_deg = 45, count = 3}
+[captures.mdf]
+views = [[0, 0]]
+laser_locations = [[45, 0]]
+scan_step_deg = 4.0
+"""
+
+
+def _record(tmp: Path, radiometry: dict) -> Path:
+    """A finished session of the bumps scene, with ``radiometry`` replaced."""
+    from orchestrator.daemon import run_local
+    from rig.clock import VirtualClock
+    from sim.rig import SimulatedRig
+    from sim.scene import scene_from_dict
+
+    scene = tomllib.loads(Path("examples/scenes/bumps.toml").read_text())
+    scene["render"]["scale"] = 0.2
+    scene["effects"] = ["laser", "saturation"]
+    scene["radiometry"] = radiometry
+    (tmp / "plan.toml").write_text(SATURATED_PLAN)
+    clock = VirtualClock()
+    with SimulatedRig(scene_from_dict(scene), clock=clock) as sim:
+        final = run_local(tmp / "plan.toml", sim.rig_config(), archive=tmp / "s.zarr", clock=clock)
+    assert final["state"] == "done", final
+    return tmp / "s.zarr"
+
+
+@pytest.fixture(scope="module")
+def saturated(tmp_path_factory):
+    """A session of a scene so bright that every frame clips."""
+    return _record(tmp_path_factory.mktemp("saturated"), {"full_scale_exposure": 1e-6})
+
+
+@pytest.fixture(scope="module")
+def black(tmp_path_factory):
+    """A session of lamps so weak that every frame is black."""
+    return _record(tmp_path_factory.mktemp("black"), {"intensity_w_sr": 1e-9})
+
+
+@pytest.mark.parametrize("session", ["saturated", "black"])
+def test_a_stage_that_can_use_nothing_is_skipped_and_the_others_run(request, session, tmp_path):
+    from rig.archive import Archive
+
+    archive = request.getfixturevalue(session)
+    previews = tmp_path / "previews"
+    args = ["process", str(archive), "--stages", "btf,mdf", "--size", "16"]
+    result = runner.invoke(app, [*args, "--previews", str(previews)])
+    _fails_cleanly(result, 1, "1 of 2 stage(s) skipped: btf")
+    assert "btf: skipped — no view slot could be registered" in result.output
+    assert "3 frame(s) flagged: TOO_FEW_MARKERS ×3" in result.output
+    assert "mdf: 1 item(s) → material/mdf" in result.output
+    with Archive.open(archive, mode="r") as recorded:
+        assert "mdf" in recorded.material and "btf" not in recorded.material
+    assert [p.name for p in previews.iterdir()] == ["cam0_tt000.0_mdf.png"]
+
+
+@pytest.mark.parametrize(
+    ("args", "code", "needle"),
+    [
+        (["--previews", "/proc/x"], 2, "--previews /proc/x: cannot create the folder"),
+        (["--scheduler", "garbage"], 2, "scheduler 'garbage' is not a Dask scheduler address"),
+    ],
+)
+def test_process_options_are_checked(saturated, args, code, needle):
+    result = runner.invoke(app, ["process", str(saturated), "--stages", "mdf", *args])
+    _fails_cleanly(result, code, needle)
+
+
+def test_resume_of_a_finished_session_is_refused(saturated):
+    # refused before any daemon is asked: none listens on port 1
+    result = runner.invoke(app, ["resume", str(saturated), "--connect", "tcp://127.0.0.1:1"])
+    _fails_cleanly(result, 1, str(saturated), "finished", "nothing to resume")
