@@ -54,9 +54,7 @@ def test_a_crafted_camera_name_cannot_reach_another_archive(session, mode):
 @pytest.mark.parametrize("name", ["../x", "a/b", ".hidden", "-x", "", "x" * 65])
 def test_a_camera_name_that_is_not_one_path_component_is_refused(tmp_path, name):
     with pytest.raises(ArchiveError, match="camera name"):
-        Archive.create(
-            tmp_path / "s.zarr", plan={}, rig_config={}, cameras={name: CAMERAS["cam0"]}
-        )
+        Archive.create(tmp_path / "s.zarr", plan={}, rig_config={}, cameras={name: CAMERAS["cam0"]})
     assert not (tmp_path / "s.zarr").exists()
 
 
@@ -70,7 +68,7 @@ def test_a_truncated_journal_is_damage_and_no_frame_is_touched(session, cut, mod
     else:
         journal.write_bytes(b"".join(data.splitlines(keepends=True)[:-5]))
     before = chunk_files(session)
-    with pytest.raises(ArchiveDamaged, match=r"steps are committed, but chunk files past them") as err:
+    with pytest.raises(ArchiveDamaged, match=r"steps are committed, but chunk files past") as err:
         Archive.open(session, mode=mode)
     message = str(err.value)
     assert "frames/cam0: " in message and "the journal lost records" in message
@@ -140,9 +138,8 @@ def test_crash_leftovers_are_moved_to_the_quarantine_not_deleted(session):
 
 def test_an_interrupted_material_replacement_is_set_aside(session):
     material = session / "material"
-    with Archive.open(session, mode="a") as archive:
-        with archive.replace_material("normals") as group:
-            group.attrs["version"] = 1
+    with Archive.open(session, mode="a") as archive, archive.replace_material("normals") as group:
+        group.attrs["version"] = 1
     # A crash between the two renames of a second replacement, and one before them.
     shutil.copytree(material / "normals", material / (".old-normals-" + "a" * 32))
     shutil.copytree(material / "normals", material / (".tmp-normals-" + "b" * 32))

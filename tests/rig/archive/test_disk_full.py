@@ -29,7 +29,8 @@ def test_a_failed_journal_write_is_cut_back_to_the_last_whole_line(tmp_path, mon
             raise OSError(errno.ENOSPC, "No space left on device")
 
         monkeypatch.setattr(journal_module.os, "write", half_then_enospc)
-        with pytest.raises(ArchiveFull, match=r"journal\.jsonl: disk full while writing a 'step'") as err:
+        full = r"journal\.jsonl: disk full while writing a 'step'"
+        with pytest.raises(ArchiveFull, match=full) as err:
             archive.append_step(step_record(3), step_frames(3))
         assert err.value.path == path / "log" / "journal.jsonl"
         assert err.value.needed_bytes > 100
@@ -71,13 +72,20 @@ def _noise_step(index: int) -> tuple[StepRecord, dict[str, list[np.ndarray]]]:
 
 def _fill(path) -> None:
     """Write to ``path`` (made while there was space) until the filesystem is full."""
-    with open(path, "ab", buffering=0) as f:
-        while True:
-            try:
-                f.write(b"\0" * 4096)
-            except OSError as err:
-                assert err.errno == errno.ENOSPC
-                return
+    with open(path, "ab", buffering=0) as f, pytest.raises(OSError, match="No space left"):
+        _write_forever(f)
+
+
+def _write_forever(f) -> None:
+    while True:
+        f.write(b"\0" * 4096)
+
+
+def _append_until_it_fails(archive, committed: dict) -> None:
+    for index in range(100):
+        step, frames = _noise_step(index)
+        archive.append_step(step, frames)
+        committed[index] = frames["cam0"]
 
 
 def test_disk_full_during_a_session_then_resume(small_disk):
@@ -87,10 +95,7 @@ def test_disk_full_during_a_session_then_resume(small_disk):
     committed = {}
     archive = Archive.create(path, plan={}, rig_config={}, cameras={"cam0": _NOISE})
     with pytest.raises(ArchiveFull) as err:
-        for index in range(100):
-            step, frames = _noise_step(index)
-            archive.append_step(step, frames)
-            committed[index] = frames["cam0"]
+        _append_until_it_fails(archive, committed)
     assert 5 < len(committed) < 30
     assert str(path) in str(err.value) and "MB free" in str(err.value)
     assert err.value.needed_bytes >= 2 * _NOISE.nbytes
