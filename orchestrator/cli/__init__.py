@@ -16,6 +16,7 @@ from orchestrator.cli import (
     pending,
     plan_cmd,
     process_cmd,
+    repair_cmd,
     session_cmd,
     sim_cmd,
 )
@@ -33,6 +34,7 @@ app = typer.Typer(
 plan_cmd.register(app)
 session_cmd.register(app)
 process_cmd.register(app)
+repair_cmd.register(app)
 calibrate_cmd.register(app)
 pending.register(app)
 app.add_typer(sim_cmd.app, name="sim")

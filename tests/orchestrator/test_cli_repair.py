@@ -1,0 +1,28 @@
+"""`rig repair ARCHIVE` from the command line."""
+
+from typer.testing import CliRunner
+
+from orchestrator.cli import app
+from tests.rig.archive.sessions import assert_frames, build_session
+
+runner = CliRunner()
+
+
+def test_repair_rebuilds_an_emptied_journal_and_says_what_it_did(tmp_path):
+    path = build_session(tmp_path / "s.zarr", 6)
+    (path / "log" / "journal.jsonl").write_bytes(b"")
+    result = runner.invoke(app, ["repair", str(path)])
+    assert result.exit_code == 0, result.output
+    assert "journal rebuilt: 6 committed steps, 0 records kept, 6 steps rebuilt" in result.output
+    assert "(0–5)" in result.output
+    assert "set aside in quarantine/" in result.output
+    assert_frames(path, range(6))
+    again = runner.invoke(app, ["repair", str(path)])
+    assert again.exit_code == 0
+    assert "opens cleanly with 6 committed steps; nothing to repair" in again.output
+
+
+def test_repair_of_what_is_not_an_archive_exits_1_naming_it(tmp_path):
+    result = runner.invoke(app, ["repair", str(tmp_path / "nowhere.zarr")])
+    assert result.exit_code == 1
+    assert "nowhere.zarr: no archive here" in result.output
