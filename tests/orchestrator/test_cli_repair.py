@@ -8,14 +8,16 @@ from tests.rig.archive.sessions import assert_frames, build_session
 runner = CliRunner()
 
 
-def test_repair_rebuilds_an_emptied_journal_and_says_what_it_did(tmp_path):
+def test_repair_rebuilds_a_truncated_journal_and_says_what_it_did(tmp_path):
     path = build_session(tmp_path / "s.zarr", 6)
-    (path / "log" / "journal.jsonl").write_bytes(b"")
+    journal = path / "log" / "journal.jsonl"
+    lines = journal.read_bytes().splitlines(keepends=True)
+    journal.write_bytes(b"".join(lines[:4]))  # created, steps 0–2
     result = runner.invoke(app, ["repair", str(path)])
     assert result.exit_code == 0, result.output
-    assert "journal rebuilt: 6 committed steps, 0 records kept, 6 steps rebuilt" in result.output
-    assert "(0–5)" in result.output
-    assert "set aside in quarantine/" in result.output
+    assert "journal rebuilt: 6 committed steps, 4 records kept, 3 steps rebuilt" in result.output
+    assert "(3–5)" in result.output
+    assert "set aside in quarantine/" in result.output and ": 1 item(s)" in result.output
     assert_frames(path, range(6))
     again = runner.invoke(app, ["repair", str(path)])
     assert again.exit_code == 0
