@@ -21,7 +21,7 @@ import logging
 import os
 import time
 from collections import defaultdict
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -77,7 +77,6 @@ class _Step:
     rows: dict[str, list[list]]  # camera → [sub, exposure_s, timestamp, position, bytes]
     time: float
     from_chunks: bool
-    lost: list[str] = field(default_factory=list)
 
     def fits(self, next_position: dict[str, int]) -> bool:
         return all(rows[0][3] == next_position[c] for c, rows in self.rows.items())
