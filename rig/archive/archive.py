@@ -33,7 +33,14 @@ from rig.archive._errors import ArchiveError, os_failure
 from rig.archive._frames import FrameArray, chunk_record
 from rig.archive._index import FRAME_TABLE_DTYPE, SessionIndex
 from rig.archive._journal import Journal, read_journal
-from rig.archive._layout import FORMAT_VERSION, JOURNAL, lock_writer, read_layout, write_layout
+from rig.archive._layout import (
+    FORMAT_VERSION,
+    JOURNAL,
+    lock_writer,
+    read_layout,
+    root_attributes,
+    write_layout,
+)
 from rig.archive._material import replace_result
 from rig.archive._quarantine import Quarantine
 from rig.archive._records import Event, FrameFormat, FrameInfo, FrameRecord, StepRecord, json_safe
@@ -102,27 +109,18 @@ class Archive:
         path = Path(path)
         if path.exists():
             raise ArchiveError(f"{path}: already exists; open it with Archive.open(..., mode='a')")
-        if not cameras:
-            raise ArchiveError(f"{path}: cameras is empty; give at least one FrameFormat")
-        for name, fmt in cameras.items():
-            if not isinstance(fmt, FrameFormat):
-                raise ArchiveError(f"{path}: cameras[{name!r}] is not a FrameFormat: {fmt!r}")
-            check_name(name, what=f"{path}: camera name")
-        if not (isinstance(zstd_level, int) and -7 <= zstd_level <= 22):
-            raise ArchiveError(f"{path}: zstd_level = {zstd_level!r}, expected an int in -7..22")
-        attributes = {
-            "btfrig_archive": {"format_version": FORMAT_VERSION},
-            "cameras": {name: fmt.to_json() for name, fmt in cameras.items()},
-            "zstd_level": zstd_level,
-            "plan": json_safe(dict(plan), where="plan"),
-            "plan_toml": plan_toml,
-            "rig_config": json_safe(dict(rig_config), where="rig_config"),
-            "software": software_versions(),
-        }
+        attributes = root_attributes(
+            path,
+            plan=plan,
+            plan_toml=plan_toml,
+            rig_config=rig_config,
+            cameras=cameras,
+            zstd_level=zstd_level,
+        )
         calibration = json_safe(dict(calibration or {}), where="calibration")
         tmp = path.with_name(f".{path.name}.creating")
         shutil.rmtree(tmp, ignore_errors=True)  # left by a crash during an earlier create
-        write_layout(tmp, attributes, dict(cameras))
+        write_layout(tmp, attributes, cameras)
         # The directory appears under its name only when complete.
         os.rename(tmp, path)
         archive = cls(path, mode="a", fsync=fsync, workers=workers)
