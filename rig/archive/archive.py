@@ -23,7 +23,7 @@ import os
 import shutil
 import time
 from collections.abc import Iterable, Iterator, Mapping, Sequence
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor, wait
 from pathlib import Path
 from typing import Any
 
@@ -167,9 +167,13 @@ class Archive:
         self.recovered: dict[str, Any] = {}
         if self.mode == "a":
             quarantine = Quarantine(self.path, fsync=self._fsync)
-            self.recovered = recover(self.path, self._arrays, leftovers, contents, quarantine)
-            self._journal = Journal(self.path / JOURNAL, contents, fsync=self._fsync)
-            self._mirror_calibration()
+            try:
+                self.recovered = recover(self.path, self._arrays, leftovers, contents, quarantine)
+                self._journal = Journal(self.path / JOURNAL, contents, fsync=self._fsync)
+                self._mirror_calibration()
+            except OSError as err:
+                where = Path(err.filename) if err.filename else self.path
+                raise os_failure(err, where, doing="what recovery sets aside") from err
             kind = "created" if not self._events else "opened"
             self._append_event(kind, {"software": software_versions(), "recovered": self.recovered})
 
@@ -223,7 +227,9 @@ class Archive:
         try:
             for camera, camera_rows in rows.items():
                 self._ensure_capacity(camera, camera_rows[-1][3] + 1)
-            sizes = list(self._executor().map(self._write_chunk, jobs))
+            futures = [self._executor().submit(self._write_chunk, job) for job in jobs]
+            wait(futures)  # all of them, so none is still writing when we clean up
+            sizes = [future.result() for future in futures]
             if self._fsync:
                 for camera in step.cameras:
                     fsync_dir(self._arrays[camera].directory)
@@ -231,9 +237,9 @@ class Archive:
             for array, position, _, _ in jobs:
                 array.path(position).unlink(missing_ok=True)
             needed = sum(array.format.nbytes for array, *_ in jobs)
-            raise os_failure(
-                err, self.path, doing=f"step {step.index}'s {len(jobs)} frames", needed_bytes=needed
-            ) from err
+            where = Path(err.filename) if err.filename else self.path
+            doing = f"step {step.index}'s {len(jobs)} frames"
+            raise os_failure(err, where, doing=doing, needed_bytes=needed) from err
         for (array, position, _, _), nbytes in zip(jobs, sizes, strict=True):
             rows[array.camera][position - self._index.next_position[array.camera]].append(nbytes)
 
