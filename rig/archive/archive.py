@@ -5,10 +5,12 @@ Layout (``docs/archive.md`` describes it and the commit protocol)::
     session.zarr/
       zarr.json              root group; attributes: format, cameras, plan,
                              rig_config, software versions
-      frames/<camera>/       (n, H, W, C) array, one frame per chunk, zstd
+      frames/<camera>/       (n, H, W, C) array, one frame per chunk, zstd;
+                             each chunk file ends with its frame's record
       calibration/zarr.json  group; attributes mirror the current calibration
       material/              processing results (zarr groups/arrays)
       log/journal.jsonl      append-only event log = commit log
+      quarantine/<time>/     what recovery or repair set aside, never deleted
 
 A step is committed when its ``"step"`` record is complete in the journal;
 its frame chunks are written (and ``fsync``-ed) before that record. Readers
