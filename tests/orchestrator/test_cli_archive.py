@@ -1,9 +1,12 @@
-"""`rig repair ARCHIVE` from the command line."""
+"""Damaged and crafted archives from the command line: `rig repair`, `rig process`."""
+
+import json
+import shutil
 
 from typer.testing import CliRunner
 
 from orchestrator.cli import app
-from tests.rig.archive.sessions import assert_frames, build_session
+from tests.rig.archive.sessions import CAMERAS, assert_frames, build_session, chunk_files
 
 runner = CliRunner()
 
@@ -28,3 +31,17 @@ def test_repair_of_what_is_not_an_archive_exits_1_naming_it(tmp_path):
     result = runner.invoke(app, ["repair", str(tmp_path / "nowhere.zarr")])
     assert result.exit_code == 1
     assert "nowhere.zarr: no archive here" in result.output
+
+
+def test_process_of_a_crafted_archive_touches_no_other_archive(tmp_path):
+    good = build_session(tmp_path / "good.zarr", 3)
+    evil = tmp_path / "evil.zarr"
+    shutil.copytree(good, evil)
+    root = json.loads((evil / "zarr.json").read_text())
+    root["attributes"]["cameras"]["../../good.zarr/frames/cam0"] = CAMERAS["cam0"].to_json()
+    (evil / "zarr.json").write_text(json.dumps(root))
+    before = chunk_files(good)
+    result = runner.invoke(app, ["process", str(evil), "--stages", "ps"])
+    assert result.exit_code == 1
+    assert "camera name '../../good.zarr/frames/cam0'" in result.output
+    assert chunk_files(good) == before
