@@ -1,6 +1,9 @@
-"""A full disk pauses the session (naming the path and the space needed); resume goes on."""
+"""The archive's faults through the daemon: a full disk pauses the session (naming the
+path and the space needed) and resume goes on; a lost journal refuses the resume."""
 
-from orchestrator.client import DaemonClient, wait_for_state
+import pytest
+
+from orchestrator.client import DaemonClient, DaemonRequestError, wait_for_state
 from rig.archive import Archive, ArchiveFull
 from tests.orchestrator.daemon.conftest import LAMP_PLAN, running_daemon
 
@@ -43,3 +46,16 @@ def test_disk_full_pauses_the_session_and_resume_retries_the_step(
     with Archive.open(path) as archive:
         assert archive.committed_steps() == tuple(range(steps))
         assert [e.payload["device"] for e in archive.events("fault")] == ["archive"]
+
+
+def test_resume_of_an_archive_whose_journal_was_emptied_is_refused(config, rig, tmp_path):
+    path = tmp_path / "lost.zarr"
+    with running_daemon(config, rig) as endpoints, DaemonClient(endpoints) as client:
+        client.request("submit", plan_toml=LAMP_PLAN, source="test", archive=str(path))
+        wait_for_state(endpoints, ("done",), settled=True)
+        chunks = sorted(path.glob("frames/*/c.*"))
+        (path / "log" / "journal.jsonl").write_bytes(b"")
+        with pytest.raises(DaemonRequestError, match="the journal is empty, but chunk files"):
+            client.request("resume", archive=str(path))
+        assert sorted(path.glob("frames/*/c.*")) == chunks
+        assert client.request("status")["state"] == "done"
