@@ -38,9 +38,10 @@ def register(app: typer.Typer) -> None:
             "rebuilt from chunk records"
             + (f" ({_ranges(report.rebuilt_steps)})" if report.rebuilt_steps else "")
         )
-        console.print(
-            f"set aside in {escape(report.quarantine)}: {len(report.set_aside)} item(s)"
-        )
+        if report.quarantine is not None:
+            console.print(
+                f"set aside in {escape(report.quarantine)}: {len(report.set_aside)} item(s)"
+            )
         for problem in report.lost:
             console.print(f"  not rebuilt: {escape(problem)}")
 

@@ -32,7 +32,7 @@ from drivers.errors import DeviceError
 from orchestrator.daemon.devices import Captured, DeviceSet
 from orchestrator.daemon.protocol import ArraySpec, FrameHeader
 from orchestrator.daemon.state import IllegalTransition, SessionEvent, SessionState, StateMachine
-from rig.archive import Archive, ArchiveError, FrameFormat, FrameRecord, StepRecord
+from rig.archive import Archive, ArchiveError, ArchiveFull, FrameFormat, FrameRecord, StepRecord
 from rig.calfile import load_calibration
 from rig.clock import Clock
 from rig.config import RigConfig
@@ -241,22 +241,20 @@ class Session:
                 self._run_step(step, devices)
                 return
             except DeviceError as err:
-                fault = {
-                    "device": err.device,
-                    "operation": err.operation,
-                    "detail": err.detail,
-                    "step": step.index,
-                    "step_kind": step.kind,
-                }
-                self._switch_off(devices)
+                fault = {"device": err.device, "operation": err.operation, "detail": err.detail}
                 if self.on_fault == "fail":
+                    self._switch_off(devices)
                     raise
-                with self._lock:
-                    self._progress.fault = fault
-                self._log("fault", **fault)
-                # Already paused or aborted by the user: the fault is recorded all the same.
-                with contextlib.suppress(IllegalTransition):
-                    self.machine.fire(SessionEvent.FAULT, **fault)
+            except ArchiveFull as err:  # pauses whatever on_fault says: free space, then resume
+                fault = {"device": "archive", "operation": "append", "detail": str(err)}
+            fault.update(step=step.index, step_kind=step.kind)
+            self._switch_off(devices)
+            with self._lock:
+                self._progress.fault = fault
+            self._log("fault", **fault)
+            # Already paused or aborted by the user: the fault is recorded all the same.
+            with contextlib.suppress(IllegalTransition):
+                self.machine.fire(SessionEvent.FAULT, **fault)
 
     def _wait_runnable(self) -> None:
         """Return when running; raise ``_Aborted`` when the session was aborted."""

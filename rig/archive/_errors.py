@@ -31,18 +31,18 @@ class ArchiveFull(ArchiveError):
     """The filesystem holding the archive ran out of space during a write.
 
     Nothing committed is lost: the write was rolled back. ``path`` is the file
-    that could not be written, ``needed_bytes`` what the write needed and
-    ``free_bytes`` what the filesystem had free afterwards.
+    that could not be written, ``needed_bytes`` what the write needed (None
+    when unknown) and ``free_bytes`` what the filesystem had free afterwards.
     """
 
-    def __init__(self, path: Path, *, doing: str, needed_bytes: int, free_bytes: int):
+    def __init__(self, path: Path, *, doing: str, needed_bytes: int | None, free_bytes: int):
         self.path = path
         self.needed_bytes = needed_bytes
         self.free_bytes = free_bytes
+        needs = "" if needed_bytes is None else f"it needs about {_mb(needed_bytes)} MB, "
         super().__init__(
-            f"{path}: disk full while writing {doing}: it needs about "
-            f"{_mb(needed_bytes)} MB, the filesystem has {_mb(free_bytes)} MB free; free at "
-            "least that much, then resume (nothing committed was lost)"
+            f"{path}: disk full while writing {doing}: {needs}the filesystem has "
+            f"{_mb(free_bytes)} MB free; free space, then resume (nothing committed was lost)"
         )
 
 
@@ -63,7 +63,9 @@ def _mb(nbytes: int) -> str:
     return f"{nbytes / 1e6:.3g}"
 
 
-def os_failure(err: OSError, path: Path, *, doing: str, needed_bytes: int) -> ArchiveError:
+def os_failure(
+    err: OSError, path: Path, *, doing: str, needed_bytes: int | None = None
+) -> ArchiveError:
     """The archive error for a failed write: ArchiveFull when the disk (or quota) is full."""
     if err.errno in (errno.ENOSPC, errno.EDQUOT):
         try:

@@ -84,7 +84,8 @@ class FrameArray:
     def write(self, position: int, image: np.ndarray, record: bytes, *, fsync: bool) -> int:
         """Compress ``image`` (already checked) into chunk ``position``, followed by
         its ``record`` (from :func:`chunk_record`); bytes written."""
-        fd = os.open(self.path(position), os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
+        path = self.path(position)
+        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
         try:
             for part in (self._codec.encode(image), record):
                 data = memoryview(part)
@@ -93,6 +94,8 @@ class FrameArray:
             if fsync:
                 os.fsync(fd)
             return os.fstat(fd).st_size
+        except OSError as err:
+            raise OSError(err.errno, err.strerror, str(path)) from err  # name the file
         finally:
             os.close(fd)
 

@@ -76,13 +76,15 @@ class JournalContents:
 def read_journal(path: Path) -> JournalContents:
     """Read every valid event of the journal at ``path``.
 
-    Raises ArchiveError when the file is missing or a record other than the
+    Raises ArchiveDamaged when the file is missing or a record other than the
     last one is invalid (the line number and byte offset are in the message).
     """
     try:
         data = path.read_bytes()
     except FileNotFoundError as err:
-        raise ArchiveError(f"{path.parent}: missing journal {path.name}") from err
+        raise ArchiveDamaged(
+            f"{path.parent}: missing journal {path.name}; `rig repair` rebuilds it"
+        ) from err
     events: list[Event] = []
     offset = 0
     while offset < len(data):

@@ -9,13 +9,14 @@ from __future__ import annotations
 
 import fcntl
 import os
+from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 from rig.archive._errors import ArchiveDamaged, ArchiveError
 from rig.archive._frames import FrameArray
-from rig.archive._records import FrameFormat
+from rig.archive._records import FrameFormat, json_safe
 from rig.archive._store import (
     array_document,
     check_array_document,
@@ -24,8 +25,17 @@ from rig.archive._store import (
     hidden_node_document,
     read_document,
 )
+from rig.archive._versions import software_versions
 
-__all__ = ["FORMAT_VERSION", "JOURNAL", "Layout", "lock_writer", "read_layout", "write_layout"]
+__all__ = [
+    "FORMAT_VERSION",
+    "JOURNAL",
+    "Layout",
+    "lock_writer",
+    "read_layout",
+    "root_attributes",
+    "write_layout",
+]
 
 #: Version of the archive layout written by this code.
 FORMAT_VERSION = 1
@@ -51,8 +61,37 @@ class Layout:
     capacity: dict[str, int]
 
 
+def root_attributes(
+    path: Path,
+    *,
+    plan: Mapping[str, Any],
+    plan_toml: str | None,
+    rig_config: Mapping[str, Any],
+    cameras: Mapping[str, FrameFormat],
+    zstd_level: int,
+) -> dict[str, Any]:
+    """The checked root attributes of a new archive at ``path``; ArchiveError names a bad one."""
+    if not cameras:
+        raise ArchiveError(f"{path}: cameras is empty; give at least one FrameFormat")
+    for name, fmt in cameras.items():
+        if not isinstance(fmt, FrameFormat):
+            raise ArchiveError(f"{path}: cameras[{name!r}] is not a FrameFormat: {fmt!r}")
+        check_name(name, what=f"{path}: camera name")
+    if not (isinstance(zstd_level, int) and -7 <= zstd_level <= 22):
+        raise ArchiveError(f"{path}: zstd_level = {zstd_level!r}, expected an int in -7..22")
+    return {
+        "btfrig_archive": {"format_version": FORMAT_VERSION},
+        "cameras": {name: fmt.to_json() for name, fmt in cameras.items()},
+        "zstd_level": zstd_level,
+        "plan": json_safe(dict(plan), where="plan"),
+        "plan_toml": plan_toml,
+        "rig_config": json_safe(dict(rig_config), where="rig_config"),
+        "software": software_versions(),
+    }
+
+
 def write_layout(
-    directory: Path, attributes: dict[str, Any], cameras: dict[str, FrameFormat]
+    directory: Path, attributes: dict[str, Any], cameras: Mapping[str, FrameFormat]
 ) -> None:
     """Write the folders and metadata of an empty archive into new ``directory``."""
     directory.mkdir(parents=True)

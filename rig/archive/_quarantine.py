@@ -70,13 +70,11 @@ class Quarantine:
             fsync_dir(path.parent)
             fsync_dir(target.parent)
         self.moved.append(relative)
-        log.warning("%s: moved %s to %s", self.root, relative, self.relative_folder)
+        log.info("%s: moved %s to %s", self.root, relative, self.relative_folder)
 
     def keep_bytes(self, relative: str, data: bytes) -> None:
         """Store ``data`` (bytes about to be cut off or replaced) as ``relative``."""
         target = self._target(relative)
         write_atomic(target, data, fsync=self._fsync)
         self.moved.append(relative)
-        log.warning(
-            "%s: kept %d bytes as %s/%s", self.root, len(data), self.relative_folder, relative
-        )
+        log.info("%s: kept %d bytes as %s/%s", self.root, len(data), self.relative_folder, relative)

@@ -21,7 +21,7 @@ import logging
 import os
 import time
 from collections import defaultdict
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -42,23 +42,21 @@ log = logging.getLogger(__name__)
 class RepairReport:
     """What ``repair_archive`` did.
 
+    ``changed`` is False when the archive opened cleanly and was left alone.
     ``kept_records`` journal lines were kept; ``rebuilt_steps`` were rebuilt
     from chunk records; ``set_aside`` lists what went to ``quarantine`` (a
-    folder relative to the archive); ``lost`` says what could not be rebuilt.
+    folder relative to the archive, None when nothing did); ``lost`` says
+    what could not be rebuilt.
     """
 
     path: Path
+    changed: bool
     kept_records: int
     committed_steps: int
     rebuilt_steps: tuple[int, ...] = ()
     quarantine: str | None = None
     set_aside: tuple[str, ...] = ()
     lost: tuple[str, ...] = ()
-
-    @property
-    def changed(self) -> bool:
-        """Whether the archive was rewritten (False: it needed no repair)."""
-        return self.quarantine is not None
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -79,7 +77,6 @@ class _Step:
     rows: dict[str, list[list]]  # camera → [sub, exposure_s, timestamp, position, bytes]
     time: float
     from_chunks: bool
-    lost: list[str] = field(default_factory=list)
 
     def fits(self, next_position: dict[str, int]) -> bool:
         return all(rows[0][3] == next_position[c] for c, rows in self.rows.items())
@@ -99,9 +96,10 @@ def repair_archive(path: str | os.PathLike, *, fsync: bool = True) -> RepairRepo
         raise ArchiveError(f"{path}: no archive here (not a directory)")
     try:
         with Archive.open(path) as archive:
-            return RepairReport(path, len(archive.events()), len(archive.committed_steps()))
+            events, steps = len(archive.events()), len(archive.committed_steps())
+        return RepairReport(path, changed=False, kept_records=events, committed_steps=steps)
     except ArchiveDamaged as err:
-        log.warning("%s: repairing: %s", path, err)
+        log.info("%s: repairing: %s", path, err)
     lock = lock_writer(path)
     try:
         report = _rebuild(path, fsync=fsync)
@@ -143,10 +141,11 @@ def _rebuild(path: Path, *, fsync: bool) -> RepairReport:
         new_events.append(mirror)
     report = RepairReport(
         path,
+        changed=True,
         kept_records=len(others) + sum(not s.from_chunks for s in placed),
         committed_steps=len(placed),
-        rebuilt_steps=tuple(s.record.index for s in placed if s.from_chunks),
-        quarantine=quarantine.relative_folder,
+        rebuilt_steps=tuple(sorted(s.record.index for s in placed if s.from_chunks)),
+        quarantine=quarantine.relative_folder if quarantine.moved else None,
         set_aside=tuple(quarantine.moved),
         lost=tuple(lost),
     )
@@ -154,7 +153,7 @@ def _rebuild(path: Path, *, fsync: bool) -> RepairReport:
     lines = [encode_event(seq, t if t is not None else time.time(), kind, payload)
              for seq, (kind, payload, t) in enumerate(new_events)]  # fmt: skip
     write_atomic(journal, b"".join(lines), fsync=fsync)
-    log.warning("%s: journal rebuilt: %s", path, report.to_json())
+    log.info("%s: journal rebuilt: %s", path, report.to_json())
     return report
 
 
@@ -282,25 +281,31 @@ def _undecodable(path, arrays, index, rows) -> str | None:
 
 
 def _lay_out(steps: list[_Step], cameras) -> tuple[list[_Step], dict[str, int]]:
-    """Order the steps so each camera's frames are at positions 0, 1, 2, … in turn."""
+    """Order the steps so each camera's frames are at positions 0, 1, 2, … in turn.
+
+    Of the steps that fit next, the one started first comes first: the order
+    a session commits them in, as far as the frames' positions allow.
+    """
     by_start: dict[tuple[str, int], list[_Step]] = defaultdict(list)
-    for step in sorted(steps, key=lambda s: (s.from_chunks, s.time, s.record.index)):
+    for step in steps:
         for camera, rows in step.rows.items():
             by_start[(camera, rows[0][3])].append(step)
     next_position = dict.fromkeys(cameras, 0)
     placed: list[_Step] = []
-    progress = True
-    while progress:
-        progress = False
-        for camera in cameras:
-            for step in by_start.pop((camera, next_position[camera]), []):
-                if step.fits(next_position):
-                    placed.append(step)
-                    for c, rows in step.rows.items():
-                        next_position[c] += len(rows)
-                    progress = True
-                    break
-    return placed, next_position
+    while True:
+        fitting = [
+            step
+            for camera in cameras
+            for step in by_start.get((camera, next_position[camera]), [])
+            if step.fits(next_position)
+        ]
+        if not fitting:
+            return placed, next_position
+        step = min(fitting, key=lambda s: (s.record.started_at, s.record.index))
+        placed.append(step)
+        for camera, rows in step.rows.items():
+            by_start[(camera, rows[0][3])].remove(step)
+            next_position[camera] += len(rows)
 
 
 def _merge(others: list[tuple[str, Any, float]], placed: list[_Step]) -> list[tuple]:

@@ -5,10 +5,12 @@ Layout (``docs/archive.md`` describes it and the commit protocol)::
     session.zarr/
       zarr.json              root group; attributes: format, cameras, plan,
                              rig_config, software versions
-      frames/<camera>/       (n, H, W, C) array, one frame per chunk, zstd
+      frames/<camera>/       (n, H, W, C) array, one frame per chunk, zstd;
+                             each chunk file ends with its frame's record
       calibration/zarr.json  group; attributes mirror the current calibration
       material/              processing results (zarr groups/arrays)
       log/journal.jsonl      append-only event log = commit log
+      quarantine/<time>/     what recovery or repair set aside, never deleted
 
 A step is committed when its ``"step"`` record is complete in the journal;
 its frame chunks are written (and ``fsync``-ed) before that record. Readers
@@ -23,7 +25,7 @@ import os
 import shutil
 import time
 from collections.abc import Iterable, Iterator, Mapping, Sequence
-from concurrent.futures import ThreadPoolExecutor
+from concurrent.futures import ThreadPoolExecutor, wait
 from pathlib import Path
 from typing import Any
 
@@ -33,7 +35,14 @@ from rig.archive._errors import ArchiveError, os_failure
 from rig.archive._frames import FrameArray, chunk_record
 from rig.archive._index import FRAME_TABLE_DTYPE, SessionIndex
 from rig.archive._journal import Journal, read_journal
-from rig.archive._layout import FORMAT_VERSION, JOURNAL, lock_writer, read_layout, write_layout
+from rig.archive._layout import (
+    FORMAT_VERSION,
+    JOURNAL,
+    lock_writer,
+    read_layout,
+    root_attributes,
+    write_layout,
+)
 from rig.archive._material import replace_result
 from rig.archive._quarantine import Quarantine
 from rig.archive._records import Event, FrameFormat, FrameInfo, FrameRecord, StepRecord, json_safe
@@ -102,27 +111,18 @@ class Archive:
         path = Path(path)
         if path.exists():
             raise ArchiveError(f"{path}: already exists; open it with Archive.open(..., mode='a')")
-        if not cameras:
-            raise ArchiveError(f"{path}: cameras is empty; give at least one FrameFormat")
-        for name, fmt in cameras.items():
-            if not isinstance(fmt, FrameFormat):
-                raise ArchiveError(f"{path}: cameras[{name!r}] is not a FrameFormat: {fmt!r}")
-            check_name(name, what=f"{path}: camera name")
-        if not (isinstance(zstd_level, int) and -7 <= zstd_level <= 22):
-            raise ArchiveError(f"{path}: zstd_level = {zstd_level!r}, expected an int in -7..22")
-        attributes = {
-            "btfrig_archive": {"format_version": FORMAT_VERSION},
-            "cameras": {name: fmt.to_json() for name, fmt in cameras.items()},
-            "zstd_level": zstd_level,
-            "plan": json_safe(dict(plan), where="plan"),
-            "plan_toml": plan_toml,
-            "rig_config": json_safe(dict(rig_config), where="rig_config"),
-            "software": software_versions(),
-        }
+        attributes = root_attributes(
+            path,
+            plan=plan,
+            plan_toml=plan_toml,
+            rig_config=rig_config,
+            cameras=cameras,
+            zstd_level=zstd_level,
+        )
         calibration = json_safe(dict(calibration or {}), where="calibration")
         tmp = path.with_name(f".{path.name}.creating")
         shutil.rmtree(tmp, ignore_errors=True)  # left by a crash during an earlier create
-        write_layout(tmp, attributes, dict(cameras))
+        write_layout(tmp, attributes, cameras)
         # The directory appears under its name only when complete.
         os.rename(tmp, path)
         archive = cls(path, mode="a", fsync=fsync, workers=workers)
@@ -169,9 +169,13 @@ class Archive:
         self.recovered: dict[str, Any] = {}
         if self.mode == "a":
             quarantine = Quarantine(self.path, fsync=self._fsync)
-            self.recovered = recover(self.path, self._arrays, leftovers, contents, quarantine)
-            self._journal = Journal(self.path / JOURNAL, contents, fsync=self._fsync)
-            self._mirror_calibration()
+            try:
+                self.recovered = recover(self.path, self._arrays, leftovers, contents, quarantine)
+                self._journal = Journal(self.path / JOURNAL, contents, fsync=self._fsync)
+                self._mirror_calibration()
+            except OSError as err:
+                where = Path(err.filename) if err.filename else self.path
+                raise os_failure(err, where, doing="what recovery sets aside") from err
             kind = "created" if not self._events else "opened"
             self._append_event(kind, {"software": software_versions(), "recovered": self.recovered})
 
@@ -225,7 +229,9 @@ class Archive:
         try:
             for camera, camera_rows in rows.items():
                 self._ensure_capacity(camera, camera_rows[-1][3] + 1)
-            sizes = list(self._executor().map(self._write_chunk, jobs))
+            futures = [self._executor().submit(self._write_chunk, job) for job in jobs]
+            wait(futures)  # all of them, so none is still writing when we clean up
+            sizes = [future.result() for future in futures]
             if self._fsync:
                 for camera in step.cameras:
                     fsync_dir(self._arrays[camera].directory)
@@ -233,9 +239,9 @@ class Archive:
             for array, position, _, _ in jobs:
                 array.path(position).unlink(missing_ok=True)
             needed = sum(array.format.nbytes for array, *_ in jobs)
-            raise os_failure(
-                err, self.path, doing=f"step {step.index}'s {len(jobs)} frames", needed_bytes=needed
-            ) from err
+            where = Path(err.filename) if err.filename else self.path
+            doing = f"step {step.index}'s {len(jobs)} frames"
+            raise os_failure(err, where, doing=doing, needed_bytes=needed) from err
         for (array, position, _, _), nbytes in zip(jobs, sizes, strict=True):
             rows[array.camera][position - self._index.next_position[array.camera]].append(nbytes)
 

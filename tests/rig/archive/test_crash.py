@@ -121,11 +121,15 @@ def test_kill_after_chunks_before_commit(tmp_path):
     committed_cam0 = sum(writer.n_subs(s, "cam0") for s in range(3))
     leftovers = [cam0 / f"c.{committed_cam0 + i}.0.0.0" for i in range(writer.n_subs(3, "cam0"))]
     assert all(p.exists() for p in leftovers)
+    contents = [p.read_bytes() for p in leftovers]
     assert _assert_whole_steps(archive, at_least=3) == 3
     with Archive.open(archive, mode="a") as resumed:
-        opened = resumed.events("opened")[-1]
-        assert opened.payload["recovered"]["uncommitted_chunks/cam0"] == len(leftovers)
+        recovered = resumed.events("opened")[-1].payload["recovered"]
+        assert recovered["uncommitted_chunks/cam0"] == len(leftovers)
         assert not any(p.exists() for p in leftovers)
+        # Set aside, not deleted: the same bytes under quarantine/<time>/frames/cam0/.
+        kept = archive / recovered["quarantine"] / "frames" / "cam0"
+        assert [(kept / p.name).read_bytes() for p in leftovers] == contents
         with pytest.raises(StepAlreadyCommitted, match="step 2 is already committed"):
             resumed.append_step(writer.step_record(2), writer.step_frames(2))
     code, reported = _run_writer(archive, 3, 5)

@@ -97,7 +97,9 @@ def test_disk_full_during_a_session_then_resume(small_disk):
     with pytest.raises(ArchiveFull) as err:
         _append_until_it_fails(archive, committed)
     assert 5 < len(committed) < 30
-    assert str(path) in str(err.value) and "MB free" in str(err.value)
+    assert err.value.path.parent in (path / "frames" / "cam0", path / "log")
+    assert f"{err.value.path}: disk full while writing" in str(err.value)
+    assert "MB free" in str(err.value)
     assert err.value.needed_bytes >= 2 * _NOISE.nbytes
     # The failed step's chunk files are gone again: only committed frames use the space.
     chunks = sorted((path / "frames" / "cam0").glob("c.*"))

@@ -120,3 +120,13 @@ def test_missing_committed_frames_cannot_be_repaired_and_nothing_changes(session
         repair_archive(session, fsync=False)
     assert journal.read_bytes() == data[: len(data) // 2]
     assert not (session / "quarantine").exists()
+
+
+def test_a_missing_journal_is_rebuilt(session):
+    _journal(session).unlink()
+    with pytest.raises(ArchiveDamaged, match=r"missing journal journal\.jsonl; `rig repair`"):
+        Archive.open(session)
+    report = repair_archive(session, fsync=False)
+    assert report.rebuilt_steps == tuple(range(N_STEPS))
+    assert report.quarantine is None  # there was no old journal to keep
+    assert_frames(session, range(N_STEPS))
