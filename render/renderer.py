@@ -111,15 +111,15 @@ class Renderer:
         self._owned += [self.vbo, self.ibo]
         self._units: list = []
         self.btf_textures = None
+        self.ps_textures = None
         self.uv_scale = 1.0 / float(tile)
         self._set("uv_scale", self.uv_scale)
         if btf is not None:
             self._bind_btf(btf, material.btf_slot_valid, light_method, view_method)
         if "ps" in self.layers:
-            ps = upload_ps(self.ctx, material.frontal_ps())
-            self._owned += [ps.albedo, ps.normals]
-            self._bind("ps_albedo", ps.albedo)
-            self._bind("ps_normals", ps.normals)
+            self.ps_textures = upload_ps(self.ctx, material.frontal_ps())
+            self._bind("ps_albedo", self.ps_textures.albedo)
+            self._bind("ps_normals", self.ps_textures.normals)
             self._set("specular", float(specular))
             self._set("shininess", float(shininess))
         self.shadows = (
@@ -292,10 +292,10 @@ class Renderer:
                 attachment.release()
             fbo.release()
         self._framebuffers.clear()
-        if self.shadows is not None:
-            self.shadows.release()
-        if self.btf_textures is not None:
-            self.btf_textures.release()
+        for part in (self.shadows, self.btf_textures, self.ps_textures):
+            if part is not None:
+                part.release()
+        self.shadows = self.btf_textures = self.ps_textures = None
         for program, vao in self._programs.values():
             vao.release()
             program.release()

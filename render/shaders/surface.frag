@@ -253,9 +253,10 @@ float lit_fraction(int l, vec3 p, vec3 n, vec3 to_light) {
 void main() {
     vec3 n = safe_normalize(v_normal, vec3(0.0, 0.0, 1.0));
     vec3 to_eye = orthographic ? toward_camera : safe_normalize(eye - v_position, n);
-    // Two-sided: the back of a surface shows the material seen from its other side.
+    // Two-sided: the back of a surface shows the material turned over about its
+    // tangent (a rigid turn: the frame (t, −b, −n) stays right-handed).
     if (!gl_FrontFacing) n = -n;
-    float hand = (v_tangent.w < 0.0 ? -1.0 : 1.0) * (gl_FrontFacing ? 1.0 : -1.0);
+    float hand = v_tangent.w < 0.0 ? -1.0 : 1.0;
     vec3 t = v_tangent.xyz - n * dot(n, v_tangent.xyz);
     vec3 any_side = abs(n.x) < 0.9 ? vec3(1.0, 0.0, 0.0) : vec3(0.0, 1.0, 0.0);
     t = safe_normalize(t, safe_normalize(cross(any_side, n), vec3(1.0, 0.0, 0.0)));
@@ -271,7 +272,6 @@ void main() {
     vec3 light_local[N_LIGHTS];
     for (int l = 0; l < N_LIGHTS; ++l) {
         irradiance[l] = vec3(0.0);
-        light_local[l] = vec3(0.0, 0.0, 1.0);
         vec3 to_light;
         vec3 e = light_emission[l];
         if (light_place[l].w > 0.5) {
