@@ -181,7 +181,7 @@ def run_stages(
     if scheduler is None:
         cluster = LocalCluster(
             n_workers=1, threads_per_worker=workers, processes=False,
-            dashboard_address=None, silence_logs=logging.ERROR,
+            dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR,  # never a taken 8787
         )  # fmt: skip
     runs = []
     try:
