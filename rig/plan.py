@@ -218,6 +218,21 @@ class Resolution(_Closed):
 class Output(_Closed):
     archive: str = Field("sessions/{sample}.zarr", description="{sample} is replaced")
 
+    @field_validator("archive")
+    @classmethod
+    def _only_sample_placeholder(cls, value: str) -> str:
+        try:
+            value.format(sample="sample")
+        except KeyError as err:
+            problem = f"unknown placeholder {{{err.args[0]}}}"
+        except (AttributeError, IndexError, ValueError) as err:
+            problem = str(err)
+        else:
+            return value
+        raise ValueError(
+            f"{problem}; the only placeholder is {{sample}} (write {{{{ or }}}} for a brace)"
+        )
+
 
 class Plan(_Closed):
     sample: Sample

@@ -30,15 +30,16 @@ from orchestrator.daemon.protocol import (
     FrameHeader,
     MessageError,
     Request,
+    decode_request,
     decode_result,
     encode_error,
     encode_event,
     encode_frame,
     encode_reply,
-    parse_request,
     request_id,
+    validate_request,
 )
-from orchestrator.daemon.session import DeviceFactory, Session
+from orchestrator.daemon.session import DeviceFactory, Session, SessionError
 from orchestrator.daemon.state import IllegalTransition, SessionEvent, StateMachine, allowed_events
 from orchestrator.daemon.stream import FrameLedger, InFlight
 from rig.clock import Clock, RealClock
@@ -217,36 +218,44 @@ class Daemon:
     def _serve_control(self) -> None:
         for _ in range(_BATCH):
             try:
-                parts = self._control.recv_multipart(zmq.NOBLOCK)
+                # Frames, not bytes: an oversized message is measured and refused uncopied.
+                parts = self._control.recv_multipart(zmq.NOBLOCK, copy=False)
             except zmq.Again:
                 return
             envelope, body = _split_envelope(parts)
             reply = self._answer(body)
             self._control.send_multipart([*envelope, reply])
 
-    def _answer(self, body: list[bytes]) -> bytes:
+    def _answer(self, body: list[zmq.Frame]) -> bytes:
+        """The reply to one request; every failure becomes an error reply naming the request."""
+        size = sum(len(part) for part in body)
+        if size > MAX_CONTROL_BYTES:
+            error = MessageError(
+                "too_large",
+                f"the request has {size} bytes in {len(body)} part(s); "
+                f"the limit is {MAX_CONTROL_BYTES} bytes per message",
+            )
+            return encode_error(None, error)
         if len(body) != 1:
             error = MessageError(
                 "malformed", f"a request has exactly one body part, got {len(body)}"
             )
-            return encode_error(request_id(body[0]) if body else None, error)
-        rid = request_id(body[0])
+            return encode_error(None, error)
+        raw = body[0].bytes
+        try:
+            data = decode_request(raw)
+        except MessageError as err:
+            return encode_error(None, err)
+        rid = request_id(data)
         # A Lazy-Pirate retry (same id, same body) gets the same answer, done once.
-        key = None if rid is None else (rid, hashlib.blake2b(body[0], digest_size=16).digest())
+        key = None if rid is None else (rid, hashlib.blake2b(raw, digest_size=16).digest())
         if key in self._replies:
             return self._replies[key]
         try:
-            request = parse_request(body[0])
+            request = validate_request(data)
             reply = encode_reply(request.id, self._dispatch(request))
-        except MessageError as err:
-            reply = encode_error(rid, err)
-        except IllegalTransition as err:
-            error = MessageError("illegal_state", str(err), "command")
-            reply = encode_error(rid, error)
-        except PlanError as err:
-            reply = encode_error(rid, MessageError("plan_invalid", str(err), "args.plan_toml"))
-        except RigError as err:
-            reply = encode_error(rid, MessageError("rejected", str(err)))
+        except Exception as err:
+            reply = encode_error(rid, _as_message_error(err, data))
         if key is not None:
             self._replies[key] = reply
             while len(self._replies) > _REPLY_CACHE:
@@ -260,22 +269,19 @@ class Daemon:
                 return self.status()
             case "submit":
                 self._check_free("submit")
-                path = args.archive
-                if path is None:
-                    from rig.plan import parse_plan
-
-                    path = str(parse_plan(args.plan_toml, source=args.source).archive_path())
                 session = Session.start_new(
                     args.plan_toml,
                     source=args.source,
-                    archive_path=Path(path),
+                    archive_path=args.archive,
                     config=self.config,
                     **self._session_options(),
                 )
                 return self._start(session)
             case "resume" if args.archive is not None:
                 self._check_free("resume")
-                session = Session.resume_from(Path(args.archive), **self._session_options())
+                session = Session.resume_from(
+                    Path(args.archive), config=self.config, **self._session_options()
+                )
                 return self._start(session)
             case "resume" | "pause" | "abort":
                 self.machine.fire(SessionEvent(request.command))
@@ -461,9 +467,41 @@ class Daemon:
             self._publish(topic, payload)
 
 
-def _split_envelope(parts: list[bytes]) -> tuple[list[bytes], list[bytes]]:
+def _split_envelope(parts: list[zmq.Frame]) -> tuple[list[zmq.Frame], list[zmq.Frame]]:
     """ROUTER parts → (routing envelope incl. the empty delimiter, body parts)."""
     for i, part in enumerate(parts[1:], 1):
-        if part == b"":
+        if len(part) == 0:
             return parts[: i + 1], parts[i + 1 :]
     return parts[:1], parts[1:]
+
+
+def _as_message_error(err: Exception, request: dict) -> MessageError:
+    """The error reply for whatever handling ``request`` raised: code, field, and a
+    message that names the request."""
+    command = request.get("command")
+    what = f"{command!r} request" if isinstance(command, str) else "the request"
+    match err:
+        case MessageError():
+            return err
+        case IllegalTransition():
+            return MessageError("illegal_state", str(err), "command")
+        case PlanError():
+            return MessageError("plan_invalid", str(err), "args.plan_toml")
+        case SessionError(field=field):
+            return MessageError("rejected", str(err), field)
+        case RigError():
+            return MessageError("rejected", str(err))
+        case MemoryError():
+            return MessageError(
+                "too_large", f"{what} needs more memory than this machine has; nothing was done"
+            )
+        case RecursionError():
+            return MessageError(
+                "too_deep", f"{what} nests too deeply to be handled; nothing was done"
+            )
+        case OSError(filename=str() as path):
+            return MessageError("rejected", f"{what}: {path}: {err.strerror}")
+    log.exception("%s failed unexpectedly", what)
+    return MessageError(
+        "internal", f"{what} failed: {type(err).__name__}: {err}; the daemon goes on"
+    )
