@@ -44,7 +44,7 @@ from orchestrator.daemon.state import IllegalTransition, SessionEvent, StateMach
 from orchestrator.daemon.stream import FrameLedger, InFlight
 from rig.clock import Clock, RealClock
 from rig.config import RigConfig
-from rig.errors import PlanError, RigError
+from rig.errors import ConfigError, PlanError, RigError
 
 __all__ = ["Daemon"]
 
@@ -110,12 +110,14 @@ class Daemon:
         self._stop = threading.Event()
         self._ctx: zmq.Context | None = None
         self._auth = None
+        self._curve_keys: tuple[bytes, bytes] | None = None
         self.endpoints: Endpoints | None = None
 
     # -- sockets ----------------------------------------------------------------------------
 
     def bind(self) -> Endpoints:
         """Create and bind the four sockets; returns where they listen."""
+        self._curve_keys = _load_curve_keys(self.settings)  # a bad key file: before any socket
         self._ctx = zmq.Context()
         try:
             self._control = self._socket(zmq.ROUTER, maxmsgsize=4 * MAX_CONTROL_BYTES)
@@ -142,22 +144,22 @@ class Daemon:
     def _socket(self, kind: int, *, maxmsgsize: int = -1) -> zmq.Socket:
         sock = self._ctx.socket(kind)
         sock.linger = 0
-        sock.maxmsgsize = maxmsgsize
-        if self.settings.curve_secret_key is not None:
-            self._curve_server(sock)
+        try:
+            sock.maxmsgsize = maxmsgsize
+            if self._curve_keys is not None:
+                self._curve_server(sock, *self._curve_keys)
+        except BaseException:
+            sock.close(linger=0)  # an open socket would keep ctx.term() waiting forever
+            raise
         return sock
 
-    def _curve_server(self, sock: zmq.Socket) -> None:
-        import zmq.auth
+    def _curve_server(self, sock: zmq.Socket, public: bytes, secret: bytes) -> None:
         from zmq.auth.thread import ThreadAuthenticator
 
         if self._auth is None:
             self._auth = ThreadAuthenticator(self._ctx)
             self._auth.start()
             self._auth.configure_curve(domain="*", location=str(self.settings.curve_clients_dir))
-        public, secret = zmq.auth.load_certificate(str(self.settings.curve_secret_key))
-        if secret is None:
-            raise RigError(f"{self.settings.curve_secret_key}: not a secret certificate")
         sock.curve_secretkey = secret
         sock.curve_publickey = public
         sock.curve_server = True
@@ -465,6 +467,28 @@ class Daemon:
             except queue.Empty:
                 return
             self._publish(topic, payload)
+
+
+def _load_curve_keys(settings: DaemonSettings) -> tuple[bytes, bytes] | None:
+    """The server's (public, secret) CURVE keys from ``curve_secret_key``; None without one."""
+    import zmq.auth
+
+    path = settings.curve_secret_key
+    if path is None:
+        return None
+    how = "make a pair with zmq.auth.create_certificates and give its .key_secret file"
+    try:
+        public, secret = zmq.auth.load_certificate(str(path))
+    except (OSError, ValueError) as err:
+        raise ConfigError(
+            f"daemon curve_secret_key {path}: not a CURVE certificate ({err}); {how}"
+        ) from None
+    if secret is None:
+        raise ConfigError(
+            f"daemon curve_secret_key {path}: holds only a public key; the daemon needs "
+            f"its secret certificate; {how}"
+        )
+    return public, secret
 
 
 def _split_envelope(parts: list[zmq.Frame]) -> tuple[list[zmq.Frame], list[zmq.Frame]]:
