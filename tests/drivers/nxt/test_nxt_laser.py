@@ -166,3 +166,19 @@ def test_real_serial_path_names_the_missing_port(world):
     config = world.config.laser.model_copy(update={"brick": connection})
     with pytest.raises(DeviceError, match=r"serial /dev/rfcomm-none: open failed: cannot open"):
         NxtLaser.open(config, clock=world.clock)
+
+
+def test_a_vanished_serial_port_is_a_device_error_naming_the_brick(world, brick):
+    """The peer dies (as under kill -9): the tty layer's EIO comes back as a DeviceError."""
+    with NxtSerialPeer(brick) as peer:
+        connection = NxtConnection(transport="serial", serial_port=peer.port, retry=RETRY)
+        config = world.config.laser.model_copy(update={"brick": connection})
+        driver = NxtLaser.open(config, clock=world.clock)
+        driver.set_laser(True)
+    # the peer closed both ends of its pty
+    for switch_off in (lambda: driver.set_laser(False), driver.stop):
+        with pytest.raises(DeviceError) as info:
+            switch_off()
+        assert info.value.device == f"laser brick (serial {peer.port})"
+        assert f"serial {peer.port} failed: Input/output error" in info.value.detail
+    driver.close()  # logs the failed switch-off; raises nothing raw
