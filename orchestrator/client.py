@@ -22,7 +22,7 @@ import zmq
 
 from orchestrator.daemon.endpoints import Endpoints
 from orchestrator.daemon.protocol import MAX_CONTROL_BYTES, decode_json
-from rig.errors import RigError
+from rig.errors import ConfigError, RigError
 
 __all__ = [
     "DaemonClient",
@@ -153,14 +153,36 @@ def pause(*, connect="tcp://127.0.0.1") -> dict:
     return _one(connect, "pause")
 
 
-def resume(archive: str | Path | None = None, *, connect="tcp://127.0.0.1") -> dict:
-    """Resume the paused session, or (with ``archive``) continue a crashed one."""
-    path = None if archive is None else str(Path(archive).resolve())
-    return _one(connect, "resume", archive=path)
+def resume(
+    archive: str | Path | None = None,
+    *,
+    config: str | Path | None = None,
+    connect="tcp://127.0.0.1",
+) -> dict:
+    """Resume the paused session, or (with ``archive``) continue a crashed one.
+
+    ``config``: a rig config TOML whose connections the resumed session uses (the
+    devices moved to other ports); its geometry must be the recorded one. Default:
+    the daemon's own config.
+    """
+    if archive is None:
+        if config is not None:
+            raise ConfigError("a rig config goes with an archive to resume; give ARCHIVE too")
+        return _one(connect, "resume")
+    args = {"archive": str(Path(archive).resolve())}
+    if config is not None:
+        from rig.config import load_rig_config
+
+        load_rig_config(config)  # a bad file is reported here, naming it
+        args.update(config_toml=Path(config).read_text(), config_source=str(config))
+    return _one(connect, "resume", **args)
 
 
-def abort(*, connect="tcp://127.0.0.1") -> dict:
-    return _one(connect, "abort")
+def abort(*, connect="tcp://127.0.0.1", timeout_s: float = 60.0) -> dict:
+    """Abort the session; returns once its thread let go of the devices (a step under way
+    ends first), so a submit right after is taken."""
+    _one(connect, "abort")
+    return wait_for_state(connect, TERMINAL_STATES, settled=True, timeout_s=timeout_s)
 
 
 def shutdown(*, connect="tcp://127.0.0.1") -> dict:
@@ -235,7 +257,8 @@ def wait_for_state(
             if current["state"] in states and not (settled and current["busy"]):
                 return current
             if time.monotonic() > deadline:
-                raise DaemonUnreachable(
-                    f"the daemon stayed {current['state']} for {timeout_s} s, not {states}"
-                )
+                still = "busy (its session thread still holds the devices)"
+                if current["state"] not in states:
+                    still = f"{current['state']}, not one of {list(states)}"
+                raise DaemonUnreachable(f"the daemon stayed {still} for {timeout_s} s")
             time.sleep(0.02)

@@ -116,13 +116,22 @@ def register(app: typer.Typer) -> None:
         archive: Annotated[
             Path | None, typer.Argument(help="continue a crashed session from its archive")
         ] = None,
+        config: Annotated[
+            Path | None,
+            typer.Option(
+                "--config",
+                "-c",
+                help="with ARCHIVE: the rig config whose connections to use (devices on new "
+                "ports); its geometry must be the recorded one (default: the daemon's config)",
+            ),
+        ] = None,
         connect: Annotated[str, CONNECT] = DEFAULT_CONNECT,
     ) -> None:
         """Resume a paused session, or continue a crashed one from its archive."""
         from orchestrator import client
 
         with reporting_errors():
-            _print_status(client.resume(archive, connect=connect))
+            _print_status(client.resume(archive, config=config, connect=connect))
 
     @app.command()
     def run(

@@ -7,12 +7,13 @@ archive recorded (where each device is plugged in may change, what it is may not
 
 from __future__ import annotations
 
+import tomllib
 from pathlib import Path
 
-from pydantic import BaseModel
+from pydantic import BaseModel, ValidationError
 
 from orchestrator.daemon.protocol import MAX_PLAN_PAIRS
-from rig.config import RigConfig
+from rig.config import RigConfig, format_validation_error
 from rig.errors import PlanError, RigError
 from rig.plan import Plan
 
@@ -21,6 +22,7 @@ __all__ = [
     "check_archive_place",
     "check_plan_size",
     "check_same_rig",
+    "rig_config_from_toml",
     "rig_differences",
 ]
 
@@ -70,6 +72,23 @@ def check_archive_place(path: Path, field: str) -> None:
                     field=field,
                 )
             return
+
+
+def rig_config_from_toml(text: str, *, source: str) -> RigConfig:
+    """A rig config sent as TOML text with a request (``args.config_toml``)."""
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as err:
+        raise SessionError(
+            f"rig config {source} is not valid TOML: {err}", field="args.config_toml"
+        ) from None
+    try:
+        return RigConfig.model_validate(data)
+    except ValidationError as err:
+        problems = "; ".join(format_validation_error(source, err, RigConfig))
+        raise SessionError(
+            f"rig config {source}: invalid: {problems}", field="args.config_toml"
+        ) from None
 
 
 def rig_differences(recorded: RigConfig, current: RigConfig) -> list[tuple[str, object, object]]:

@@ -101,6 +101,13 @@ class ResumeArgs(_Closed):
     archive: str | None = Field(
         None, max_length=4096, description="continue a crashed session from its archive"
     )
+    config_toml: str | None = Field(
+        None,
+        max_length=_MAX_PLAN_CHARS,
+        description="with archive: the rig config (TOML text) whose connections to use; "
+        "default the daemon's",
+    )
+    config_source: str = Field("<rig config>", max_length=4096, description="where it came from")
 
 
 class CalibrateArgs(_Closed):

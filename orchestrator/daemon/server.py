@@ -22,6 +22,7 @@ from pathlib import Path
 import numpy as np
 import zmq
 
+from orchestrator.daemon.admission import rig_config_from_toml
 from orchestrator.daemon.devices import build_devices
 from orchestrator.daemon.endpoints import DaemonSettings, Endpoints
 from orchestrator.daemon.protocol import (
@@ -40,7 +41,13 @@ from orchestrator.daemon.protocol import (
     validate_request,
 )
 from orchestrator.daemon.session import DeviceFactory, Session, SessionError
-from orchestrator.daemon.state import IllegalTransition, SessionEvent, StateMachine, allowed_events
+from orchestrator.daemon.state import (
+    IllegalTransition,
+    SessionEvent,
+    SessionState,
+    StateMachine,
+    allowed_events,
+)
 from orchestrator.daemon.stream import FrameLedger, InFlight
 from rig.clock import Clock, RealClock
 from rig.config import RigConfig
@@ -281,12 +288,19 @@ class Daemon:
                 return self._start(session)
             case "resume" if args.archive is not None:
                 self._check_free("resume")
+                config = self.config
+                if args.config_toml is not None:
+                    config = rig_config_from_toml(args.config_toml, source=args.config_source)
                 session = Session.resume_from(
-                    Path(args.archive), config=self.config, **self._session_options()
+                    Path(args.archive), config=config, **self._session_options()
                 )
                 return self._start(session)
-            case "resume" | "pause" | "abort":
+            case "resume" | "pause":
                 self.machine.fire(SessionEvent(request.command))
+                return self.status()
+            case "abort":
+                self.machine.fire(SessionEvent.ABORT)
+                self._stop_streaming(self._session.id)
                 return self.status()
             case "calibrate":
                 raise MessageError(
@@ -368,14 +382,24 @@ class Daemon:
     def _workers_alive(self) -> bool:
         return any(self._alive(t) for t in self._workers.values())
 
+    def _stop_streaming(self, session: str) -> None:
+        """An aborted session's frames go to no worker: its thread must not wait for them."""
+        dropped = self._ledger.forget(session)
+        if dropped:
+            self._publish("log", {"kind": "unprocessed", "session": session, "frames": dropped})
+
     def _take_frames(self) -> None:
-        alive = self._workers_alive() and not self._stop.is_set()
-        while not alive or self._ledger.in_flight < self.settings.max_in_flight:
+        streaming = (
+            self._workers_alive()
+            and not self._stop.is_set()
+            and self.machine.state != SessionState.ABORTED
+        )
+        while not streaming or self._ledger.in_flight < self.settings.max_in_flight:
             try:
                 header, parts = self._outbox.frames.get_nowait()
             except queue.Empty:
                 return
-            if alive:
+            if streaming:
                 self._ledger.add(InFlight(header.frame_id, header.session, parts))
             else:
                 self._not_streamed += 1  # in the archive; `rig process` covers it

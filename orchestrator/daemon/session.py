@@ -316,6 +316,8 @@ class Session:
         started_at = time.time()
         actuators = devices.move(turntable_deg=step.turntable_deg, arc_deg=step.arc_deg)
         self.outbox.publish("telemetry", {"session": self.id, "step": step.index, **actuators})
+        if self.machine.state == SessionState.ABORTED:  # the move took long: light nothing
+            raise _Aborted
         extra = {}
         if step.kind == "mdf":
             mount = int(step.source.removeprefix("laser"))
