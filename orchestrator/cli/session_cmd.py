@@ -8,11 +8,12 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
+from rich.markup import escape
 
 from orchestrator.cli.common import SessionProgress, console, reporting_errors
 from rig.errors import ConfigError
 
-__all__ = ["register"]
+__all__ = ["FaultHints", "register"]
 
 CONNECT = typer.Option("--connect", help="the daemon's control address, tcp://HOST[:PORT]")
 DEFAULT_CONNECT = "tcp://127.0.0.1"
@@ -24,6 +25,32 @@ def _print_status(state: dict) -> None:
     for key in ("session", "sample", "archive", "committed", "steps", "frames", "fault", "reason"):
         if session.get(key) is not None:
             console.print(f"  {key}: {session[key]}")
+
+
+class FaultHints:
+    """Passes each event on to ``view``; when a fault pauses the session, says what
+    happened and what the user can do, with the address of the daemon to do it at."""
+
+    def __init__(self, view, connect: str = DEFAULT_CONNECT):
+        self.view = view
+        self.connect = connect
+
+    def __call__(self, event: dict) -> None:
+        self.view(event)
+        if event.get("topic") == "daemon":
+            self.connect = event["control"]
+        elif event.get("topic") == "state" and event.get("event") == "fault":
+            where = "" if self.connect == DEFAULT_CONNECT else f" --connect {self.connect}"
+            console.print(
+                escape(
+                    f"paused: {event.get('device')} failed at step {event.get('step')} "
+                    f"({event.get('operation')}: {event.get('detail')}).\n"
+                    f"  Fix it, then `rig resume{where}` to retry that step, or "
+                    f"`rig abort{where}` to end the session: committed steps stay in the "
+                    "archive, and `rig resume ARCHIVE` with a daemon continues it later."
+                ),
+                style="yellow",
+            )
 
 
 def register(app: typer.Typer) -> None:
@@ -92,8 +119,9 @@ def register(app: typer.Typer) -> None:
                 _print_status(client.status(connect=connect))
                 return
             with SessionProgress() as view:
+                hints = FaultHints(view, connect)
                 for event in client.follow(connect, until=client.session_ended):
-                    view(event)
+                    hints(event)
             _print_status(client.status(connect=connect))
 
     for name, doc in (
@@ -161,7 +189,8 @@ def register(app: typer.Typer) -> None:
         """Daemon + workers + submit + follow in one process, for a local session."""
         from orchestrator.daemon import run_local
 
-        with reporting_errors(), SessionProgress() as view:
+        with reporting_errors(), SessionProgress() as progress:
+            view = FaultHints(progress)
             if sim is None:
                 final = run_local(
                     plan, config, archive=archive, workers=workers, stages=stages, on_event=view

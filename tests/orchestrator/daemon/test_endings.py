@@ -10,11 +10,14 @@ import tomli_w
 import zmq
 
 from orchestrator import client
+from orchestrator.cli.session_cmd import FaultHints
 from orchestrator.client import DaemonClient, DaemonRequestError, wait_for_state
+from orchestrator.daemon import run_local
 from orchestrator.daemon.protocol import ResultHeader, encode_result
 from rig.archive import Archive
 from rig.connections import ModbusConnection
 from tests.orchestrator.daemon.conftest import LAMP_PLAN, running_daemon
+from tests.orchestrator.daemon.soft import soft_devices
 from tests.orchestrator.daemon.test_session import _check_archive
 
 
@@ -138,3 +141,29 @@ def test_a_daemon_on_another_rig_refuses_the_resume(config, rig, tmp_path):
             control.request("resume", archive=str(path))
         assert "turntable.axis.speed_deg_s" in info.value.message
         assert control.request("status")["state"] == "idle"
+
+
+def test_rig_run_says_what_happened_and_what_to_do_after_a_fault(config, rig, tmp_path, capsys):
+    rig.faults.arm("lamps.switch", "dark")
+    (tmp_path / "plan.toml").write_text(LAMP_PLAN)
+    resumers = []
+
+    def resume_when_paused(event):  # the user, in another terminal, after reading the hint
+        if event.get("topic") == "state" and event.get("event") == "fault":
+            resumer = threading.Thread(target=client.resume, kwargs={"connect": hints.connect})
+            resumer.start()
+            resumers.append(resumer)
+
+    hints = FaultHints(resume_when_paused)
+    final = run_local(
+        tmp_path / "plan.toml", config, archive=tmp_path / "a.zarr", on_event=hints,
+        devices=soft_devices(rig), clock=rig.clock,
+    )  # fmt: skip
+    for resumer in resumers:
+        resumer.join()
+    said = " ".join(capsys.readouterr().out.split())
+    assert final["state"] == "done" and len(resumers) == 1
+    assert hints.connect.startswith("tcp://127.0.0.1:")
+    assert "paused: lamp bank failed at step 0 (switch: lamp ['" in said
+    assert f"`rig resume --connect {hints.connect}` to retry that step" in said
+    assert f"`rig abort --connect {hints.connect}` to end the session" in said
