@@ -83,6 +83,12 @@ class DaemonClient:
         """Send ``command`` with ``args``; the reply's result, or raise."""
         rid = uuid.uuid4().hex
         body = json.dumps({"id": rid, "command": command, "args": args}).encode()
+        if len(body) > MAX_CONTROL_BYTES:  # the daemon would drop it unanswered
+            raise DaemonRequestError(
+                command,
+                {"code": "too_large", "message": f"the request has {len(body)} bytes; the "
+                 f"daemon takes at most {MAX_CONTROL_BYTES} bytes per message"},
+            )  # fmt: skip
         reply = self.request_raw([body], expect_id=rid)
         if not reply.get("ok"):
             raise DaemonRequestError(command, reply.get("error") or {})

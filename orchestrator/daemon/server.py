@@ -127,7 +127,9 @@ class Daemon:
         self._curve_keys = _load_curve_keys(self.settings)  # a bad key file: before any socket
         self._ctx = zmq.Context()
         try:
-            self._control = self._socket(zmq.ROUTER, maxmsgsize=4 * MAX_CONTROL_BYTES)
+            # A part a little over the limit still gets a reply saying so; a larger one
+            # makes ZeroMQ drop the sender before it holds the message in memory.
+            self._control = self._socket(zmq.ROUTER, maxmsgsize=MAX_CONTROL_BYTES + 65536)
             self._events = self._socket(zmq.PUB)
             self._frames = self._socket(zmq.PUSH)
             self._results_sock = self._socket(zmq.PULL, maxmsgsize=MAX_FRAME_BYTES)

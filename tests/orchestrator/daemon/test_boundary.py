@@ -8,7 +8,12 @@ import zmq
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
-from orchestrator.client import DaemonClient, DaemonRequestError, wait_for_state
+from orchestrator.client import (
+    DaemonClient,
+    DaemonRequestError,
+    DaemonUnreachable,
+    wait_for_state,
+)
 from orchestrator.daemon import Session
 from orchestrator.daemon.protocol import MAX_CONTROL_BYTES, MAX_JSON_DEPTH, MAX_PLAN_PAIRS
 from tests.orchestrator.daemon.conftest import LAMP_PLAN, running_daemon
@@ -57,6 +62,22 @@ def test_the_size_limit_counts_every_part_of_a_message(config, rig):
         assert f"the limit is {MAX_CONTROL_BYTES} bytes per message" in reply["error"]["message"]
         assert f"{3 * len(part)} bytes in 3 part(s)" in reply["error"]["message"]
         assert _raw(endpoints, [_request("status")])["ok"]
+
+
+def test_a_part_far_over_the_limit_is_dropped_unread_and_the_client_says_so(config, rig):
+    with running_daemon(config, rig) as endpoints:
+        # ZeroMQ drops it before it is whole: no memory held, no reply
+        with (
+            DaemonClient(endpoints, timeout_s=0.5, retries=0) as client,
+            pytest.raises(DaemonUnreachable),
+        ):
+            client.request_raw([b"x" * (MAX_CONTROL_BYTES + 100_000)] * 3)
+        with DaemonClient(endpoints) as client:
+            with pytest.raises(DaemonRequestError) as info:  # refused here, never sent
+                client.request("submit", plan_toml="#" * (MAX_CONTROL_BYTES + 1))
+            assert info.value.code == "too_large"
+            assert f"at most {MAX_CONTROL_BYTES} bytes per message" in info.value.message
+            assert client.request("status")["state"] == "idle"
 
 
 def test_an_archive_under_a_file_is_refused_naming_it(config, rig, tmp_path):
