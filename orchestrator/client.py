@@ -128,8 +128,22 @@ class DaemonClient:
         self.close()
 
 
+#: How long ``submit`` and ``resume ARCHIVE`` wait for their reply: the daemon compiles
+#: the plan first (a minute or more for the largest plans it takes, on a busy machine).
+PREPARE_TIMEOUT_S = 300.0
+
+
 def _one(connect: Endpoints | str, command: str, **args) -> dict:
     with DaemonClient(connect) as client:
+        return client.request(command, **args)
+
+
+def _prepared(connect: Endpoints | str, command: str, **args) -> dict:
+    """A request that makes a session: a missing daemon is found out in seconds, a
+    large plan gets the time it needs to compile."""
+    with DaemonClient(connect) as client:
+        client.request("status")
+        client.timeout_s = PREPARE_TIMEOUT_S
         return client.request(command, **args)
 
 
@@ -142,7 +156,7 @@ def submit(
     plan = Path(plan)
     parsed = load_plan(plan)  # bad plans are reported here, before the daemon sees them
     target = Path(archive) if archive is not None else parsed.archive_path()
-    return _one(
+    return _prepared(
         connect,
         "submit",
         plan_toml=plan.read_text(),
@@ -181,7 +195,7 @@ def resume(
 
         load_rig_config(config)  # a bad file is reported here, naming it
         args.update(config_toml=Path(config).read_text(), config_source=str(config))
-    return _one(connect, "resume", **args)
+    return _prepared(connect, "resume", **args)
 
 
 def abort(*, connect="tcp://127.0.0.1", timeout_s: float = 60.0) -> dict:

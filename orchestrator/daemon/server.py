@@ -4,8 +4,10 @@ One loop thread owns every socket: it answers the control ROUTER, publishes
 events on PUB (with a sequence number each, and a ``status`` snapshot every
 ``status_interval_s`` for late joiners), pushes frames to the workers and
 pulls their results. The session runs on its own thread and talks to the loop
-through ``_Outbox`` (thread-safe queues); the loop never blocks on a socket, so
-the daemon answers control requests while frames wait at the workers' HWM.
+through an ``Outbox`` (thread-safe queues); the loop never blocks on a socket, so
+the daemon answers control requests while frames wait at the workers' HWM. A
+new session is prepared (plan compiled, archive created) on a thread of its own
+(``control.Preparation``), so a large plan does not stop the answers either.
 """
 
 from __future__ import annotations
@@ -23,24 +25,23 @@ import numpy as np
 import zmq
 
 from orchestrator.daemon.admission import rig_config_from_toml
+from orchestrator.daemon.control import Preparation, as_message_error, split_envelope
 from orchestrator.daemon.devices import build_devices
 from orchestrator.daemon.endpoints import DaemonSettings, Endpoints
 from orchestrator.daemon.protocol import (
     MAX_CONTROL_BYTES,
     MAX_FRAME_BYTES,
-    FrameHeader,
     MessageError,
     Request,
     decode_request,
     decode_result,
     encode_error,
     encode_event,
-    encode_frame,
     encode_reply,
     request_id,
     validate_request,
 )
-from orchestrator.daemon.session import DeviceFactory, Session, SessionError
+from orchestrator.daemon.session import DeviceFactory, Session
 from orchestrator.daemon.state import (
     IllegalTransition,
     SessionEvent,
@@ -48,10 +49,9 @@ from orchestrator.daemon.state import (
     StateMachine,
     allowed_events,
 )
-from orchestrator.daemon.stream import FrameLedger, InFlight
+from orchestrator.daemon.stream import FrameLedger, InFlight, Outbox
 from rig.clock import Clock, RealClock
 from rig.config import RigConfig
-from rig.errors import ConfigError, PlanError, RigError
 
 __all__ = ["Daemon"]
 
@@ -59,28 +59,6 @@ log = logging.getLogger(__name__)
 
 _REPLY_CACHE = 256
 _BATCH = 64  # messages handled per socket per loop turn, so no socket starves the others
-
-
-class _Outbox:
-    """The session thread's side of the loop: events, frames (bounded) and drain requests."""
-
-    def __init__(self, max_frames: int):
-        self.events: queue.SimpleQueue = queue.SimpleQueue()
-        self.frames: queue.Queue = queue.Queue(maxsize=max_frames)
-        self.drains: queue.SimpleQueue = queue.SimpleQueue()
-
-    def publish(self, topic: str, payload: dict) -> None:
-        self.events.put((topic, payload))
-
-    def stream(self, header: FrameHeader, image: np.ndarray) -> None:
-        self.frames.put((header, encode_frame(header, image)))  # blocks while the loop is behind
-
-    def drain(self, session: str, timeout_s: float) -> list[tuple[dict, dict]]:
-        done = threading.Event()
-        request = {"session": session, "deadline": time.monotonic() + timeout_s, "done": done}
-        self.drains.put(request)
-        done.wait()
-        return request["results"]
 
 
 class Daemon:
@@ -104,7 +82,7 @@ class Daemon:
         self._devices = devices
         self.clock = clock or RealClock()
         self.machine = StateMachine(on_change=self._state_changed)
-        self._outbox = _Outbox(self.settings.max_in_flight)
+        self._outbox = Outbox(self.settings.max_in_flight)
         self._ledger = FrameLedger(resend_after_s=self.settings.resend_after_s)
         self._session: Session | None = None
         self._thread: threading.Thread | None = None
@@ -118,13 +96,14 @@ class Daemon:
         self._ctx: zmq.Context | None = None
         self._auth = None
         self._curve_keys: tuple[bytes, bytes] | None = None
+        self._preparing: Preparation | None = None
         self.endpoints: Endpoints | None = None
 
     # -- sockets ----------------------------------------------------------------------------
 
     def bind(self) -> Endpoints:
         """Create and bind the four sockets; returns where they listen."""
-        self._curve_keys = _load_curve_keys(self.settings)  # a bad key file: before any socket
+        self._curve_keys = self.settings.curve_keys()  # a bad key file: before any socket
         self._ctx = zmq.Context()
         try:
             # A part a little over the limit still gets a reply saying so; a larger one
@@ -207,6 +186,7 @@ class Daemon:
                 ready = dict(poller.poll(10 if active or want_out else 100))
                 if ready.get(self._control):
                     self._serve_control()
+                self._reply_prepared()
                 if ready.get(self._results_sock):
                     self._take_results()
                 self._take_frames()
@@ -220,6 +200,9 @@ class Daemon:
                     self._publish("status", self.status())
                     next_status = now + self.settings.status_interval_s
         finally:
+            if self._preparing is not None:  # a thread is compiling a plan: let it end
+                self._preparing.wait()
+                self._reply_prepared()
             self._shutdown_session()
             self._publish_queued()
             self._close_sockets()
@@ -233,11 +216,12 @@ class Daemon:
                 parts = self._control.recv_multipart(zmq.NOBLOCK, copy=False)
             except zmq.Again:
                 return
-            envelope, body = _split_envelope(parts)
-            reply = self._answer(body)
-            self._control.send_multipart([*envelope, reply])
+            envelope, body = split_envelope(parts)
+            reply = self._answer(envelope, body)
+            if reply is not None:  # None: a session is being prepared; it replies when ready
+                self._control.send_multipart([*envelope, reply])
 
-    def _answer(self, body: list[zmq.Frame]) -> bytes:
+    def _answer(self, envelope: list[zmq.Frame], body: list[zmq.Frame]) -> bytes | None:
         """The reply to one request; every failure becomes an error reply naming the request."""
         size = sum(len(part) for part in body)
         if size > MAX_CONTROL_BYTES:
@@ -262,41 +246,73 @@ class Daemon:
         key = None if rid is None else (rid, hashlib.blake2b(raw, digest_size=16).digest())
         if key in self._replies:
             return self._replies[key]
+        if key is not None and self._preparing is not None and self._preparing.key == key:
+            self._preparing.envelopes.append(envelope)
+            return None
         try:
             request = validate_request(data)
+            make = self._session_maker(request)
+            if make is not None:
+                self._check_free(request.command)
+                self._preparing = Preparation(key, request.id, request.command, make)
+                self._preparing.envelopes.append(envelope)
+                self._preparing.start()
+                return None
             reply = encode_reply(request.id, self._dispatch(request))
         except Exception as err:
-            reply = encode_error(rid, _as_message_error(err, data))
+            reply = encode_error(rid, as_message_error(err, data))
+        self._remember(key, reply)
+        return reply
+
+    def _remember(self, key: tuple | None, reply: bytes) -> None:
         if key is not None:
             self._replies[key] = reply
             while len(self._replies) > _REPLY_CACHE:
                 self._replies.popitem(last=False)
-        return reply
 
-    def _dispatch(self, request: Request) -> dict:
+    def _session_maker(self, request: Request):
+        """For submit and resume ARCHIVE: what makes their session (off the loop)."""
         args = request.args
-        match request.command:
-            case "status":
-                return self.status()
-            case "submit":
-                self._check_free("submit")
-                session = Session.start_new(
-                    args.plan_toml,
-                    source=args.source,
-                    archive_path=args.archive,
-                    config=self.config,
-                    **self._session_options(),
-                )
-                return self._start(session)
-            case "resume" if args.archive is not None:
-                self._check_free("resume")
+        options = self._session_options()
+        if request.command == "submit":
+            return lambda: Session.start_new(
+                args.plan_toml,
+                source=args.source,
+                archive_path=args.archive,
+                config=self.config,
+                **options,
+            )
+        if request.command == "resume" and args.archive is not None:
+
+            def resume() -> Session:
                 config = self.config
                 if args.config_toml is not None:
                     config = rig_config_from_toml(args.config_toml, source=args.config_source)
-                session = Session.resume_from(
-                    Path(args.archive), config=config, **self._session_options()
-                )
-                return self._start(session)
+                return Session.resume_from(Path(args.archive), config=config, **options)
+
+            return resume
+        return None
+
+    def _reply_prepared(self) -> None:
+        """Start the prepared session, or report why it could not be made."""
+        preparing = self._preparing
+        if preparing is None or not preparing.done:
+            return
+        self._preparing = None
+        try:
+            reply = encode_reply(preparing.request_id, self._start(preparing.result()))
+        except Exception as err:
+            reply = encode_error(
+                preparing.request_id, as_message_error(err, {"command": preparing.command})
+            )
+        self._remember(preparing.key, reply)
+        for envelope in preparing.envelopes:
+            self._control.send_multipart([*envelope, reply])
+
+    def _dispatch(self, request: Request) -> dict:
+        match request.command:
+            case "status":
+                return self.status()
             case "resume" | "pause":
                 self.machine.fire(SessionEvent(request.command))
                 return self.status()
@@ -307,8 +323,8 @@ class Daemon:
             case "calibrate":
                 raise MessageError(
                     "not_built",
-                    f"calibrating {args.target} from the daemon is not built yet (issue 9); "
-                    "nothing was done",
+                    f"calibrating {request.args.target} from the daemon is not built yet; "
+                    "nothing was done (use `rig calibrate`)",
                     "command",
                 )
             case "shutdown":
@@ -317,6 +333,13 @@ class Daemon:
         raise AssertionError(request.command)
 
     def _check_free(self, command: str) -> None:
+        if self._preparing is not None:
+            raise MessageError(
+                "busy",
+                f"a session is being prepared ({self._preparing.command}: its plan compiles); "
+                f"{command} again after it started",
+                "command",
+            )
         if self._thread is not None:
             raise MessageError(
                 "busy",
@@ -356,6 +379,7 @@ class Daemon:
             "state": state.value,
             "allowed": list(allowed_events(state)),
             "busy": self._thread is not None,  # a session thread still holds the devices
+            "preparing": None if self._preparing is None else self._preparing.command,
             "session": None if self._session is None else self._session.status(),
             "workers": sum(self._alive(t) for t in self._workers.values()),
             "stream": {
@@ -493,65 +517,3 @@ class Daemon:
             except queue.Empty:
                 return
             self._publish(topic, payload)
-
-
-def _load_curve_keys(settings: DaemonSettings) -> tuple[bytes, bytes] | None:
-    """The server's (public, secret) CURVE keys from ``curve_secret_key``; None without one."""
-    import zmq.auth
-
-    path = settings.curve_secret_key
-    if path is None:
-        return None
-    how = "make a pair with zmq.auth.create_certificates and give its .key_secret file"
-    try:
-        public, secret = zmq.auth.load_certificate(str(path))
-    except (OSError, ValueError) as err:
-        raise ConfigError(
-            f"daemon curve_secret_key {path}: not a CURVE certificate ({err}); {how}"
-        ) from None
-    if secret is None:
-        raise ConfigError(
-            f"daemon curve_secret_key {path}: holds only a public key; the daemon needs "
-            f"its secret certificate; {how}"
-        )
-    return public, secret
-
-
-def _split_envelope(parts: list[zmq.Frame]) -> tuple[list[zmq.Frame], list[zmq.Frame]]:
-    """ROUTER parts → (routing envelope incl. the empty delimiter, body parts)."""
-    for i, part in enumerate(parts[1:], 1):
-        if len(part) == 0:
-            return parts[: i + 1], parts[i + 1 :]
-    return parts[:1], parts[1:]
-
-
-def _as_message_error(err: Exception, request: dict) -> MessageError:
-    """The error reply for whatever handling ``request`` raised: code, field, and a
-    message that names the request."""
-    command = request.get("command")
-    what = f"{command!r} request" if isinstance(command, str) else "the request"
-    match err:
-        case MessageError():
-            return err
-        case IllegalTransition():
-            return MessageError("illegal_state", str(err), "command")
-        case PlanError():
-            return MessageError("plan_invalid", str(err), "args.plan_toml")
-        case SessionError(field=field):
-            return MessageError("rejected", str(err), field)
-        case RigError():
-            return MessageError("rejected", str(err))
-        case MemoryError():
-            return MessageError(
-                "too_large", f"{what} needs more memory than this machine has; nothing was done"
-            )
-        case RecursionError():
-            return MessageError(
-                "too_deep", f"{what} nests too deeply to be handled; nothing was done"
-            )
-        case OSError(filename=str() as path):
-            return MessageError("rejected", f"{what}: {path}: {err.strerror}")
-    log.exception("%s failed unexpectedly", what)
-    return MessageError(
-        "internal", f"{what} failed: {type(err).__name__}: {err}; the daemon goes on"
-    )

@@ -138,14 +138,14 @@ class Session:
         None: the plan's ``output.archive``.
         """
         plan = parse_plan(plan_toml, source=source)
-        check_plan_size(plan, source)
-        schedule = compile_plan(plan, config)
-        calibration = _calibration_of(config)
         if archive_path is None:
             target, field = plan.archive_path(), "args.plan_toml"
         else:
             target, field = Path(archive_path), "args.archive"
         check_archive_place(target, field)
+        check_plan_size(plan, source)
+        schedule = compile_plan(plan, config)
+        calibration = _calibration_of(config)
         archive = Archive.create(
             target,
             plan=plan.model_dump(mode="json"),

@@ -14,6 +14,7 @@ from orchestrator.client import (
     DaemonUnreachable,
     wait_for_state,
 )
+from orchestrator.client import abort as client_abort
 from orchestrator.daemon import Session
 from orchestrator.daemon.protocol import MAX_CONTROL_BYTES, MAX_JSON_DEPTH, MAX_PLAN_PAIRS
 from tests.orchestrator.daemon.conftest import LAMP_PLAN, running_daemon
@@ -220,3 +221,30 @@ def test_fuzzed_control_messages_then_a_normal_session(config, rig, tmp_path, mo
         assert {"malformed", "invalid", "too_deep"} <= codes
         assert "internal" not in codes
         _finishes_a_session(endpoints, tmp_path / "after.zarr")
+
+
+def test_the_daemon_answers_while_a_large_plan_compiles(config, rig, tmp_path):
+    big = '[sample]\nname = "big"\n[captures.btf]\nviews = "H1"\n'
+    big += "lights = {theta_deg = 40, count = 24}\n"  # 1,944 pairs: seconds to compile
+    with running_daemon(config, rig) as endpoints:
+        ctx = zmq.Context()
+        submitter = ctx.socket(zmq.DEALER)
+        submitter.linger = 0
+        try:
+            submitter.connect(endpoints.control)
+            args = {"plan_toml": big, "archive": str(tmp_path / "big.zarr")}
+            submitter.send_multipart([b"", _request("submit", **args)])
+            with DaemonClient(endpoints, timeout_s=1.0, retries=0) as client:
+                while (status := client.request("status"))["preparing"] is None:
+                    assert status["state"] == "idle", "the plan compiled before it was asked"
+                with pytest.raises(DaemonRequestError) as info:
+                    client.request("submit", plan_toml=LAMP_PLAN, archive=str(tmp_path / "b"))
+                assert info.value.code == "busy" and "being prepared" in info.value.message
+                assert client.request("status")["preparing"] == "submit"
+            assert submitter.poll(120_000), "no reply to the large submit"
+            reply = json.loads(submitter.recv_multipart()[-1])
+            assert reply["ok"] and reply["result"]["session"]["steps"] > 100
+        finally:
+            submitter.close(linger=0)
+            ctx.term()
+        assert client_abort(connect=endpoints)["state"] == "aborted"
