@@ -17,6 +17,7 @@ from orchestrator.client import (
 from orchestrator.client import abort as client_abort
 from orchestrator.daemon import Session
 from orchestrator.daemon.protocol import MAX_CONTROL_BYTES, MAX_JSON_DEPTH, MAX_PLAN_PAIRS
+from rig.archive import Archive
 from tests.orchestrator.daemon.conftest import LAMP_PLAN, running_daemon
 
 
@@ -248,3 +249,25 @@ def test_the_daemon_answers_while_a_large_plan_compiles(config, rig, tmp_path):
             submitter.close(linger=0)
             ctx.term()
         assert client_abort(connect=endpoints)["state"] == "aborted"
+
+
+def test_stopping_while_a_plan_compiles_ends_cleanly(config, rig, tmp_path):
+    big = '[sample]\nname = "big"\n[captures.btf]\nviews = "H1"\n'
+    big += "lights = {theta_deg = 40, count = 24}\n"
+    with running_daemon(config, rig) as endpoints:
+        ctx = zmq.Context()
+        submitter = ctx.socket(zmq.DEALER)
+        submitter.linger = 0
+        try:
+            submitter.connect(endpoints.control)
+            args = {"plan_toml": big, "archive": str(tmp_path / "big.zarr")}
+            submitter.send_multipart([b"", _request("submit", **args)])
+            with DaemonClient(endpoints, timeout_s=1.0, retries=0) as client:
+                while client.request("status")["preparing"] is None:
+                    pass
+        finally:
+            submitter.close(linger=0)
+            ctx.term()
+    # running_daemon stopped the loop and joined it; the leak check finds no thread left
+    with Archive.open(tmp_path / "big.zarr") as archive:
+        assert archive.committed_steps() == ()  # prepared, started, aborted at shutdown
