@@ -182,7 +182,7 @@ class Daemon:
             while not self._stop.is_set():
                 want_out = self._ledger.next_to_send() is not None and self._workers_alive()
                 poller.register(self._frames, zmq.POLLOUT if want_out else 0)
-                active = self._thread is not None
+                active = self._thread is not None or self._preparing is not None
                 ready = dict(poller.poll(10 if active or want_out else 100))
                 if ready.get(self._control):
                     self._serve_control()
