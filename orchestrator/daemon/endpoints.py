@@ -109,7 +109,8 @@ class DaemonSettings(BaseModel):
 
     def curve_keys(self) -> tuple[bytes, bytes] | None:
         """The server's (public, secret) CURVE keys from ``curve_secret_key``; None without
-        one. A file that is not a secret certificate is a ``ConfigError`` naming it."""
+        one. A file that is not a secret certificate, or no folder of clients'
+        certificates, is a ``ConfigError`` naming it."""
         import zmq.auth
 
         path = self.curve_secret_key
@@ -126,5 +127,12 @@ class DaemonSettings(BaseModel):
             raise ConfigError(
                 f"daemon curve_secret_key {path}: holds only a public key; the daemon needs "
                 f"its secret certificate; {how}"
+            )
+        clients = self.curve_clients_dir
+        if clients is None or not clients.is_dir():
+            given = "is not set" if clients is None else f"{str(clients)!r} is not a folder"
+            raise ConfigError(
+                f"daemon curve_clients_dir {given}: with a CURVE key the daemon admits only "
+                "the clients whose public certificates are in that folder"
             )
         return public, secret

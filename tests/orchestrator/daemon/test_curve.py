@@ -8,6 +8,7 @@ from typer.testing import CliRunner
 from orchestrator.cli import app
 from orchestrator.daemon import DaemonSettings, daemon_thread
 from rig.config import default_rig_config
+from rig.errors import ConfigError
 
 runner = CliRunner()
 
@@ -48,6 +49,17 @@ def test_rig_daemon_refuses_a_bad_key_file_by_name(certificates, which, says):
     )
     assert result.exit_code == 2, result.output
     assert f"curve_secret_key {key}" in result.output and says in result.output
+
+
+@pytest.mark.parametrize("clients", [None, "nowhere"])
+def test_a_key_without_a_folder_of_clients_is_refused(certificates, tmp_path, clients):
+    settings = DaemonSettings(
+        port=0,
+        curve_secret_key=certificates["secret"],
+        curve_clients_dir=None if clients is None else tmp_path / clients,
+    )
+    with pytest.raises(ConfigError, match=r"daemon curve_clients_dir .*public certificates"):
+        settings.curve_keys()
 
 
 def test_a_secret_certificate_serves_a_known_client(certificates):
