@@ -138,7 +138,7 @@ def replay_local(
     The plan and rig config come from the recording; the frames too (``ReplayDevices``).
     A mismatch between plan and recording fails the replay, naming the step.
     """
-    from orchestrator.client import DaemonClient
+    from orchestrator.client import PREPARE_TIMEOUT_S, DaemonClient
     from orchestrator.daemon.replay import replay_factory
     from rig.archive import Archive
 
@@ -149,7 +149,7 @@ def replay_local(
         raise SessionError(f"{source}: the archive holds no plan to replay")
 
     def submit(endpoints: Endpoints) -> None:
-        with DaemonClient(endpoints) as control:
+        with DaemonClient(endpoints, timeout_s=PREPARE_TIMEOUT_S) as control:  # it compiles
             control.request(
                 "submit", plan_toml=plan_toml, source=f"replay of {source}",
                 archive=str(Path(out).resolve()),
