@@ -22,8 +22,7 @@ import zmq
 
 from orchestrator.daemon.endpoints import Endpoints
 from orchestrator.daemon.protocol import MAX_CONTROL_BYTES, decode_json
-from orchestrator.daemon.session import SessionError
-from rig.errors import RigError
+from rig.errors import ConfigError, RigError
 
 __all__ = [
     "DaemonClient",
@@ -84,6 +83,12 @@ class DaemonClient:
         """Send ``command`` with ``args``; the reply's result, or raise."""
         rid = uuid.uuid4().hex
         body = json.dumps({"id": rid, "command": command, "args": args}).encode()
+        if len(body) > MAX_CONTROL_BYTES:  # the daemon would drop it unanswered
+            raise DaemonRequestError(
+                command,
+                {"code": "too_large", "message": f"the request has {len(body)} bytes; the "
+                 f"daemon takes at most {MAX_CONTROL_BYTES} bytes per message"},
+            )  # fmt: skip
         reply = self.request_raw([body], expect_id=rid)
         if not reply.get("ok"):
             raise DaemonRequestError(command, reply.get("error") or {})
@@ -123,8 +128,22 @@ class DaemonClient:
         self.close()
 
 
+#: How long ``submit`` and ``resume ARCHIVE`` wait for their reply: the daemon compiles
+#: the plan first (a minute or more for the largest plans it takes, on a busy machine).
+PREPARE_TIMEOUT_S = 300.0
+
+
 def _one(connect: Endpoints | str, command: str, **args) -> dict:
     with DaemonClient(connect) as client:
+        return client.request(command, **args)
+
+
+def _prepared(connect: Endpoints | str, command: str, **args) -> dict:
+    """A request that makes a session: a missing daemon is found out in seconds, a
+    large plan gets the time it needs to compile."""
+    with DaemonClient(connect) as client:
+        client.request("status")
+        client.timeout_s = PREPARE_TIMEOUT_S
         return client.request(command, **args)
 
 
@@ -137,7 +156,7 @@ def submit(
     plan = Path(plan)
     parsed = load_plan(plan)  # bad plans are reported here, before the daemon sees them
     target = Path(archive) if archive is not None else parsed.archive_path()
-    return _one(
+    return _prepared(
         connect,
         "submit",
         plan_toml=plan.read_text(),
@@ -154,17 +173,33 @@ def pause(*, connect="tcp://127.0.0.1") -> dict:
     return _one(connect, "pause")
 
 
-def resume(archive: str | Path | None = None, *, connect="tcp://127.0.0.1") -> dict:
+def resume(
+    archive: str | Path | None = None,
+    *,
+    config: str | Path | None = None,
+    connect="tcp://127.0.0.1",
+) -> dict:
     """Resume the paused session, or (with ``archive``) continue a crashed one.
 
-    An archive this machine sees is checked first: a finished session's is refused.
+    ``config``: a rig config TOML whose connections the resumed session uses (the
+    devices moved to other ports); its geometry must be the recorded one. Default:
+    the daemon's own config. An archive this machine sees is checked first: a finished
+    session's is refused.
     """
     if archive is None:
-        return _one(connect, "resume", archive=None)
+        if config is not None:
+            raise ConfigError("a rig config goes with an archive to resume; give ARCHIVE too")
+        return _one(connect, "resume")
     path = Path(archive).resolve()
     if path.is_dir():
         _refuse_finished(path)
-    return _one(connect, "resume", archive=str(path))
+    args = {"archive": str(path)}
+    if config is not None:
+        from rig.config import load_rig_config
+
+        load_rig_config(config)  # a bad file is reported here, naming it
+        args.update(config_toml=Path(config).read_text(), config_source=str(config))
+    return _prepared(connect, "resume", **args)
 
 
 def _refuse_finished(path: Path) -> None:
@@ -174,14 +209,17 @@ def _refuse_finished(path: Path) -> None:
         sessions = recorded.events("session")
         committed = len(recorded.committed_steps())
     if any(event.payload.get("action") == "finished" for event in sessions):
-        raise SessionError(
+        raise RigError(
             f"{path}: its session finished ({committed} step(s) committed); nothing to resume. "
             "Process it with `rig process`, or submit the plan again to a new archive"
         )
 
 
-def abort(*, connect="tcp://127.0.0.1") -> dict:
-    return _one(connect, "abort")
+def abort(*, connect="tcp://127.0.0.1", timeout_s: float = 60.0) -> dict:
+    """Abort the session; returns once its thread let go of the devices (a step under way
+    ends first), so a submit right after is taken."""
+    _one(connect, "abort")
+    return wait_for_state(connect, TERMINAL_STATES, settled=True, timeout_s=timeout_s)
 
 
 def shutdown(*, connect="tcp://127.0.0.1") -> dict:
@@ -256,7 +294,8 @@ def wait_for_state(
             if current["state"] in states and not (settled and current["busy"]):
                 return current
             if time.monotonic() > deadline:
-                raise DaemonUnreachable(
-                    f"the daemon stayed {current['state']} for {timeout_s} s, not {states}"
-                )
+                still = "busy (its session thread still holds the devices)"
+                if current["state"] not in states:
+                    still = f"{current['state']}, not one of {list(states)}"
+                raise DaemonUnreachable(f"the daemon stayed {still} for {timeout_s} s")
             time.sleep(0.02)

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import re
 from pathlib import Path
-from string import Formatter
 from typing import Annotated
 
 import numpy as np
@@ -220,17 +219,18 @@ class Output(_Closed):
 
     @field_validator("archive")
     @classmethod
-    def _only_sample_in_braces(cls, value: str) -> str:
-        problem = "only {sample} may stand in braces (a literal brace is doubled: {{ or }})"
+    def _only_sample_placeholder(cls, value: str) -> str:
         try:
-            fields = [
-                (f, spec, conv) for _, f, spec, conv in Formatter().parse(value) if f is not None
-            ]
-        except ValueError:  # a single brace
-            raise ValueError(problem) from None
-        if any(f != "sample" or spec or conv for f, spec, conv in fields):
-            raise ValueError(problem)
-        return value
+            value.format(sample="sample")
+        except KeyError as err:
+            problem = f"unknown placeholder {{{err.args[0]}}}"
+        except (AttributeError, IndexError, ValueError) as err:
+            problem = str(err)
+        else:
+            return value
+        raise ValueError(
+            f"{problem}; the only placeholder is {{sample}} (write {{{{ or }}}} for a brace)"
+        )
 
 
 class Plan(_Closed):

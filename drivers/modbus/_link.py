@@ -163,6 +163,10 @@ class ModbusLink:
                 ) from err
             except ModbusException as err:
                 raise ProtocolError(self.device, operation, f"{what}: {err}") from err
+            except OSError as err:  # the peer vanished mid-request (reset, broken pipe)
+                raise DeviceTimeout(
+                    self.device, operation, f"lost {self.where} while trying to {what}: {err}"
+                ) from err
             if reply.isError():
                 code = getattr(reply, "exception_code", None)
                 raise DeviceError(self.device, operation, _refusal(what, code))

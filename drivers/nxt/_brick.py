@@ -91,8 +91,8 @@ class NxtBrick:
         """
 
         def attempt() -> T:
-            self.transport.discard_input()
             try:
+                self.transport.discard_input()
                 self.transport.send(telegram, timeout_s=self.retry.timeout_s)
                 return decode(self.transport.receive(timeout_s=self.retry.timeout_s))
             except TimeoutError as err:

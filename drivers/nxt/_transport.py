@@ -10,8 +10,11 @@ truncated or oversized frame; the brick turns these into ``DeviceError``s.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import struct
+import termios
+from collections.abc import Iterator
 from typing import Protocol
 
 import serial
@@ -116,7 +119,13 @@ class UsbTransport:
 
 
 class SerialTransport:
-    """A brick over Bluetooth SPP (``/dev/rfcomm0``) or any serial port: a pty in the sim."""
+    """A brick over Bluetooth SPP (``/dev/rfcomm0``) or any serial port: a pty in the sim.
+
+    A port that vanished (the brick switched off, the adapter pulled, the peer
+    killed) fails in pyserial or in the tty layer below it (``termios.error``,
+    ``OSError``); every operation turns these into ``ConnectionError`` naming
+    the port, which the brick reports as a ``DeviceError``.
+    """
 
     def __init__(self, port: str, *, baudrate: int = 115200):
         self.name = f"serial {port}"
@@ -127,18 +136,17 @@ class SerialTransport:
             raise DeviceError(self.name, "open", f"cannot open the serial port: {err}") from err
 
     def send(self, telegram: bytes, *, timeout_s: float) -> None:
-        self._port.write_timeout = timeout_s
-        try:
-            self._port.write(struct.pack("<H", len(telegram)) + telegram)
-            self._port.flush()
-        except serial.SerialTimeoutException as err:
-            raise TimeoutError(f"write to {self.name} timed out after {timeout_s} s") from err
-        except serial.SerialException as err:
-            raise ConnectionError(f"write to {self.name} failed: {err}") from err
+        with self._port_errors("write to"):
+            self._port.write_timeout = timeout_s
+            try:
+                self._port.write(struct.pack("<H", len(telegram)) + telegram)
+                self._port.flush()
+            except serial.SerialTimeoutException as err:
+                raise TimeoutError(f"write to {self.name} timed out after {timeout_s} s") from err
 
     def receive(self, *, timeout_s: float) -> bytes:
-        self._port.timeout = timeout_s
-        try:
+        with self._port_errors("read from"):
+            self._port.timeout = timeout_s
             prefix = self._port.read(2)
             if len(prefix) < 2:
                 raise TimeoutError(f"no reply from {self.name} within {timeout_s} s")
@@ -149,8 +157,6 @@ class SerialTransport:
                     malformed=True,
                 )
             body = self._port.read(length)
-        except serial.SerialException as err:
-            raise ConnectionError(f"read from {self.name} failed: {err}") from err
         if len(body) < length:
             raise TelegramError(
                 f"reply from {self.name} cut short: {len(body)} of {length} bytes",
@@ -159,7 +165,25 @@ class SerialTransport:
         return body
 
     def discard_input(self) -> None:
-        self._port.reset_input_buffer()
+        with self._port_errors("flushing"):
+            self._port.reset_input_buffer()
 
     def close(self) -> None:
-        self._port.close()
+        with self._port_errors("closing"):
+            self._port.close()
+
+    @contextlib.contextmanager
+    def _port_errors(self, doing: str) -> Iterator[None]:
+        try:
+            yield
+        except (serial.SerialException, termios.error, OSError) as err:
+            if isinstance(err, TimeoutError | ConnectionError):
+                raise
+            raise ConnectionError(f"{doing} {self.name} failed: {_reason(err)}") from err
+
+
+def _reason(err: Exception) -> str:
+    """``termios.error`` carries ``(errno, text)`` as its args; say the text."""
+    if isinstance(err, termios.error) and len(err.args) == 2:
+        return f"{err.args[1]} (errno {err.args[0]})"
+    return str(err)

@@ -13,7 +13,7 @@ from rich.markup import escape
 from orchestrator.cli.common import SessionProgress, check_new_archive, console
 from rig.errors import ConfigError, RigError
 
-__all__ = ["register"]
+__all__ = ["FaultHints", "register"]
 
 CONNECT = typer.Option("--connect", help="the daemon's control address, tcp://HOST[:PORT]")
 DEFAULT_CONNECT = "tcp://127.0.0.1"
@@ -25,6 +25,32 @@ def _print_status(state: dict) -> None:
     for key in ("session", "sample", "archive", "committed", "steps", "frames", "fault", "reason"):
         if session.get(key) is not None:
             console.print(escape(f"  {key}: {session[key]}"))
+
+
+class FaultHints:
+    """Passes each event on to ``view``; when a fault pauses the session, says what
+    happened and what the user can do, with the address of the daemon to do it at."""
+
+    def __init__(self, view, connect: str = DEFAULT_CONNECT):
+        self.view = view
+        self.connect = connect
+
+    def __call__(self, event: dict) -> None:
+        self.view(event)
+        if event.get("topic") == "daemon":
+            self.connect = event["control"]
+        elif event.get("topic") == "state" and event.get("event") == "fault":
+            where = "" if self.connect == DEFAULT_CONNECT else f" --connect {self.connect}"
+            console.print(
+                escape(
+                    f"paused: {event.get('device')} failed at step {event.get('step')} "
+                    f"({event.get('operation')}: {event.get('detail')}).\n"
+                    f"  Fix it, then `rig resume{where}` to retry that step, or "
+                    f"`rig abort{where}` to end the session: committed steps stay in the "
+                    "archive, and `rig resume ARCHIVE` with a daemon continues it later."
+                ),
+                style="yellow",
+            )
 
 
 def register(app: typer.Typer) -> None:
@@ -114,8 +140,9 @@ def register(app: typer.Typer) -> None:
             _print_status(client.status(connect=connect))
             return
         with SessionProgress() as view:
+            hints = FaultHints(view, connect)
             for event in client.follow(connect, until=client.session_ended):
-                view(event)
+                hints(event)
         _print_status(client.status(connect=connect))
 
     for name, doc in (
@@ -137,12 +164,21 @@ def register(app: typer.Typer) -> None:
         archive: Annotated[
             Path | None, typer.Argument(help="continue a crashed session from its archive")
         ] = None,
+        config: Annotated[
+            Path | None,
+            typer.Option(
+                "--config",
+                "-c",
+                help="with ARCHIVE: the rig config whose connections to use (devices on new "
+                "ports); its geometry must be the recorded one (default: the daemon's config)",
+            ),
+        ] = None,
         connect: Annotated[str, CONNECT] = DEFAULT_CONNECT,
     ) -> None:
         """Resume a paused session, or continue a crashed one from its archive."""
         from orchestrator import client
 
-        _print_status(client.resume(archive, connect=connect))
+        _print_status(client.resume(archive, config=config, connect=connect))
 
     @app.command()
     def run(
@@ -179,7 +215,8 @@ def register(app: typer.Typer) -> None:
         option = "--archive" if archive is not None else "the plan's output.archive"
         archive = archive if archive is not None else load_plan(plan).archive_path()
         check_new_archive(archive, option, otherwise="`rig resume` an unfinished one")
-        with SessionProgress() as view:
+        with SessionProgress() as progress:
+            view = FaultHints(progress)
             if sim is None:
                 final = run_local(
                     plan, config, archive=archive, workers=workers, stages=stages, on_event=view

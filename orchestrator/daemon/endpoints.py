@@ -106,3 +106,33 @@ class DaemonSettings(BaseModel):
             path = getattr(self, name)
             if not path.exists():
                 raise ConfigError(f"daemon {name} = {str(path)!r}: no such file or folder")
+
+    def curve_keys(self) -> tuple[bytes, bytes] | None:
+        """The server's (public, secret) CURVE keys from ``curve_secret_key``; None without
+        one. A file that is not a secret certificate, or no folder of clients'
+        certificates, is a ``ConfigError`` naming it."""
+        import zmq.auth
+
+        path = self.curve_secret_key
+        if path is None:
+            return None
+        how = "make a pair with zmq.auth.create_certificates and give its .key_secret file"
+        try:
+            public, secret = zmq.auth.load_certificate(str(path))
+        except (OSError, ValueError) as err:
+            raise ConfigError(
+                f"daemon curve_secret_key {path}: not a CURVE certificate ({err}); {how}"
+            ) from None
+        if secret is None:
+            raise ConfigError(
+                f"daemon curve_secret_key {path}: holds only a public key; the daemon needs "
+                f"its secret certificate; {how}"
+            )
+        clients = self.curve_clients_dir
+        if clients is None or not clients.is_dir():
+            given = "is not set" if clients is None else f"{str(clients)!r} is not a folder"
+            raise ConfigError(
+                f"daemon curve_clients_dir {given}: with a CURVE key the daemon admits only "
+                "the clients whose public certificates are in that folder"
+            )
+        return public, secret

@@ -110,7 +110,8 @@ def run_local(
 
     Every socket is on free loopback ports; ``workers`` threads run the live
     ``stages`` (comma-separated, see ``orchestrator.worker``); ``on_event`` sees each
-    event (e.g. to draw a progress bar).
+    event (e.g. to draw a progress bar), first a ``daemon`` event with the ``control``
+    address, where ``rig resume`` or ``rig abort --connect`` reach this run.
     """
     from orchestrator import client
 
@@ -137,7 +138,7 @@ def replay_local(
     The plan and rig config come from the recording; the frames too (``ReplayDevices``).
     A mismatch between plan and recording fails the replay, naming the step.
     """
-    from orchestrator.client import DaemonClient
+    from orchestrator.client import PREPARE_TIMEOUT_S, DaemonClient
     from orchestrator.daemon.replay import replay_factory
     from rig.archive import Archive
 
@@ -148,7 +149,7 @@ def replay_local(
         raise SessionError(f"{source}: the archive holds no plan to replay")
 
     def submit(endpoints: Endpoints) -> None:
-        with DaemonClient(endpoints) as control:
+        with DaemonClient(endpoints, timeout_s=PREPARE_TIMEOUT_S) as control:  # it compiles
             control.request(
                 "submit", plan_toml=plan_toml, source=f"replay of {source}",
                 archive=str(Path(out).resolve()),
@@ -164,6 +165,8 @@ def _in_process(config, submit, settings, devices, clock, workers, stages, on_ev
 
     daemon = daemon_thread(config, settings=settings, devices=devices, clock=clock)
     with daemon as endpoints, worker_threads(endpoints, stages, workers):
+        if on_event is not None:  # where to send resume or abort while this run waits
+            on_event({"topic": "daemon", "control": endpoints.control})
         submit(endpoints)
         for event in client.follow(endpoints, until=client.session_ended):
             if on_event is not None:

@@ -30,6 +30,8 @@ __all__ = [
     "MAX_CONTROL_BYTES",
     "MAX_FRAME_BYTES",
     "MAX_HEADER_BYTES",
+    "MAX_JSON_DEPTH",
+    "MAX_PLAN_PAIRS",
     "ArraySpec",
     "FrameHeader",
     "MessageError",
@@ -38,6 +40,7 @@ __all__ = [
     "decode_array",
     "decode_frame",
     "decode_json",
+    "decode_request",
     "decode_result",
     "encode_error",
     "encode_event",
@@ -45,10 +48,16 @@ __all__ = [
     "encode_reply",
     "encode_result",
     "parse_request",
+    "request_id",
+    "validate_request",
 ]
 
-#: Largest control request or reply body (a plan's TOML goes inside).
+#: Largest control request or reply: all its body parts together (a plan's TOML goes inside).
 MAX_CONTROL_BYTES = 2 * 1024 * 1024
+#: Deepest nesting of arrays and objects in a JSON message (a request needs 3).
+MAX_JSON_DEPTH = 32
+#: Most (view, light) pairs in one plan: three times a full H1 × H1 BTF (6,561 pairs).
+MAX_PLAN_PAIRS = 20_000
 #: Largest JSON header of a frame or result.
 MAX_HEADER_BYTES = 64 * 1024
 #: Largest pixel buffer of one frame (a 16-bit 8k × 8k RGB frame is 384 MiB).
@@ -92,6 +101,13 @@ class ResumeArgs(_Closed):
     archive: str | None = Field(
         None, max_length=4096, description="continue a crashed session from its archive"
     )
+    config_toml: str | None = Field(
+        None,
+        max_length=_MAX_PLAN_CHARS,
+        description="with archive: the rig config (TOML text) whose connections to use; "
+        "default the daemon's",
+    )
+    config_source: str = Field("<rig config>", max_length=4096, description="where it came from")
 
 
 class CalibrateArgs(_Closed):
@@ -140,31 +156,58 @@ def _first_problem(err: ValidationError, prefix: str = "") -> MessageError:
 
 
 def decode_json(body: bytes, *, limit: int, what: str) -> dict:
-    """Parse a JSON object of at most ``limit`` bytes."""
+    """Parse a JSON object of at most ``limit`` bytes, nested at most ``MAX_JSON_DEPTH``."""
     if len(body) > limit:
         raise MessageError("too_large", f"{what} has {len(body)} bytes; the limit is {limit}")
+    too_deep = MessageError(
+        "too_deep", f"{what} nests arrays or objects deeper than the limit of {MAX_JSON_DEPTH}"
+    )
     try:
         data = json.loads(body)
     except (UnicodeDecodeError, json.JSONDecodeError) as err:
         raise MessageError("malformed", f"{what} is not valid UTF-8 JSON: {err}") from None
+    except RecursionError:  # the parser gave up first: far deeper than the limit
+        raise too_deep from None
     if not isinstance(data, dict):
         raise MessageError("malformed", f"{what} must be a JSON object, got {type(data).__name__}")
+    if _depth_exceeds(data, MAX_JSON_DEPTH):
+        raise too_deep
     return data
 
 
-def request_id(body: bytes) -> str | None:
-    """The request id of a body, if one can be read (for error replies)."""
-    try:
-        data = json.loads(body) if len(body) <= MAX_CONTROL_BYTES else None
-    except (UnicodeDecodeError, json.JSONDecodeError):
-        return None
-    rid = data.get("id") if isinstance(data, dict) else None
+def _depth_exceeds(data, limit: int) -> bool:
+    """True if ``data`` nests lists or dicts more than ``limit`` deep (without recursion)."""
+    level = [data]
+    for _ in range(limit):
+        level = [
+            child
+            for node in level
+            for child in (node.values() if isinstance(node, dict) else node)
+            if isinstance(child, dict | list)
+        ]
+        if not level:
+            return False
+    return True
+
+
+def request_id(data: dict) -> str | None:
+    """The request id of a decoded body, if it has a valid one (for error replies)."""
+    rid = data.get("id")
     return rid if isinstance(rid, str) and 0 < len(rid) <= 128 else None
+
+
+def decode_request(body: bytes) -> dict:
+    """The JSON object of one control request body; ``MessageError`` if it is none."""
+    return decode_json(body, limit=MAX_CONTROL_BYTES, what="the request")
 
 
 def parse_request(body: bytes) -> Request:
     """Validate one control request body; raise ``MessageError`` naming the problem."""
-    data = decode_json(body, limit=MAX_CONTROL_BYTES, what="the request")
+    return validate_request(decode_request(body))
+
+
+def validate_request(data: dict) -> Request:
+    """Check a request decoded by ``decode_request``; ``MessageError`` naming the field."""
     try:
         envelope = _Envelope.model_validate(data)
     except ValidationError as err:

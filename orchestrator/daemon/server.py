@@ -4,8 +4,10 @@ One loop thread owns every socket: it answers the control ROUTER, publishes
 events on PUB (with a sequence number each, and a ``status`` snapshot every
 ``status_interval_s`` for late joiners), pushes frames to the workers and
 pulls their results. The session runs on its own thread and talks to the loop
-through ``_Outbox`` (thread-safe queues); the loop never blocks on a socket, so
-the daemon answers control requests while frames wait at the workers' HWM.
+through an ``Outbox`` (thread-safe queues); the loop never blocks on a socket, so
+the daemon answers control requests while frames wait at the workers' HWM. A
+new session is prepared (plan compiled, archive created) on a thread of its own
+(``control.Preparation``), so a large plan does not stop the answers either.
 """
 
 from __future__ import annotations
@@ -22,28 +24,34 @@ from pathlib import Path
 import numpy as np
 import zmq
 
+from orchestrator.daemon.admission import rig_config_from_toml
+from orchestrator.daemon.control import Preparation, as_message_error, split_envelope
 from orchestrator.daemon.devices import build_devices
 from orchestrator.daemon.endpoints import DaemonSettings, Endpoints
 from orchestrator.daemon.protocol import (
     MAX_CONTROL_BYTES,
     MAX_FRAME_BYTES,
-    FrameHeader,
     MessageError,
     Request,
+    decode_request,
     decode_result,
     encode_error,
     encode_event,
-    encode_frame,
     encode_reply,
-    parse_request,
     request_id,
+    validate_request,
 )
 from orchestrator.daemon.session import DeviceFactory, Session
-from orchestrator.daemon.state import IllegalTransition, SessionEvent, StateMachine, allowed_events
-from orchestrator.daemon.stream import FrameLedger, InFlight
+from orchestrator.daemon.state import (
+    IllegalTransition,
+    SessionEvent,
+    SessionState,
+    StateMachine,
+    allowed_events,
+)
+from orchestrator.daemon.stream import FrameLedger, InFlight, Outbox
 from rig.clock import Clock, RealClock
 from rig.config import RigConfig
-from rig.errors import PlanError, RigError
 
 __all__ = ["Daemon"]
 
@@ -51,28 +59,6 @@ log = logging.getLogger(__name__)
 
 _REPLY_CACHE = 256
 _BATCH = 64  # messages handled per socket per loop turn, so no socket starves the others
-
-
-class _Outbox:
-    """The session thread's side of the loop: events, frames (bounded) and drain requests."""
-
-    def __init__(self, max_frames: int):
-        self.events: queue.SimpleQueue = queue.SimpleQueue()
-        self.frames: queue.Queue = queue.Queue(maxsize=max_frames)
-        self.drains: queue.SimpleQueue = queue.SimpleQueue()
-
-    def publish(self, topic: str, payload: dict) -> None:
-        self.events.put((topic, payload))
-
-    def stream(self, header: FrameHeader, image: np.ndarray) -> None:
-        self.frames.put((header, encode_frame(header, image)))  # blocks while the loop is behind
-
-    def drain(self, session: str, timeout_s: float) -> list[tuple[dict, dict]]:
-        done = threading.Event()
-        request = {"session": session, "deadline": time.monotonic() + timeout_s, "done": done}
-        self.drains.put(request)
-        done.wait()
-        return request["results"]
 
 
 class Daemon:
@@ -96,7 +82,7 @@ class Daemon:
         self._devices = devices
         self.clock = clock or RealClock()
         self.machine = StateMachine(on_change=self._state_changed)
-        self._outbox = _Outbox(self.settings.max_in_flight)
+        self._outbox = Outbox(self.settings.max_in_flight)
         self._ledger = FrameLedger(resend_after_s=self.settings.resend_after_s)
         self._session: Session | None = None
         self._thread: threading.Thread | None = None
@@ -109,15 +95,20 @@ class Daemon:
         self._stop = threading.Event()
         self._ctx: zmq.Context | None = None
         self._auth = None
+        self._curve_keys: tuple[bytes, bytes] | None = None
+        self._preparing: Preparation | None = None
         self.endpoints: Endpoints | None = None
 
     # -- sockets ----------------------------------------------------------------------------
 
     def bind(self) -> Endpoints:
         """Create and bind the four sockets; returns where they listen."""
+        self._curve_keys = self.settings.curve_keys()  # a bad key file: before any socket
         self._ctx = zmq.Context()
         try:
-            self._control = self._socket(zmq.ROUTER, maxmsgsize=4 * MAX_CONTROL_BYTES)
+            # A part a little over the limit still gets a reply saying so; a larger one
+            # makes ZeroMQ drop the sender before it holds the message in memory.
+            self._control = self._socket(zmq.ROUTER, maxmsgsize=MAX_CONTROL_BYTES + 65536)
             self._events = self._socket(zmq.PUB)
             self._frames = self._socket(zmq.PUSH)
             self._results_sock = self._socket(zmq.PULL, maxmsgsize=MAX_FRAME_BYTES)
@@ -141,22 +132,22 @@ class Daemon:
     def _socket(self, kind: int, *, maxmsgsize: int = -1) -> zmq.Socket:
         sock = self._ctx.socket(kind)
         sock.linger = 0
-        sock.maxmsgsize = maxmsgsize
-        if self.settings.curve_secret_key is not None:
-            self._curve_server(sock)
+        try:
+            sock.maxmsgsize = maxmsgsize
+            if self._curve_keys is not None:
+                self._curve_server(sock, *self._curve_keys)
+        except BaseException:
+            sock.close(linger=0)  # an open socket would keep ctx.term() waiting forever
+            raise
         return sock
 
-    def _curve_server(self, sock: zmq.Socket) -> None:
-        import zmq.auth
+    def _curve_server(self, sock: zmq.Socket, public: bytes, secret: bytes) -> None:
         from zmq.auth.thread import ThreadAuthenticator
 
         if self._auth is None:
             self._auth = ThreadAuthenticator(self._ctx)
             self._auth.start()
             self._auth.configure_curve(domain="*", location=str(self.settings.curve_clients_dir))
-        public, secret = zmq.auth.load_certificate(str(self.settings.curve_secret_key))
-        if secret is None:
-            raise RigError(f"{self.settings.curve_secret_key}: not a secret certificate")
         sock.curve_secretkey = secret
         sock.curve_publickey = public
         sock.curve_server = True
@@ -191,10 +182,11 @@ class Daemon:
             while not self._stop.is_set():
                 want_out = self._ledger.next_to_send() is not None and self._workers_alive()
                 poller.register(self._frames, zmq.POLLOUT if want_out else 0)
-                active = self._thread is not None
+                active = self._thread is not None or self._preparing is not None
                 ready = dict(poller.poll(10 if active or want_out else 100))
                 if ready.get(self._control):
                     self._serve_control()
+                self._reply_prepared()
                 if ready.get(self._results_sock):
                     self._take_results()
                 self._take_frames()
@@ -208,6 +200,9 @@ class Daemon:
                     self._publish("status", self.status())
                     next_status = now + self.settings.status_interval_s
         finally:
+            if self._preparing is not None:  # a thread is compiling a plan: let it end
+                self._preparing.wait()
+                self._reply_prepared()
             self._shutdown_session()
             self._publish_queued()
             self._close_sockets()
@@ -217,74 +212,119 @@ class Daemon:
     def _serve_control(self) -> None:
         for _ in range(_BATCH):
             try:
-                parts = self._control.recv_multipart(zmq.NOBLOCK)
+                # Frames, not bytes: an oversized message is measured and refused uncopied.
+                parts = self._control.recv_multipart(zmq.NOBLOCK, copy=False)
             except zmq.Again:
                 return
-            envelope, body = _split_envelope(parts)
-            reply = self._answer(body)
-            self._control.send_multipart([*envelope, reply])
+            envelope, body = split_envelope(parts)
+            reply = self._answer(envelope, body)
+            if reply is not None:  # None: a session is being prepared; it replies when ready
+                self._control.send_multipart([*envelope, reply])
 
-    def _answer(self, body: list[bytes]) -> bytes:
+    def _answer(self, envelope: list[zmq.Frame], body: list[zmq.Frame]) -> bytes | None:
+        """The reply to one request; every failure becomes an error reply naming the request."""
+        size = sum(len(part) for part in body)
+        if size > MAX_CONTROL_BYTES:
+            error = MessageError(
+                "too_large",
+                f"the request has {size} bytes in {len(body)} part(s); "
+                f"the limit is {MAX_CONTROL_BYTES} bytes per message",
+            )
+            return encode_error(None, error)
         if len(body) != 1:
             error = MessageError(
                 "malformed", f"a request has exactly one body part, got {len(body)}"
             )
-            return encode_error(request_id(body[0]) if body else None, error)
-        rid = request_id(body[0])
+            return encode_error(None, error)
+        raw = body[0].bytes
+        try:
+            data = decode_request(raw)
+        except MessageError as err:
+            return encode_error(None, err)
+        rid = request_id(data)
         # A Lazy-Pirate retry (same id, same body) gets the same answer, done once.
-        key = None if rid is None else (rid, hashlib.blake2b(body[0], digest_size=16).digest())
+        key = None if rid is None else (rid, hashlib.blake2b(raw, digest_size=16).digest())
         if key in self._replies:
             return self._replies[key]
+        if key is not None and self._preparing is not None and self._preparing.key == key:
+            self._preparing.envelopes.append(envelope)
+            return None
         try:
-            request = parse_request(body[0])
+            request = validate_request(data)
+            make = self._session_maker(request)
+            if make is not None:
+                self._check_free(request.command)
+                self._preparing = Preparation(key, request.id, request.command, make)
+                self._preparing.envelopes.append(envelope)
+                self._preparing.start()
+                return None
             reply = encode_reply(request.id, self._dispatch(request))
-        except MessageError as err:
-            reply = encode_error(rid, err)
-        except IllegalTransition as err:
-            error = MessageError("illegal_state", str(err), "command")
-            reply = encode_error(rid, error)
-        except PlanError as err:
-            reply = encode_error(rid, MessageError("plan_invalid", str(err), "args.plan_toml"))
-        except RigError as err:
-            reply = encode_error(rid, MessageError("rejected", str(err)))
+        except Exception as err:
+            reply = encode_error(rid, as_message_error(err, data))
+        self._remember(key, reply)
+        return reply
+
+    def _remember(self, key: tuple | None, reply: bytes) -> None:
         if key is not None:
             self._replies[key] = reply
             while len(self._replies) > _REPLY_CACHE:
                 self._replies.popitem(last=False)
-        return reply
+
+    def _session_maker(self, request: Request):
+        """For submit and resume ARCHIVE: what makes their session (off the loop)."""
+        args = request.args
+        options = self._session_options()
+        if request.command == "submit":
+            return lambda: Session.start_new(
+                args.plan_toml,
+                source=args.source,
+                archive_path=args.archive,
+                config=self.config,
+                **options,
+            )
+        if request.command == "resume" and args.archive is not None:
+
+            def resume() -> Session:
+                config = self.config
+                if args.config_toml is not None:
+                    config = rig_config_from_toml(args.config_toml, source=args.config_source)
+                return Session.resume_from(Path(args.archive), config=config, **options)
+
+            return resume
+        return None
+
+    def _reply_prepared(self) -> None:
+        """Start the prepared session, or report why it could not be made."""
+        preparing = self._preparing
+        if preparing is None or not preparing.done:
+            return
+        self._preparing = None
+        try:
+            reply = encode_reply(preparing.request_id, self._start(preparing.result()))
+        except Exception as err:
+            reply = encode_error(
+                preparing.request_id, as_message_error(err, {"command": preparing.command})
+            )
+        self._remember(preparing.key, reply)
+        for envelope in preparing.envelopes:
+            self._control.send_multipart([*envelope, reply])
 
     def _dispatch(self, request: Request) -> dict:
-        args = request.args
         match request.command:
             case "status":
                 return self.status()
-            case "submit":
-                self._check_free("submit")
-                path = args.archive
-                if path is None:
-                    from rig.plan import parse_plan
-
-                    path = str(parse_plan(args.plan_toml, source=args.source).archive_path())
-                session = Session.start_new(
-                    args.plan_toml,
-                    source=args.source,
-                    archive_path=Path(path),
-                    config=self.config,
-                    **self._session_options(),
-                )
-                return self._start(session)
-            case "resume" if args.archive is not None:
-                self._check_free("resume")
-                session = Session.resume_from(Path(args.archive), **self._session_options())
-                return self._start(session)
-            case "resume" | "pause" | "abort":
+            case "resume" | "pause":
                 self.machine.fire(SessionEvent(request.command))
+                return self.status()
+            case "abort":
+                self.machine.fire(SessionEvent.ABORT)
+                self._stop_streaming(self._session.id)
                 return self.status()
             case "calibrate":
                 raise MessageError(
                     "not_built",
-                    f"calibrating {args.target} from the daemon is not built yet (issue 9); "
-                    "nothing was done",
+                    f"calibrating {request.args.target} from the daemon is not built yet; "
+                    "nothing was done (use `rig calibrate`)",
                     "command",
                 )
             case "shutdown":
@@ -293,6 +333,13 @@ class Daemon:
         raise AssertionError(request.command)
 
     def _check_free(self, command: str) -> None:
+        if self._preparing is not None:
+            raise MessageError(
+                "busy",
+                f"a session is being prepared ({self._preparing.command}: its plan compiles); "
+                f"{command} again after it started",
+                "command",
+            )
         if self._thread is not None:
             raise MessageError(
                 "busy",
@@ -332,6 +379,7 @@ class Daemon:
             "state": state.value,
             "allowed": list(allowed_events(state)),
             "busy": self._thread is not None,  # a session thread still holds the devices
+            "preparing": None if self._preparing is None else self._preparing.command,
             "session": None if self._session is None else self._session.status(),
             "workers": sum(self._alive(t) for t in self._workers.values()),
             "stream": {
@@ -360,14 +408,24 @@ class Daemon:
     def _workers_alive(self) -> bool:
         return any(self._alive(t) for t in self._workers.values())
 
+    def _stop_streaming(self, session: str) -> None:
+        """An aborted session's frames go to no worker: its thread must not wait for them."""
+        dropped = self._ledger.forget(session)
+        if dropped:
+            self._publish("log", {"kind": "unprocessed", "session": session, "frames": dropped})
+
     def _take_frames(self) -> None:
-        alive = self._workers_alive() and not self._stop.is_set()
-        while not alive or self._ledger.in_flight < self.settings.max_in_flight:
+        streaming = (
+            self._workers_alive()
+            and not self._stop.is_set()
+            and self.machine.state != SessionState.ABORTED
+        )
+        while not streaming or self._ledger.in_flight < self.settings.max_in_flight:
             try:
                 header, parts = self._outbox.frames.get_nowait()
             except queue.Empty:
                 return
-            if alive:
+            if streaming:
                 self._ledger.add(InFlight(header.frame_id, header.session, parts))
             else:
                 self._not_streamed += 1  # in the archive; `rig process` covers it
@@ -459,11 +517,3 @@ class Daemon:
             except queue.Empty:
                 return
             self._publish(topic, payload)
-
-
-def _split_envelope(parts: list[bytes]) -> tuple[list[bytes], list[bytes]]:
-    """ROUTER parts → (routing envelope incl. the empty delimiter, body parts)."""
-    for i, part in enumerate(parts[1:], 1):
-        if part == b"":
-            return parts[: i + 1], parts[i + 1 :]
-    return parts[:1], parts[1:]

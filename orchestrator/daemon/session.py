@@ -24,11 +24,18 @@ import time
 import uuid
 from collections.abc import Callable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Literal, Protocol
 
 import numpy as np
 
 from drivers.errors import DeviceError
+from orchestrator.daemon.admission import (
+    SessionError,
+    check_archive_place,
+    check_plan_size,
+    check_same_rig,
+)
 from orchestrator.daemon.devices import Captured, DeviceSet
 from orchestrator.daemon.protocol import ArraySpec, FrameHeader
 from orchestrator.daemon.state import IllegalTransition, SessionEvent, SessionState, StateMachine
@@ -36,7 +43,6 @@ from rig.archive import Archive, ArchiveError, ArchiveFull, FrameFormat, FrameRe
 from rig.calfile import load_calibration
 from rig.clock import Clock
 from rig.config import RigConfig
-from rig.errors import RigError
 from rig.kinematics import forward
 from rig.material import write_live
 from rig.plan import Plan, parse_plan
@@ -48,10 +54,6 @@ log = logging.getLogger(__name__)
 
 #: ``factory(config, clock=, scale=, laser=)`` → an open device set.
 DeviceFactory = Callable[..., DeviceSet]
-
-
-class SessionError(RigError):
-    """A session cannot start or go on (bad archive, mismatching plan…)."""
 
 
 class SessionOutbox(Protocol):
@@ -92,6 +94,7 @@ class Session:
         *,
         plan: Plan,
         config: RigConfig,
+        schedule: Schedule,
         archive: Archive,
         devices: DeviceFactory,
         clock: Clock,
@@ -104,7 +107,7 @@ class Session:
         self.plan = plan
         self.config = config
         self.archive = archive
-        self.schedule: Schedule = compile_plan(plan, config)
+        self.schedule = schedule
         self._check_archive_matches()
         self._devices_factory = devices
         self.clock = clock
@@ -126,33 +129,61 @@ class Session:
     # -- creating ---------------------------------------------------------------------------
 
     @classmethod
-    def start_new(cls, plan_toml: str, *, source: str, archive_path, config: RigConfig, **kw):
-        """A session of a new plan writing a new archive (which must not exist)."""
+    def start_new(
+        cls, plan_toml: str, *, source: str, archive_path, config: RigConfig, **kw
+    ) -> Session:
+        """A session of a new plan writing a new archive (which must not exist).
+
+        The plan is validated and compiled, and the archive's place checked, before the
+        archive is created: a plan that fails leaves nothing behind. ``archive_path``
+        None: the plan's ``output.archive``.
+        """
         plan = parse_plan(plan_toml, source=source)
+        if archive_path is None:
+            target, field = plan.archive_path(), "args.plan_toml"
+        else:
+            target, field = Path(archive_path), "args.archive"
+        check_archive_place(target, field)
+        check_plan_size(plan, source)
+        schedule = compile_plan(plan, config)
+        calibration = _calibration_of(config)
         archive = Archive.create(
-            archive_path,
+            target,
             plan=plan.model_dump(mode="json"),
             plan_toml=plan_toml,
             rig_config=config.model_dump(mode="json"),
             cameras=frame_formats(config, scale=plan.resolution.scale),
-            calibration=_calibration_of(config),
+            calibration=calibration,
         )
         try:
-            return cls(plan=plan, config=config, archive=archive, **kw)
+            return cls(plan=plan, config=config, schedule=schedule, archive=archive, **kw)
         except BaseException:
             archive.close()
             raise
 
     @classmethod
-    def resume_from(cls, archive_path, **kw):
-        """Continue the session stored in ``archive_path`` after its last committed step."""
+    def resume_from(cls, archive_path, *, config: RigConfig, **kw) -> Session:
+        """Continue the session stored in ``archive_path`` after its last committed step,
+        with the devices of ``config`` (the daemon's: where they are connected now).
+
+        ``config`` must describe the rig the archive recorded: connections (ports,
+        addresses) may differ, geometry may not.
+        """
         archive = Archive.open(archive_path, mode="a")
         try:
             if archive.plan_toml is None:
                 raise SessionError(f"{archive_path}: the archive keeps no plan text to resume")
+            if any(e.payload.get("action") == "finished" for e in archive.events("session")):
+                raise SessionError(
+                    f"{archive_path}: this session finished; there is nothing to resume "
+                    "(submit the plan again to a new archive to measure again)",
+                    field="args.archive",
+                )
+            recorded = RigConfig.model_validate(archive.rig_config)
+            check_same_rig(recorded, config, source=str(archive_path))
             plan = parse_plan(archive.plan_toml, source=f"{archive_path} (stored plan)")
-            config = RigConfig.model_validate(archive.rig_config)
-            return cls(plan=plan, config=config, archive=archive, **kw)
+            schedule = compile_plan(plan, config)
+            return cls(plan=plan, config=config, schedule=schedule, archive=archive, **kw)
         except BaseException:
             archive.close()
             raise
@@ -284,6 +315,8 @@ class Session:
         started_at = time.time()
         actuators = devices.move(turntable_deg=step.turntable_deg, arc_deg=step.arc_deg)
         self.outbox.publish("telemetry", {"session": self.id, "step": step.index, **actuators})
+        if self.machine.state == SessionState.ABORTED:  # the move took long: light nothing
+            raise _Aborted
         extra = {}
         if step.kind == "mdf":
             mount = int(step.source.removeprefix("laser"))

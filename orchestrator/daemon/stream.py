@@ -5,15 +5,23 @@ is gone from ZeroMQ's queues. So every frame stays in the ledger until a
 result carrying its ``frame_id`` comes back; a frame without a result after
 ``resend_after_s`` is sent again (to whichever worker is free). A late or
 duplicate result of a frame already acknowledged is counted and ignored.
-Used by the daemon's loop thread only (not thread-safe).
+The ledger is used by the daemon's loop thread only (not thread-safe); the
+``Outbox`` is how the session thread hands the loop its events, frames and drains.
 """
 
 from __future__ import annotations
 
+import queue
+import threading
+import time
 from collections import OrderedDict, deque
 from dataclasses import dataclass, field
 
-__all__ = ["FrameLedger", "InFlight"]
+import numpy as np
+
+from orchestrator.daemon.protocol import FrameHeader, encode_frame
+
+__all__ = ["FrameLedger", "InFlight", "Outbox"]
 
 
 @dataclass
@@ -101,3 +109,25 @@ class FrameLedger:
             del self.unacked[frame_id]
             dropped += 1
         return dropped
+
+
+class Outbox:
+    """The session thread's side of the loop: events, frames (bounded) and drain requests."""
+
+    def __init__(self, max_frames: int):
+        self.events: queue.SimpleQueue = queue.SimpleQueue()
+        self.frames: queue.Queue = queue.Queue(maxsize=max_frames)
+        self.drains: queue.SimpleQueue = queue.SimpleQueue()
+
+    def publish(self, topic: str, payload: dict) -> None:
+        self.events.put((topic, payload))
+
+    def stream(self, header: FrameHeader, image: np.ndarray) -> None:
+        self.frames.put((header, encode_frame(header, image)))  # blocks while the loop is behind
+
+    def drain(self, session: str, timeout_s: float) -> list[tuple[dict, dict]]:
+        done = threading.Event()
+        request = {"session": session, "deadline": time.monotonic() + timeout_s, "done": done}
+        self.drains.put(request)
+        done.wait()
+        return request["results"]

@@ -200,3 +200,18 @@ def test_a_tilt_that_crawls_times_out_and_the_motor_is_braked(laser, world, bric
     assert world.clock.now() - t0 == pytest.approx(1.1, abs=0.1)
     assert not world.is_moving("laser_tilt")
     assert brick.outputs[brick.tilt_port].power == 0
+
+
+def test_a_vanished_serial_port_is_a_device_error_naming_the_brick(world, brick):
+    """The peer dies (as under kill -9): the tty layer's EIO comes back as a DeviceError."""
+    with NxtSerialPeer(brick) as peer:
+        section = _section(world, transport="serial", serial_port=peer.port, retry=RETRY)
+        driver = open_device("laser", section, clock=world.clock)
+        driver.set_laser(True)
+    # the peer closed both ends of its pty
+    for switch_off in (lambda: driver.set_laser(False), driver.tilt.stop):
+        with pytest.raises(DeviceError) as info:
+            switch_off()
+        assert info.value.device == f"laser brick (serial {peer.port})"
+        assert f"serial {peer.port} failed: Input/output error" in info.value.detail
+    driver.close()  # logs the failed switch-off; raises nothing raw
