@@ -8,7 +8,6 @@ import time
 import pytest
 import tomli_w
 import zmq
-from rig.connections import ModbusConnection
 
 from orchestrator import client
 from orchestrator.cli.session_cmd import FaultHints
@@ -96,8 +95,9 @@ def _abort_midway(endpoints, rig, path):
 def test_resume_takes_new_connections_and_refuses_a_new_geometry(config, rig, tmp_path):
     path = tmp_path / "s.zarr"
     moved = config.model_copy(
-        update={"lamp_bank": config.lamp_bank.model_copy(
-            update={"connection": ModbusConnection(host="10.0.0.7", port=1502)})}
+        update={"lamp_bank": config.lamp_bank.model_copy(update={
+            "device": config.lamp_bank.device.model_copy(update={"host": "10.0.0.7", "port": 1502})
+        })}
     )  # fmt: skip
     wider = moved.model_copy(
         update={"camera_arc": moved.camera_arc.model_copy(update={"radius_mm": 812.5})}
