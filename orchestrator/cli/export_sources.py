@@ -38,7 +38,7 @@ def btf_source(archive_path: Path, *, from_material: bool, size: int) -> Iterato
     from processing.btf import reconstruct, view_slots
     from processing.offline.btf import BtfSlot, slot_normtextures
     from rig.archive import Archive
-    from rig.interchange import imported_normtextures
+    from rig.interchange import NORMTEXTURE_CAMERA, imported_normtextures
     from rig.material import CompressedBTF, read_material
 
     manifest: dict[str, Any] = {"source_archive": str(archive_path.resolve())}
@@ -59,24 +59,23 @@ def btf_source(archive_path: Path, *, from_material: bool, size: int) -> Iterato
         yield BtfSource(model.view_dirs_deg, model.light_dirs_deg, reconstructed, manifest)
         return
     with Archive.open(archive_path, mode="r") as archive:
-        table = view_slots(archive.step_table())
+        table = view_slots(archive.step_table(), gaps=True)
         imported = imported_normtextures(archive.plan)
         if imported:
-            size = archive.cameras[str(table.cameras[0, 0])].height
+            size = archive.cameras[NORMTEXTURE_CAMERA].height
         cache: dict[int, dict[int, np.ndarray]] = {}
 
         def normtexture(view: int, light: int) -> np.ndarray | None:
             if view not in cache:
                 cache.clear()  # one slot in memory at a time
-                captures = tuple(
-                    (int(s), str(c)) for s, c in zip(table.steps[view], table.cameras[view],
-                                                     strict=True)
-                )  # fmt: skip
+                lights = [i for i, step in enumerate(table.steps[view]) if step >= 0]
+                captures = tuple((int(table.steps[view, i]), str(table.cameras[view, i]))
+                                 for i in lights)  # fmt: skip
                 slot = BtfSlot(view, tuple(table.view_dirs_deg[view]), captures)
                 textures, flagged = slot_normtextures(archive, slot, size=size)
-                lost = {f[1] for f in flagged}
+                lost = {f[1] for f in flagged}  # positions in captures
                 kept = iter(textures)
-                cache[view] = {i: next(kept) for i in range(len(captures)) if i not in lost}
+                cache[view] = {i: next(kept) for k, i in enumerate(lights) if k not in lost}
             return cache[view].get(light)
 
         manifest.update(
