@@ -170,8 +170,12 @@ def ubo2003(
 
 @app.command()
 def maps(archive: _Archive, out: _Out, view: _View = None, overwrite: _Overwrite = False) -> None:
-    """The photometric-stereo maps for DCC tools: albedo (sRGB PNG), OpenGL normal map
-    (16-bit PNG), height (16-bit PNG and float EXR, mm scale in the manifest)."""
+    """The photometric-stereo maps for DCC tools and game engines.
+
+    albedo.png (sRGB), normal.png (16-bit, OpenGL convention: +Y up),
+    height.png (16-bit) and height.exr (float mm), valid.png; the manifest
+    holds the height's mm scale and the sample's size.
+    """
     from orchestrator.cli.export_sources import ps_maps
     from rig.interchange import write_maps
 
@@ -192,8 +196,12 @@ def gltf(
     ] = None,
     overwrite: _Overwrite = False,
 ) -> None:
-    """A binary glTF (.glb): the sample's plane (or --mesh) with the PS maps as a PBR
-    material (base colour = albedo, normal texture in glTF's OpenGL convention)."""
+    """A binary glTF (.glb) of the sample with its PS maps as a PBR material.
+
+    A plane of the sample's size in metres (or --mesh, a mesh file with UVs);
+    base colour = the albedo, normal texture = the normal map (8-bit, glTF's
+    OpenGL convention), metallic 0, roughness 1.
+    """
     from orchestrator.cli.export_sources import ps_maps
     from rig.interchange import write_glb
 
