@@ -95,3 +95,17 @@ def test_an_archive_without_maps_fails_naming_it(tmp_path):
     assert not (tmp_path / "m").exists()
     wrong = runner.invoke(app, ["export", "gltf", str(bare), "--out", str(tmp_path / "x.gltf")])
     assert wrong.exit_code == 2 and "suffix .glb" in " ".join(wrong.output.split())
+
+
+def test_a_mesh_with_uvs_carries_the_maps(archive, tmp_path):
+    plane = tmp_path / "plane.glb"
+    assert runner.invoke(app, ["export", "gltf", str(archive), "--out", str(plane)]).exit_code == 0
+    out = tmp_path / "on_mesh.glb"
+    args = ["export", "gltf", str(archive), "--out", str(out), "--mesh", str(plane)]
+    assert runner.invoke(app, args).exit_code == 0
+    (mesh,) = trimesh.load(out).geometry.values()
+    assert mesh.visual.material.normalTexture.size == (N, N)
+    (tmp_path / "flat.obj").write_text("v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n")
+    args[-1] = str(tmp_path / "flat.obj")
+    refused = runner.invoke(app, [*args[:4], str(tmp_path / "x.glb"), *args[5:]])
+    assert refused.exit_code == 2 and "has no UV per vertex" in " ".join(refused.output.split())
