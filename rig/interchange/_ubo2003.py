@@ -20,6 +20,7 @@ from pathlib import Path
 
 import numpy as np
 
+from rig.geometry import Sampling
 from rig.interchange._errors import InterchangeError
 from rig.interchange._images import to_srgb, write_image
 from rig.interchange._manifest import MANIFEST, write_manifest
@@ -132,19 +133,34 @@ def _gaps(frames, views, lights) -> tuple[str, ...]:
     have: dict[tuple[float, float], set] = {view: set() for view in views}
     for frame in frames:
         have[frame.view_deg].add(frame.light_deg)
-    gaps = []
+    gaps = list(_sampling_gaps(views, lights))
     for view in views:
         missing = [light for light in lights if light not in have[view]]
         if missing:
-            shown = ", ".join(f"({t:g}°, {p:g}°)" for t, p in missing[:6])
-            more = f" and {len(missing) - 6} more" if len(missing) > 6 else ""
             gaps.append(
                 f"view ({view[0]:g}°, {view[1]:g}°): {len(missing)} of {len(lights)} lights "
-                f"missing: {shown}{more}"
+                f"missing: {_shown(missing)}"
             )
     return tuple(gaps)
 
 
+def _sampling_gaps(views, lights) -> Iterator[str]:
+    """The views and lights a set lacks of the seed's sampling (H1 or H2) that holds
+    all of its directions; nothing for a set of other directions."""
+    for name in ("H1", "H2"):
+        table = {(float(t), float(p)) for t, p in Sampling.named(name).directions}
+        if set(views) <= table and set(lights) <= table:
+            for what, present in (("views", set(views)), ("lights", set(lights))):
+                missing = sorted(table - present)
+                if missing:
+                    yield (f"{len(missing)} of the {len(table)} {what} of the {name} sampling "
+                           f"missing: {_shown(missing)}")  # fmt: skip
+            return
+
+
+def _shown(directions) -> str:
+    shown = ", ".join(f"({t:g}°, {p:g}°)" for t, p in directions[:6])
+    return shown + (f" and {len(directions) - 6} more" if len(directions) > 6 else "")
 
 def write_ubo2003(
     out,

@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from rig.geometry import Sampling
 from rig.interchange import (
     InterchangeError,
     list_ubo2003,
@@ -67,3 +68,17 @@ def test_srgb_8_bit_codes_survive_decoding_and_encoding():
     np.testing.assert_array_equal(to_srgb(srgb_decode(codes / 255.0)), codes)
     codes16 = np.arange(0, 65536, 7, dtype=np.uint16)
     np.testing.assert_array_equal(to_srgb(srgb_decode(codes16 / 65535.0), dtype="uint16"), codes16)
+
+
+def test_views_and_lights_missing_from_the_seed_sampling_are_listed(tmp_path):
+    h2 = [tuple(map(float, d)) for d in Sampling.named("H2").directions]
+    views, lights = h2[:3], h2[:2] + h2[3:5]  # the first 3 views; light (15°, 60°) left out
+    listing = list_ubo2003(write_ubo_folder(tmp_path / "ubo", views, lights))
+    assert listing.gaps[0].startswith(
+        "78 of the 81 views of the H2 sampling missing: (15°, 120°), (15°, 180°)"
+    )
+    assert listing.gaps[1] == (
+        "77 of the 81 lights of the H2 sampling missing: (15°, 60°), (15°, 240°), (15°, 300°), "
+        "(30°, 0°), (30°, 30°), (30°, 60°) and 71 more"
+    )
+    assert len(listing.gaps) == 2
