@@ -38,6 +38,7 @@ def btf_source(archive_path: Path, *, from_material: bool, size: int) -> Iterato
     from processing.btf import reconstruct, view_slots
     from processing.offline.btf import BtfSlot, slot_normtextures
     from rig.archive import Archive
+    from rig.config import Holder
     from rig.interchange import NORMTEXTURE_CAMERA, imported_normtextures
     from rig.material import CompressedBTF, read_material
 
@@ -55,10 +56,15 @@ def btf_source(archive_path: Path, *, from_material: bool, size: int) -> Iterato
         def reconstructed(view: int, light: int) -> np.ndarray | None:
             return reconstruct(model, view=view, light=light) if valid[view] else None
 
-        manifest.update(content="PCA reconstruction of material/btf", units=material.btf_units)
+        manifest.update(
+            content="PCA reconstruction of material/btf", units=material.btf_units,
+            sample_mm=material.sample_mm,
+        )  # fmt: skip
         yield BtfSource(model.view_dirs_deg, model.light_dirs_deg, reconstructed, manifest)
         return
     with Archive.open(archive_path, mode="r") as archive:
+        holder = Holder.model_validate(archive.rig_config.get("holder", {}))
+        manifest["sample_mm"] = holder.sample_mm
         table = view_slots(archive.step_table(), gaps=True)
         imported = imported_normtextures(archive.plan)
         if imported:

@@ -26,8 +26,14 @@ def register(app: typer.Typer) -> None:
         ],
         out: Annotated[Path, typer.Option("--out", help="archive to create")],
         sample_mm: Annotated[
-            float, typer.Option("--sample-mm", min=1e-3, help="side of the imaged sample, mm")
-        ] = 100.0,
+            float | None,
+            typer.Option(
+                "--sample-mm",
+                min=1e-3,
+                help="side of the imaged sample, mm (default: a btfrig export's manifest "
+                "says, else 100)",
+            ),
+        ] = None,
         encoding: Annotated[
             str | None,
             typer.Option(
@@ -57,7 +63,8 @@ def register(app: typer.Typer) -> None:
         height, width, channels = report.shape
         console.print(escape(
             f"{report.archive}: {report.frames} frames ({report.layout}), {report.views} views × "
-            f"{report.lights} lights, {width}×{height}×{channels}, {report.encoding} → linear"
+            f"{report.lights} lights, {width}×{height}×{channels}, {report.encoding} → linear, "
+            f"sample {report.sample_mm:g} mm"
         ))  # fmt: skip
         for gap in report.gaps:
             console.print(escape(f"gap: {gap}"), style="yellow")

@@ -31,6 +31,7 @@ __all__ = ["NORMTEXTURE_CAMERA", "ImportReport", "import_folder", "imported_norm
 
 #: the camera name of an imported archive's frames
 NORMTEXTURE_CAMERA = "normtexture"
+_DEFAULT_SAMPLE_MM = 100.0
 #: progress(frames done, frames in all)
 Progress = Callable[[int, int], None]
 
@@ -43,7 +44,8 @@ def imported_normtextures(plan: Mapping[str, Any]) -> bool:
 
 @dataclass(frozen=True)
 class ImportReport:
-    """What an import wrote: frames, view slots × lights, texel size and the gaps."""
+    """What an import wrote: frames, view slots × lights, image shape, the sample's
+    side (mm) and the gaps."""
 
     archive: Path
     layout: str
@@ -52,6 +54,7 @@ class ImportReport:
     lights: int
     shape: tuple[int, int, int]
     encoding: str
+    sample_mm: float
     gaps: tuple[str, ...]
 
 
@@ -59,7 +62,7 @@ def import_folder(
     folder,
     out,
     *,
-    sample_mm: float,
+    sample_mm: float | None = None,
     encoding: str | None = None,
     progress: Progress | None = None,
 ) -> ImportReport:
@@ -69,7 +72,8 @@ def import_folder(
     ----------
     folder : path of the data set
     out : the archive to create (must not exist)
-    sample_mm : side of the square sample area the images cover, mm
+    sample_mm : side of the square sample area the images cover, mm; default
+        the ``sample_mm`` of a btfrig export's manifest, else 100
     encoding : ``"srgb"`` or ``"linear"``: how the files' integers encode
         radiance; default sRGB for 8-bit files and UBO2003, linear otherwise
         (OpenEXR is always linear)
@@ -83,8 +87,14 @@ def import_folder(
     folder, out = Path(folder), Path(out)
     if out.exists():
         raise InterchangeError(f"{out}: already exists; give the archive a new path")
+    manifest = _manifest(folder)
+    if sample_mm is None:
+        sample_mm = manifest.get("sample_mm", _DEFAULT_SAMPLE_MM)
     if not (isinstance(sample_mm, int | float) and 0 < sample_mm < 1e5):
         raise InterchangeError(f"sample_mm = {sample_mm!r}: give the sample's side in mm, > 0")
+    white = manifest.get("white", 1.0)
+    if not (isinstance(white, int | float) and np.isfinite(white) and white > 0):
+        raise InterchangeError(f"{folder / MANIFEST}: white = {white!r}; expected a number > 0")
     if encoding not in (None, *ENCODINGS):
         raise InterchangeError(f"encoding = {encoding!r}: one of {ENCODINGS}")
     if any((folder / name).is_file() for name in ("directions.csv", "directions.toml")):
@@ -97,14 +107,13 @@ def import_folder(
         encoding = encoding or "srgb"
     if not frames:
         raise InterchangeError(f"{folder}: the directions table lists no frames")
-    white = _manifest_white(folder)
     first = read_image(frames[0].path)
     encoding = encoding or ("srgb" if first.dtype == np.uint8 else "linear")
     shape = first.shape
     plan = {
         "name": folder.name,
         "source": {"layout": layout, "folder": str(folder.resolve()), "encoding": encoding,
-                   "white": white, "gaps": list(gaps)},
+                   "white": float(white), "gaps": list(gaps)},
         "frames": {"content": "normtexture", "units": "relative radiance",
                    "colour_space": "linear, sRGB primaries" + (
                        " (decoded from sRGB-encoded files)" if encoding == "srgb" else "")},
@@ -137,7 +146,9 @@ def import_folder(
         raise
     views = len({f.view_deg for f in frames})
     lights = len({f.light_deg for f in frames})
-    return ImportReport(out, layout, len(frames), views, lights, shape, encoding, gaps)
+    return ImportReport(
+        out, layout, len(frames), views, lights, shape, encoding, float(sample_mm), gaps
+    )
 
 
 def _linear(image: np.ndarray, encoding: str, white: float) -> np.ndarray:
@@ -150,16 +161,15 @@ def _linear(image: np.ndarray, encoding: str, white: float) -> np.ndarray:
     return (values * white).astype(np.float32)
 
 
-def _manifest_white(folder: Path) -> float:
-    """The linear value a file's full scale stands for: 1, or ``white`` of a btfrig
-    export's manifest."""
+def _manifest(folder: Path) -> dict[str, Any]:
+    """The manifest of a btfrig export in ``folder``; ``{}`` when there is none."""
     path = folder / MANIFEST
     if not path.is_file():
-        return 1.0
+        return {}
     try:
-        white = json.loads(path.read_text()).get("white", 1.0)
-    except (ValueError, AttributeError) as err:
-        raise InterchangeError(f"{path}: not a JSON object ({err})") from err
-    if not (isinstance(white, int | float) and np.isfinite(white) and white > 0):
-        raise InterchangeError(f"{path}: white = {white!r}; expected a number > 0")
-    return float(white)
+        manifest = json.loads(path.read_text())
+    except ValueError as err:
+        raise InterchangeError(f"{path}: not JSON ({err})") from err
+    if not isinstance(manifest, dict):
+        raise InterchangeError(f"{path}: not a JSON object")
+    return manifest

@@ -49,7 +49,8 @@ def imported(tmp_path):
     folder = write_ubo_folder(tmp_path / "ubo", skip={(VIEWS[2], LIGHTS[1])})
     result = _run("import", folder, "--out", tmp_path / "a.zarr", "--sample-mm", 40)
     assert result.exit_code == 0, result.output
-    assert "14 frames (ubo2003), 3 views × 5 lights, 32×32×3, srgb → linear" in _said(result)
+    said = _said(result)
+    assert "14 frames (ubo2003), 3 views × 5 lights, 32×32×3, srgb → linear, sample 40 mm" in said
     assert "gap: view (30°, 90°): 1 of 5 lights missing: (30°, 0°)" in _said(result)
     return tmp_path / "a.zarr"
 
@@ -63,6 +64,7 @@ def test_ubo2003_export_then_import_gives_the_same_normtextures(imported, tmp_pa
     assert len(manifest["gaps"]) == 1 and manifest["white"] == 1.0
     again = _run("import", tmp_path / "out", "--out", tmp_path / "b.zarr")
     assert again.exit_code == 0, again.output
+    assert "sample 40 mm" in _said(again)  # from the export's manifest
     first, second = _normtextures(imported), _normtextures(tmp_path / "b.zarr")
     assert set(first) == set(second)  # the same directions, the gap included
     for pair, texture in first.items():
@@ -165,3 +167,13 @@ def test_frames_are_written_raw_with_a_manifest(session, tmp_path, fmt, suffix):
 def test_a_missing_archive_exits_2_naming_it(tmp_path):
     result = _run("export", "png16", tmp_path / "nowhere.zarr", "--out", tmp_path / "f")
     assert result.exit_code == 2 and "nowhere.zarr: not a session archive" in _said(result)
+
+
+def test_the_white_level_of_an_export_is_undone_by_the_import(imported, tmp_path):
+    out = tmp_path / "out"
+    assert _run("export", "ubo2003", imported, "--out", out, "--white", 2).exit_code == 0
+    assert _run("import", out, "--out", tmp_path / "b.zarr").exit_code == 0
+    first, second = _normtextures(imported), _normtextures(tmp_path / "b.zarr")
+    for pair, texture in first.items():
+        # codes of v/2: the sRGB step near v/2 = 0.45 is 0.0045 → 0.009 after ×2
+        np.testing.assert_allclose(second[pair], texture, atol=0.01)
