@@ -141,8 +141,13 @@ def ubo2003(
         int, typer.Option(min=8, max=4096, help="texels per side when frames are registered")
     ] = 128,
     white: Annotated[
-        float, typer.Option(min=1e-9, help="linear value written as 255 (in the manifest)")
-    ] = 1.0,
+        float | None,
+        typer.Option(
+            min=1e-9,
+            help="linear value written as 255, kept in the manifest (default: an imported "
+            "set's own, else the brightest 0.1 %% of the most frontal view slot)",
+        ),
+    ] = None,
     overwrite: _Overwrite = False,
 ) -> None:
     """The normtextures in the Bonn UBO2003 folder layout (8-bit sRGB PNG).
@@ -161,7 +166,8 @@ def ubo2003(
         _bar("ubo2003") as bar,
     ):
         manifest = write_ubo2003(
-            tmp, source.views_deg, source.lights_deg, source.normtexture, white=white,
+            tmp, source.views_deg, source.lights_deg, source.normtexture,
+            white=source.auto_white() if white is None else white,
             manifest=source.manifest, progress=bar,
         )  # fmt: skip
     n_views, n_lights = len(source.views_deg), len(source.lights_deg)

@@ -24,12 +24,26 @@ __all__ = ["BtfSource", "btf_source", "ps_maps"]
 @dataclass(frozen=True)
 class BtfSource:
     """Directions of the view slots and lights, and the normtexture of each pair
-    (``normtexture(view, light)``: (N, N, C) linear, or None for a gap)."""
+    (``normtexture(view, light)``: (N, N, C) linear, or None for a gap); ``white``:
+    the linear value an import recorded as its files' full scale, else None."""
 
     views_deg: np.ndarray
     lights_deg: np.ndarray
     normtexture: Callable[[int, int], np.ndarray | None]
     manifest: dict[str, Any]
+    white: float | None = None
+
+    def auto_white(self) -> float:
+        """The import's white, else the 99.9th percentile of the most frontal view
+        slot under every light (what the 8-bit files then clip is the brightest 0.1 %
+        of that slot), else 1."""
+        if self.white is not None:
+            return self.white
+        frontal = int(np.argmin(self.views_deg[:, 0]))
+        textures = [self.normtexture(frontal, i) for i in range(len(self.lights_deg))]
+        values = [t for t in textures if t is not None]
+        level = float(np.percentile(np.stack(values), 99.9)) if values else 0.0
+        return level if np.isfinite(level) and level > 0 else 1.0
 
 
 @contextlib.contextmanager
@@ -88,7 +102,8 @@ def btf_source(archive_path: Path, *, from_material: bool, size: int) -> Iterato
             content="imported normtextures" if imported else f"frames registered onto {size}²",
             units="relative radiance" + ("" if imported else " per second of exposure"),
         )
-        yield BtfSource(table.view_dirs_deg, table.light_dirs_deg, normtexture, manifest)
+        white = float(archive.plan["source"]["white"]) if imported else None
+        yield BtfSource(table.view_dirs_deg, table.light_dirs_deg, normtexture, manifest, white)
 
 
 def ps_maps(archive_path: Path, view_name: str | None):
