@@ -47,6 +47,8 @@ EXTRAS = {
     "rtree": "sim",
     "embreex": "sim",
     "moderngl": "render",
+    "OpenEXR": "render",
+    "PIL": "render",
     "mitsuba": "reference",
     "harvesters": "genicam",
     "genicam": "genicam",
