@@ -41,7 +41,7 @@ _FILE_FORM = "'{index:05d} tl{θl:03d} pl{φl:03d} tv{θv:03d} pv{φv:03d}.jpg|p
 
 def _whole(value: float, what: str) -> int:
     degrees = round(float(value))
-    if abs(degrees - float(value)) > 0.5 or not 0 <= degrees <= 999:
+    if not 0 <= degrees <= 999:
         raise InterchangeError(f"{what} = {value}°: UBO2003 names hold whole degrees 0…999")
     return int(degrees) % 360 if what.startswith("φ") else int(degrees)
 
@@ -184,9 +184,18 @@ def write_ubo2003(
     out = Path(out)
     if not (np.isfinite(white) and white > 0):
         raise InterchangeError(f"white = {white}: the linear value written as 255 must be > 0")
+    folders = [ubo2003_view_folder(view) for view in views_deg]
+    if len(set(folders)) < len(folders):
+        twice = next(name for name in folders if folders.count(name) > 1)
+        same = [tuple(map(float, v)) for v, name in zip(views_deg, folders, strict=True)
+                if name == twice]  # fmt: skip
+        raise InterchangeError(
+            f"views {same} share the UBO2003 folder {twice}: the layout names views in whole "
+            "degrees; export a sampling whose views differ by a degree or more"
+        )
     total, done, gaps = len(views_deg) * len(lights_deg), 0, []
     for j, view in enumerate(views_deg):
-        folder = out / ubo2003_view_folder(view)
+        folder = out / folders[j]
         folder.mkdir()
         for i, light in enumerate(lights_deg):
             texture = normtexture(j, i)

@@ -11,6 +11,7 @@ from rig.interchange import (
     to_srgb,
     ubo2003_file,
     ubo2003_view_folder,
+    write_ubo2003,
 )
 from tests.rig.interchange.conftest import LIGHTS, VIEWS, write_ubo_folder
 
@@ -82,3 +83,11 @@ def test_views_and_lights_missing_from_the_seed_sampling_are_listed(tmp_path):
         "(30°, 0°), (30°, 30°), (30°, 60°) and 71 more"
     )
     assert len(listing.gaps) == 2
+
+
+def test_views_that_share_a_folder_name_are_refused(tmp_path):
+    views = np.array([[30.2, 90.0], [29.8, 90.0]])
+    with pytest.raises(InterchangeError, match=r"share the UBO2003 folder tv030_pv090"):
+        write_ubo2003(tmp_path, views, [(0.0, 0.0)], lambda j, i: np.zeros((2, 2, 3)),
+                      white=1.0, manifest={})  # fmt: skip
+    assert list(tmp_path.iterdir()) == []
