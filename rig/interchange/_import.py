@@ -126,11 +126,12 @@ def import_folder(
         with archive:
             for index, frame in enumerate(frames):
                 image = first if index == 0 else read_image(frame.path)
-                if image.shape != shape:
+                if image.shape != shape or image.dtype != first.dtype:
                     raise InterchangeError(
                         f"{frame.path}: {image.shape[1]}×{image.shape[0]}×{image.shape[2]} "
-                        f"pixels, but {frames[0].path.name} has {shape[1]}×{shape[0]}×"
-                        f"{shape[2]}; every image of a data set has one size"
+                        f"{image.dtype} pixels, but {frames[0].path.name} has {shape[1]}×"
+                        f"{shape[0]}×{shape[2]} {first.dtype}; every image of a data set has "
+                        "one size and pixel type"
                     )
                 step = StepRecord(
                     index, "btf", (NORMTEXTURE_CAMERA,), views_deg={NORMTEXTURE_CAMERA:

@@ -60,8 +60,17 @@ def test_an_image_of_another_size_is_named_and_no_archive_is_left(tmp_path):
     cv2.imwrite(str(odd), np.zeros((16, 32, 3), np.uint8))
     with pytest.raises(InterchangeError, match="every image of a data set has one size") as err:
         import_folder(folder, tmp_path / "a.zarr", sample_mm=50)
-    assert odd.name in str(err.value) and "32×16×3" in str(err.value)
+    assert odd.name in str(err.value) and "32×16×3 uint8" in str(err.value)
     assert not (tmp_path / "a.zarr").exists()
+
+
+def test_an_image_of_another_pixel_type_is_named(tmp_path):
+    folder = write_ubo_folder(tmp_path / "ubo")
+    odd = sorted((folder / "tv030_pv090").iterdir())[0]
+    write_image(odd, np.zeros((SIZE, SIZE, 3), np.uint16))
+    with pytest.raises(InterchangeError, match="one size and pixel type") as err:
+        import_folder(folder, tmp_path / "a.zarr", sample_mm=50)
+    assert f"{odd.name}: 32×32×3 uint16 pixels, but" in str(err.value)
 
 
 def test_a_file_that_is_no_image_is_named(tmp_path):
