@@ -3,7 +3,8 @@
 The renderer's images are linear radiance. For display they are scaled by
 2^exposure_ev, clipped to [0, 1] and encoded with the sRGB transfer curve
 (IEC 61966-2-1); for compositing they are written unchanged as 32-bit float
-OpenEXR (through the OpenEXR bindings: OpenCV's wheels are built without EXR).
+OpenEXR. The sRGB curve and the OpenEXR writer are ``rig.interchange``'s,
+shared with the exporters.
 """
 
 from __future__ import annotations
@@ -12,9 +13,10 @@ from pathlib import Path
 
 import cv2
 import numpy as np
-import OpenEXR
 
 from render._errors import RenderError
+from rig.interchange import InterchangeError, to_srgb
+from rig.interchange import write_exr as write_float_image
 
 __all__ = ["to_srgb8", "write_exr", "write_png"]
 
@@ -33,11 +35,7 @@ def to_srgb8(image, *, exposure_ev: float = 0.0) -> np.ndarray:
     """
     if not np.isfinite(exposure_ev):
         raise RenderError(f"exposure_ev = {exposure_ev}: must be a finite number of stops")
-    linear = np.clip(np.nan_to_num(_image(image) * 2.0**exposure_ev, nan=0.0), 0.0, 1.0)
-    encoded = np.where(
-        linear <= 0.0031308, 12.92 * linear, 1.055 * np.power(linear, 1 / 2.4) - 0.055
-    )
-    return np.round(encoded * 255.0).astype(np.uint8)
+    return to_srgb(_image(image) * 2.0**exposure_ev)
 
 
 def _folder(path: Path) -> None:
@@ -64,10 +62,7 @@ def write_exr(path, image) -> Path:
     if path.suffix.lower() != ".exr":
         raise RenderError(f"{path}: an OpenEXR image needs the suffix .exr")
     _folder(path)
-    header = {"compression": OpenEXR.ZIP_COMPRESSION, "type": OpenEXR.scanlineimage}
     try:
-        with OpenEXR.File(header, {"RGB": np.ascontiguousarray(_image(image))}) as exr:
-            exr.write(str(path))
-    except Exception as err:  # the bindings raise bare exceptions
-        raise RenderError(f"{path}: could not be written as OpenEXR ({err})") from err
-    return path
+        return write_float_image(path, _image(image))
+    except InterchangeError as err:
+        raise RenderError(str(err)) from err

@@ -1,7 +1,7 @@
 """The `rig` command line: one entry point for every job of the rig.
 
 Exit codes: 0 success, 1 a device or runtime failure, 2 invalid input (plan,
-config, arguments), 3 a command that is not built yet. Every error is one
+config, arguments, files to import). Every error is one
 message naming what failed; ``rig --debug …`` also prints the traceback.
 """
 
@@ -16,7 +16,7 @@ from orchestrator.cli import (
     bench_cmd,
     calibrate_cmd,
     export_cmd,
-    pending,
+    import_cmd,
     plan_cmd,
     process_cmd,
     repair_cmd,
@@ -53,7 +53,7 @@ process_cmd.register(app)
 repair_cmd.register(app)
 calibrate_cmd.register(app)
 view_cmd.register(app)
-pending.register(app)
+import_cmd.register(app)
 app.add_typer(sim_cmd.app, name="sim")
 app.add_typer(bench_cmd.app, name="bench")
 app.add_typer(export_cmd.app, name="export")

@@ -19,14 +19,12 @@ from rig.errors import ConfigError, KinematicsError, PlanError, RigError
 __all__ = [
     "EXIT_FAILURE",
     "EXIT_INVALID",
-    "EXIT_NOT_BUILT",
     "EXTRAS",
     "RigGroup",
     "SessionProgress",
     "check_new_archive",
     "console",
     "load_config_option",
-    "not_built",
     "prepare_folder",
     "reporting_errors",
 ]
@@ -37,7 +35,6 @@ err_console = Console(stderr=True, highlight=False, width=None if sys.stderr.isa
 
 EXIT_FAILURE = 1
 EXIT_INVALID = 2
-EXIT_NOT_BUILT = 3
 
 
 #: import name of an optional package → the extra of btfrig that installs it
@@ -50,6 +47,8 @@ EXTRAS = {
     "rtree": "sim",
     "embreex": "sim",
     "moderngl": "render",
+    "OpenEXR": "render",
+    "PIL": "render",
     "mitsuba": "reference",
     "harvesters": "genicam",
     "genicam": "genicam",
@@ -136,14 +135,6 @@ def _refuse_file_on_the_way(folder: Path, option: str) -> None:
     blocking = next((p for p in (folder, *folder.parents) if p.exists() and not p.is_dir()), None)
     if blocking is not None:
         raise ConfigError(f"{option}: {blocking} is a file, not a folder; give another path")
-
-
-def not_built(command: str, what: str) -> None:
-    """Say plainly that a command does not exist yet, and fail."""
-    err_console.print(
-        f"[yellow]rig {command}:[/yellow] not built yet — {escape(what)}. Nothing was done."
-    )
-    raise typer.Exit(EXIT_NOT_BUILT)
 
 
 def _hms(seconds) -> str:

@@ -1,34 +1,95 @@
-"""`rig export FORMAT ARCHIVE --out PATH`: a session's results in other formats.
+"""`rig export FORMAT ARCHIVE --out PATH`: a session's frames, normtextures and
+material in the formats other tools read (``docs/interchange.md``).
 
-``material`` writes the standalone material store (``rig.material.export_material``)
-that ``rig view`` and other labs read without the session's frames.
+Every export opens the archive read-only, writes into a hidden folder next to
+``--out`` and renames it into place when complete, so a failed export leaves
+nothing half-written; an existing ``--out`` is replaced only with
+``--overwrite``, and only when it is an earlier export (it has a manifest).
 """
 
 from __future__ import annotations
 
+import contextlib
+import shutil
+from collections.abc import Callable, Iterator
 from pathlib import Path
 from typing import Annotated
 
 import typer
+from rich.markup import escape
+from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from orchestrator.cli.common import console, not_built
+from orchestrator.cli.common import console
 from rig.errors import ConfigError
 
 __all__ = ["app"]
 
 app = typer.Typer(
-    help="Write a session's material or frames in other formats.", no_args_is_help=True
+    help="Write a session's frames, normtextures or material in other formats.",
+    no_args_is_help=True,
 )
 
-#: formats named in the design whose writers are not built yet
-_PENDING = {
-    "png16": "16-bit PNG frames",
-    "tiff": "TIFF frames",
-    "exr": "OpenEXR frames",
-    "ubo2003": "the Bonn UBO2003 folder layout",
-}
-
 _Archive = Annotated[Path, typer.Argument(help="session archive", show_default=False)]
+_Out = Annotated[Path, typer.Option("--out", help="output folder to create")]
+_Overwrite = Annotated[
+    bool, typer.Option("--overwrite", help="replace --out if it holds an earlier export")
+]
+_View = Annotated[
+    str | None,
+    typer.Option("--view", help="the PS view's name (default: the most frontal one)"),
+]
+
+
+def _check_archive(archive: Path) -> None:
+    if not (archive / "zarr.json").is_file() or not (archive / "log").is_dir():
+        raise ConfigError(f"{archive}: not a session archive (no zarr.json and log/ there)")
+
+
+@contextlib.contextmanager
+def _export_to(out: Path, archive: Path, *, overwrite: bool, folder: bool = True) -> Iterator[Path]:
+    """A fresh hidden folder (or file path) that becomes ``out`` when the block succeeds."""
+    from rig.interchange import MANIFEST
+
+    resolved, source = out.resolve(), archive.resolve()
+    if resolved == source or source in resolved.parents or resolved in source.parents:
+        raise ConfigError(f"--out {out}: lies in or around the archive {archive}; give another")
+    if out.exists():
+        earlier = (out / MANIFEST).is_file() if out.is_dir() else out.suffix.lower() == ".glb"
+        if not overwrite:
+            raise ConfigError(f"--out {out}: already exists; give a new path or --overwrite")
+        if not earlier:
+            raise ConfigError(
+                f"--out {out}: exists and is not an earlier export (no {MANIFEST}); "
+                "not replacing it"
+            )
+    if not out.parent.is_dir():
+        raise ConfigError(f"--out {out}: folder {out.parent} does not exist")
+    tmp = out.with_name(f".{out.name}.exporting")
+    _remove(tmp)
+    if folder:
+        tmp.mkdir()
+    try:
+        yield tmp
+        _remove(out)
+        tmp.rename(out)
+    finally:
+        _remove(tmp)
+
+
+def _remove(path: Path) -> None:
+    if path.is_dir():
+        shutil.rmtree(path)
+    else:
+        path.unlink(missing_ok=True)
+
+
+@contextlib.contextmanager
+def _bar(description: str) -> Iterator[Callable[[int, int], None]]:
+    columns = (TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
+               TimeElapsedColumn())  # fmt: skip
+    with Progress(*columns, console=console, transient=True) as bar:
+        task = bar.add_task(description, total=None)
+        yield lambda done, total: bar.update(task, completed=done, total=total)
 
 
 @app.command()
@@ -47,16 +108,114 @@ def material(
     console.print(f"material store: {written}")
 
 
-def _pending(fmt: str, what: str) -> None:
-    def command(
-        archive: _Archive,
-        out: Annotated[Path, typer.Option("--out", help="output folder")],
-    ) -> None:
-        not_built(f"export {fmt}", f"the exporter to {what}")
+def _frames(fmt: str, what: str) -> None:
+    def command(archive: _Archive, out: _Out, overwrite: _Overwrite = False) -> None:
+        from rig.interchange import export_frames
 
-    command.__doc__ = f"{what[0].upper()}{what[1:]} (not built yet)."
+        _check_archive(archive)
+        with _export_to(out, archive, overwrite=overwrite) as tmp, _bar(f"{fmt} frames") as bar:
+            manifest = export_frames(archive, tmp, fmt, progress=bar)
+        console.print(escape(f"wrote {out} ({what}, {manifest.name} lists them)"))
+
+    command.__doc__ = (
+        f"Every recorded frame, raw, as {what}, with a manifest of directions, camera, "
+        "lamp and exposure."
+    )
     app.command(fmt)(command)
 
 
-for _fmt, _what in _PENDING.items():
-    _pending(_fmt, _what)
+_frames("png16", "16-bit PNG")
+_frames("tiff", "TIFF")
+_frames("exr", "32-bit float OpenEXR")
+
+
+@app.command()
+def ubo2003(
+    archive: _Archive,
+    out: _Out,
+    from_material: Annotated[
+        bool,
+        typer.Option("--from-material", help="the PCA reconstruction of material/btf instead"),
+    ] = False,
+    size: Annotated[
+        int, typer.Option(min=8, max=4096, help="texels per side when frames are registered")
+    ] = 128,
+    white: Annotated[
+        float | None,
+        typer.Option(
+            min=1e-9,
+            help="linear value written as 255, kept in the manifest (default: an imported "
+            "set's own, else the brightest 0.1 %% of the most frontal view slot)",
+        ),
+    ] = None,
+    overwrite: _Overwrite = False,
+) -> None:
+    """The normtextures in the Bonn UBO2003 folder layout (8-bit sRGB PNG).
+
+    An imported archive's frames are written as they are; a captured session's
+    are registered onto --size texels (flagged captures become listed gaps);
+    --from-material writes the compressed BTF's reconstruction instead.
+    """
+    from orchestrator.cli.export_sources import btf_source
+    from rig.interchange import write_ubo2003
+
+    _check_archive(archive)
+    with (
+        btf_source(archive, from_material=from_material, size=size) as source,
+        _export_to(out, archive, overwrite=overwrite) as tmp,
+        _bar("ubo2003") as bar,
+    ):
+        manifest = write_ubo2003(
+            tmp, source.views_deg, source.lights_deg, source.normtexture,
+            white=source.auto_white() if white is None else white,
+            manifest=source.manifest, progress=bar,
+        )  # fmt: skip
+    n_views, n_lights = len(source.views_deg), len(source.lights_deg)
+    console.print(escape(f"wrote {out} ({n_views} views × {n_lights} lights, {manifest.name})"))
+
+
+@app.command()
+def maps(archive: _Archive, out: _Out, view: _View = None, overwrite: _Overwrite = False) -> None:
+    """The photometric-stereo maps for DCC tools and game engines.
+
+    albedo.png (sRGB), normal.png (16-bit, OpenGL convention: +Y up),
+    height.png (16-bit) and height.exr (float mm), valid.png; the manifest
+    holds the height's mm scale and the sample's size.
+    """
+    from orchestrator.cli.export_sources import ps_maps
+    from rig.interchange import write_maps
+
+    _check_archive(archive)
+    maps_, sample_mm, manifest = ps_maps(archive, view)
+    with _export_to(out, archive, overwrite=overwrite) as tmp:
+        write_maps(tmp, maps_, sample_mm=sample_mm, manifest=manifest)
+    console.print(escape(f"wrote {out} (view {manifest['view']}, {maps_.normal.shape[0]}² texels)"))
+
+
+@app.command()
+def gltf(
+    archive: _Archive,
+    out: Annotated[Path, typer.Option("--out", help="the .glb file to create")],
+    view: _View = None,
+    mesh: Annotated[
+        Path | None, typer.Option("--mesh", help="a mesh file with UVs instead of the plane")
+    ] = None,
+    overwrite: _Overwrite = False,
+) -> None:
+    """A binary glTF (.glb) of the sample with its PS maps as a PBR material.
+
+    A plane of the sample's size in metres (or --mesh, a mesh file with UVs);
+    base colour = the albedo, normal texture = the normal map (8-bit, glTF's
+    OpenGL convention), metallic 0, roughness 1.
+    """
+    from orchestrator.cli.export_sources import ps_maps
+    from rig.interchange import write_glb
+
+    _check_archive(archive)
+    if out.suffix.lower() != ".glb":
+        raise ConfigError(f"--out {out}: a binary glTF needs the suffix .glb")
+    maps_, sample_mm, manifest = ps_maps(archive, view)
+    with _export_to(out, archive, overwrite=overwrite, folder=False) as tmp:
+        write_glb(tmp.with_suffix(".glb"), maps_, sample_mm=sample_mm, mesh=mesh)
+        tmp.with_suffix(".glb").rename(tmp)
+    console.print(escape(f"wrote {out} (view {manifest['view']}, {sample_mm:g} mm plane)"))

@@ -51,7 +51,9 @@ def _index(table: list[np.ndarray], direction, tol_deg: float) -> int:
     return len(table) - 1
 
 
-def view_slots(steps: list[StepRecord], *, kind: str = "btf", tol_deg: float = 0.5) -> SlotTable:
+def view_slots(
+    steps: list[StepRecord], *, kind: str = "btf", tol_deg: float = 0.5, gaps: bool = False
+) -> SlotTable:
     """Group the ``kind`` steps' captures into view slots × lights.
 
     Parameters
@@ -62,6 +64,9 @@ def view_slots(steps: list[StepRecord], *, kind: str = "btf", tol_deg: float = 0
         Step kind of the BTF captures.
     tol_deg : float
         Directions closer than this are the same slot (or light).
+    gaps : bool
+        Accept (view, light) pairs that were not captured: their step is −1
+        and their camera ``""`` (an imported partial data set).
 
     Returns
     -------
@@ -71,8 +76,8 @@ def view_slots(steps: list[StepRecord], *, kind: str = "btf", tol_deg: float = 0
     ------
     BtfError
         No capture of that kind, a capture without a light, a (slot, light)
-        captured twice, or a slot missing a light the others have — each
-        named by its directions.
+        captured twice, or (unless ``gaps``) a slot missing a light the
+        others have — each named by its directions.
     """
     if not tol_deg > 0:
         raise BtfError(f"tol_deg = {tol_deg}: must be > 0")
@@ -110,7 +115,7 @@ def view_slots(steps: list[StepRecord], *, kind: str = "btf", tol_deg: float = 0
     for (vj, li), (index, camera) in cells.items():
         step_table[vj, li], camera_table[vj, li] = index, camera
     missing = np.argwhere(step_table < 0)
-    if len(missing):
+    if len(missing) and not gaps:
         vj, li = missing[0]
         raise BtfError(
             f"{len(missing)} (view, light) pairs were not captured, e.g. view {view_deg[vj]} "

@@ -10,7 +10,8 @@ one slot's normtextures are in memory at a time. The material layout is
 A frame whose registration is flagged (too few or collinear markers…) is never
 warped into the data: its slot is stored empty (``slot_valid`` false) and the
 reason listed in ``flagged``, so a re-capture or the renderer's view blending
-can stand in for it.
+can stand in for it. An imported archive's frames are normtextures already
+(``rig import``): registration is skipped, they are only resampled.
 When no slot at all can be registered (a saturated or black session) there
 is nothing to compress: the stage is skipped (``StageSkipped``) with the
 count of each flag's reason.
@@ -28,9 +29,10 @@ from processing.offline.runner import StageSkipped, frame_camera
 from processing.registration import register_capture
 from rig.archive import Archive
 from rig.config import RigConfig
+from rig.interchange import imported_normtextures
 from rig.material import write_btf
 
-__all__ = ["BtfSlot", "BtfStage"]
+__all__ = ["BtfSlot", "BtfStage", "slot_normtextures"]
 
 
 @dataclass(frozen=True)
@@ -61,22 +63,7 @@ class BtfStage:
 
     def compute(self, archive_path: str, item: BtfSlot) -> dict:
         with Archive.open(archive_path, mode="r") as archive:
-            config = RigConfig.model_validate(archive.rig_config)
-            records = {s.index: s for s in archive.step_table()}
-            textures, flagged = [], []
-            for light, (step, camera) in enumerate(item.captures):
-                record = records[step]
-                frame = archive.read_frame(step, camera, 0)
-                turntable = record.actuators["turntable_deg"]
-                lens = frame_camera(archive, config, camera, turntable)
-                reg = register_capture(
-                    frame, config, record, camera, size=self.size, camera=lens
-                ).registration
-                if not reg.valid:
-                    flagged.append((item.index, light, step, camera, reg.reason.name))
-                    continue
-                full_scale = float(2 ** config.camera(camera).bit_depth - 1)
-                textures.append(reg.normtexture.texture / (full_scale * record.exposures_s[0]))
+            textures, flagged = slot_normtextures(archive, item, size=self.size)
         if flagged:
             return {"slot": item, "flagged": flagged, "compressed": None}
         stack = np.stack(textures).astype(np.float32)
@@ -109,12 +96,65 @@ class BtfStage:
         )
         flagged = [f for r in results for f in r["flagged"]]
         write_btf(
-            group, model, units="relative radiance per second of exposure",
+            group, model, units=_units(archive),
             slot_valid=np.array([s is not None for s in slots]),
             attrs={"flagged": [list(f) for f in flagged],
                    "flagged_columns": ["slot", "light", "step", "camera", "reason"]},
         )  # fmt: skip
         return {"slots": len(slots), "flagged_frames": len(flagged), "components": self.components}
+
+
+def slot_normtextures(
+    archive: Archive, item: BtfSlot, *, size: int
+) -> tuple[list[np.ndarray], list[tuple]]:
+    """The (size, size, C) float32 normtextures of a view slot, one per light, in
+    relative radiance per second of exposure; and the flagged captures.
+
+    Camera frames are registered onto the texel grid; an imported archive's
+    frames already are normtextures (``rig.interchange.imported_normtextures``)
+    and are only resampled to ``size`` (area averaging). A flagged capture is
+    ``(slot, light, step, camera, reason)`` and gives no texture.
+    """
+    records = {s.index: s for s in archive.step_table()}
+    textures, flagged = [], []
+    if imported_normtextures(archive.plan):
+        for step, camera in item.captures:
+            frame = archive.read_frame(step, camera, 0)
+            textures.append(_resampled(frame, size) / records[step].exposures_s[0])
+        return textures, flagged
+    config = RigConfig.model_validate(archive.rig_config)
+    for light, (step, camera) in enumerate(item.captures):
+        record = records[step]
+        frame = archive.read_frame(step, camera, 0)
+        turntable = record.actuators["turntable_deg"]
+        lens = frame_camera(archive, config, camera, turntable)
+        reg = register_capture(frame, config, record, camera, size=size, camera=lens).registration
+        if not reg.valid:
+            flagged.append((item.index, light, step, camera, reg.reason.name))
+            continue
+        full_scale = float(2 ** config.camera(camera).bit_depth - 1)
+        textures.append(reg.normtexture.texture / (full_scale * record.exposures_s[0]))
+    return textures, flagged
+
+
+def _units(archive: Archive) -> str:
+    if imported_normtextures(archive.plan):
+        return f"{archive.plan['frames']['units']} ({archive.plan['frames']['colour_space']})"
+    return "relative radiance per second of exposure"
+
+
+def _resampled(frame: np.ndarray, size: int) -> np.ndarray:
+    """A normtexture frame on the size × size texel grid: area average when it shrinks,
+    linear interpolation when it grows."""
+    import cv2
+
+    height, width = frame.shape[:2]
+    if (height, width) == (size, size):
+        return frame.astype(np.float32)
+    shrink = size <= min(height, width)
+    resized = cv2.resize(frame.astype(np.float32), (size, size),
+                         interpolation=cv2.INTER_AREA if shrink else cv2.INTER_LINEAR)  # fmt: skip
+    return resized.reshape(size, size, frame.shape[2])
 
 
 def _captures(steps, cameras) -> tuple[tuple[int, str], ...]:

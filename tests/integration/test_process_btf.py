@@ -1,14 +1,18 @@
 """`rig process --stages btf` on a session recorded against the simulated rig: every measured
-(view slot, light) comes back from the material's per-view PCA as the registered frame."""
+(view slot, light) comes back from the material's per-view PCA as the registered frame,
+and from a UBO2003 export within 8-bit quantisation."""
 
 from __future__ import annotations
 
+import json
 import tomllib
 from pathlib import Path
 
 import numpy as np
 import pytest
+from typer.testing import CliRunner
 
+from orchestrator.cli import app
 from orchestrator.daemon import run_local
 from processing.btf import reconstruct, view_slots
 from processing.offline import BtfStage, run_stages
@@ -16,6 +20,7 @@ from processing.registration import register_capture
 from rig.archive import Archive
 from rig.clock import VirtualClock
 from rig.config import RigConfig
+from rig.interchange import read_image, srgb_decode, ubo2003_file, ubo2003_view_folder
 from rig.material import btf_from_arrays
 from sim.rig import SimulatedRig
 from sim.scene import scene_from_dict
@@ -105,3 +110,22 @@ def test_frames_whose_markers_are_too_small_are_flagged_never_warped(tmp_path):
         if slot in flagged_slots:  # stored empty, not filled with a bad warp
             assert not arrays["mean"][slot].any() and arrays["rank"][slot] == 0
     assert arrays["slot_valid"].any()  # the frontal view registers
+
+
+def test_the_ubo2003_export_holds_the_registered_frames(archive, tmp_path):
+    out = tmp_path / "ubo"
+    args = ["export", "ubo2003", str(archive), "--out", str(out), "--size", str(SIZE)]
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 0, result.output
+    manifest = json.loads((out / "manifest.json").read_text())
+    white, lights = manifest["white"], manifest["lights_deg"]
+    assert manifest["gaps"] == [] and len(manifest["views_deg"]) == 3 and len(lights) == 6
+    for slot, view in enumerate(manifest["views_deg"]):
+        for light in (0, 3):
+            path = out / ubo2003_view_folder(view) / ubo2003_file(light, lights[light], view)
+            got = white * srgb_decode(read_image(path) / 255.0)
+            want = _registered(archive, slot, light)
+            below = want < white  # the brightest 0.1 % of the frontal slot clip at 255
+            assert below.mean() > 0.99
+            # half an 8-bit code of sRGB is at most 0.0045 of white in linear terms
+            assert np.abs(got - want)[below].max() <= 0.0045 * white

@@ -54,13 +54,6 @@ def test_bad_plan_exits_2_with_field_names(tmp_path):
     assert "captures.btf.views" in result.output
 
 
-@pytest.mark.parametrize("args", [["export", "png16", "s.zarr", "--out", "x"]])
-def test_unbuilt_commands_say_so_and_fail(args):
-    result = runner.invoke(app, args)
-    assert result.exit_code == 3
-    assert "not built yet" in result.output
-
-
 def test_status_without_a_daemon_fails_clearly():
     result = runner.invoke(app, ["status", "--connect", "tcp://127.0.0.1:1"])
     assert result.exit_code == 1

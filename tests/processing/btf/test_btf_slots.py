@@ -45,3 +45,9 @@ def test_missing_and_duplicated_captures_are_named():
         view_slots(_steps(duplicate=True))
     with pytest.raises(BtfError, match="kind 'ps'"):
         view_slots(_steps(), kind="ps")
+
+
+def test_gaps_are_marked_when_accepted():
+    table = view_slots(_steps(drop=(120.0, LIGHTS[1])), gaps=True)
+    assert table.steps[2, 1] == -1 and table.cameras[2, 1] == ""
+    assert (np.delete(table.steps.ravel(), 2 * 3 + 1) >= 0).all()

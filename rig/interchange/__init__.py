@@ -1,0 +1,71 @@
+"""Other tools' formats in and out: public BTF data sets into archives, an
+archive's frames, normtextures and maps out (``docs/interchange.md``).
+
+Pure I/O over the rig's model: the importer writes through ``rig.archive``,
+the map writers read ``rig.material``; what needs processing (registering
+frames, reconstructing a compressed BTF) is the caller's.
+"""
+
+from rig.interchange._directions import ENCODINGS, FolderFrame, FolderListing, list_folder
+from rig.interchange._errors import InterchangeError
+from rig.interchange._frames import FRAME_FORMATS, export_frames
+from rig.interchange._gltf import write_glb
+from rig.interchange._images import (
+    IMAGE_SUFFIXES,
+    read_image,
+    srgb_decode,
+    srgb_encode,
+    to_srgb,
+    write_exr,
+    write_image,
+)
+from rig.interchange._import import (
+    NORMTEXTURE_CAMERA,
+    ImportReport,
+    import_folder,
+    imported_normtextures,
+)
+from rig.interchange._manifest import MANIFEST, write_manifest
+from rig.interchange._maps import TextureMaps, decode_normal_map, texture_maps, write_maps
+from rig.interchange._ubo2003 import (
+    UboFrame,
+    UboListing,
+    list_ubo2003,
+    ubo2003_file,
+    ubo2003_view_folder,
+    write_ubo2003,
+)
+
+__all__ = [
+    "ENCODINGS",
+    "FRAME_FORMATS",
+    "IMAGE_SUFFIXES",
+    "MANIFEST",
+    "NORMTEXTURE_CAMERA",
+    "FolderFrame",
+    "FolderListing",
+    "ImportReport",
+    "InterchangeError",
+    "TextureMaps",
+    "UboFrame",
+    "UboListing",
+    "decode_normal_map",
+    "export_frames",
+    "import_folder",
+    "imported_normtextures",
+    "list_folder",
+    "list_ubo2003",
+    "read_image",
+    "srgb_decode",
+    "srgb_encode",
+    "texture_maps",
+    "to_srgb",
+    "ubo2003_file",
+    "ubo2003_view_folder",
+    "write_exr",
+    "write_glb",
+    "write_image",
+    "write_manifest",
+    "write_maps",
+    "write_ubo2003",
+]

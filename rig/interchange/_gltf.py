@@ -1,0 +1,68 @@
+"""A binary glTF (``.glb``) of the sample with its maps as a PBR material.
+
+The mesh is a plane of the sample's size (metres, glTF's unit; +Y up, the
+sample's normal), or a mesh file with UVs. The material's base colour is the
+albedo (sRGB), its normal texture the OpenGL-convention normal map — glTF's
+own convention — at 8 bits (the image library trimesh writes through holds no
+16-bit RGB; the ``maps`` export has the 16-bit one), metallic 0, roughness 1.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+
+from rig.interchange._errors import InterchangeError
+from rig.interchange._maps import TextureMaps
+
+__all__ = ["write_glb"]
+
+
+def _sample_plane(sample_mm: float):
+    import trimesh
+
+    half = sample_mm / 2000.0
+    # Sample frame (x, y, z) → glTF (x, z, −y); the texel grid's row 0 (+y) is at −Z.
+    vertices = np.array([[-half, 0, -half], [half, 0, -half], [half, 0, half], [-half, 0, half]])
+    faces = np.array([[0, 2, 1], [0, 3, 2]])  # counter-clockwise seen from +Y
+    # trimesh's UVs have v up (it flips them into glTF's top-left origin).
+    uvs = np.array([[0.0, 1.0], [1.0, 1.0], [1.0, 0.0], [0.0, 0.0]])
+    mesh = trimesh.Trimesh(vertices, faces, process=False)
+    return mesh, uvs
+
+
+def _mesh_file(path: Path):
+    import trimesh
+
+    try:
+        mesh = trimesh.load(path, force="mesh", process=False)
+    except (ValueError, OSError) as err:
+        raise InterchangeError(f"--mesh {path}: not a readable mesh ({err})") from err
+    uvs = getattr(mesh.visual, "uv", None)
+    if uvs is None or len(uvs) != len(mesh.vertices):
+        raise InterchangeError(f"--mesh {path}: has no UV per vertex; the maps need UVs")
+    return mesh, np.asarray(uvs)
+
+
+def write_glb(path, maps: TextureMaps, *, sample_mm: float, mesh=None) -> Path:
+    """Write ``path`` (.glb): a plane of ``sample_mm`` (or the mesh file ``mesh``)
+    with the maps as a PBR material; returns the path."""
+    import trimesh
+    from PIL import Image
+
+    path = Path(path)
+    if path.suffix.lower() != ".glb":
+        raise InterchangeError(f"{path}: a binary glTF needs the suffix .glb")
+    geometry, uvs = _sample_plane(sample_mm) if mesh is None else _mesh_file(Path(mesh))
+    normal8 = np.round(maps.normal / 257.0).astype(np.uint8)
+    material = trimesh.visual.material.PBRMaterial(
+        name="btfrig_sample",
+        baseColorTexture=Image.fromarray(maps.albedo),
+        normalTexture=Image.fromarray(normal8),
+        metallicFactor=0.0,
+        roughnessFactor=1.0,
+    )
+    geometry.visual = trimesh.visual.TextureVisuals(uv=uvs, material=material)
+    path.write_bytes(trimesh.Scene(geometry).export(file_type="glb"))
+    return path
