@@ -123,7 +123,7 @@ def test_an_archive_place_that_exists_or_sits_under_a_file_is_refused(tmp_path):
 def test_only_connections_and_calibration_may_differ():
     recorded = default_rig_config()
     lamp_bank = recorded.lamp_bank.model_copy(
-        update={"connection": recorded.lamp_bank.connection.model_copy(update={"port": 1502})}
+        update={"device": recorded.lamp_bank.device.model_copy(update={"port": 1502})}
     )
     moved = recorded.model_copy(update={"lamp_bank": lamp_bank, "calibration": "new.toml"})
     assert rig_differences(recorded, moved) == []
