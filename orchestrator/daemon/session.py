@@ -282,7 +282,7 @@ class Session:
     def _run_step(self, step: Step, devices: DeviceSet) -> None:
         with self._lock:
             self._progress.step_index = step.index
-        started_at = time.time()
+        started_at = self.clock.now()
         actuators = devices.move(turntable_deg=step.turntable_deg, arc_deg=step.arc_deg)
         self.outbox.publish("telemetry", {"session": self.id, "step": step.index, **actuators})
         extra = {}
