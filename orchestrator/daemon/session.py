@@ -58,7 +58,8 @@ class SessionOutbox(Protocol):
 
     def publish(self, topic: str, payload: dict) -> None: ...
     def stream(self, header: FrameHeader, image: np.ndarray) -> None: ...
-    def drain(self, session: str, timeout_s: float) -> list[tuple[dict, dict]]: ...
+    def drain(self, session: str, timeout_s: float) -> int:
+        """Wait for the session's outstanding results; for how many frames some were stored."""
 
 
 def frame_formats(config: RigConfig, *, scale: float) -> dict[str, FrameFormat]:
@@ -385,10 +386,8 @@ class Session:
 
     def _finish(self, devices: DeviceSet) -> None:
         devices.all_off()
-        results = self.outbox.drain(self.id, self.drain_timeout_s)
-        if results:
-            _write_live(self.archive, results)
-        self._log("session", action="finished", session=self.id, processed=len(results))
+        stored = self.outbox.drain(self.id, self.drain_timeout_s)
+        self._log("session", action="finished", session=self.id, processed=stored)
 
     # -- endings ----------------------------------------------------------------------------
 
@@ -450,30 +449,6 @@ def _per_step_estimate(schedule: Schedule) -> dict[str, float]:
     for step in schedule.steps:
         counts[step.kind] = counts.get(step.kind, 0) + 1
     return {k: schedule.estimate.by_kind_s.get(k, 0.0) / n for k, n in counts.items()}
-
-
-def _write_live(archive: Archive, results: list[tuple[dict, dict]]) -> None:
-    """The workers' results in ``material/live/<stage>/<camera>/``: ``step``, ``sub`` and
-    each array the stage returned, stacked over the frames it returned them for.
-
-    Workers name arrays ``<stage>.<name>``; one frame may carry several stages.
-    """
-    rows: dict[tuple[str, str], list[tuple[dict, dict]]] = {}
-    for header, arrays in results:
-        by_stage: dict[str, dict] = {}
-        for full, value in arrays.items():
-            stage, _, name = full.partition(".")
-            by_stage.setdefault(stage, {})[name] = value
-        for stage, values in by_stage.items():
-            rows.setdefault((stage, header["camera"]), []).append((header, values))
-    with archive.replace_material("live") as group:
-        for (stage, camera), mine in sorted(rows.items()):
-            mine.sort(key=lambda r: (r[0]["step"], r[0]["sub"]))
-            sub = group.require_group(stage).create_group(camera)
-            sub.create_array("step", data=np.array([r[0]["step"] for r in mine], dtype=np.int64))
-            sub.create_array("sub", data=np.array([r[0]["sub"] for r in mine], dtype=np.int64))
-            for name in mine[0][1]:
-                sub.create_array(name, data=np.stack([np.asarray(r[1][name]) for r in mine]))
 
 
 def _calibration_of(config: RigConfig) -> dict | None:
