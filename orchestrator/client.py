@@ -76,6 +76,7 @@ class DaemonClient:
     def _connect(self) -> zmq.Socket:
         sock = self._ctx.socket(zmq.REQ)
         sock.linger = 0
+        self.endpoints.secure(sock)
         sock.connect(self.endpoints.control)
         return sock
 
@@ -109,9 +110,15 @@ class DaemonClient:
             # Lazy Pirate: a REQ socket that lost its reply is stuck; start afresh.
             self._sock.close(linger=0)
             self._sock = None
+        hint = (
+            "a daemon with CURVE keys answers only clients that give --curve-server-key "
+            "and --curve-secret-key"
+            if self.endpoints.keys is None
+            else "is this client's public certificate in its --curve-clients-dir?"
+        )
         raise DaemonUnreachable(
             f"no reply from the daemon at {self.endpoints.control} after "
-            f"{self.retries + 1} tries of {self.timeout_s} s; is `rig daemon` running?"
+            f"{self.retries + 1} tries of {self.timeout_s} s; is `rig daemon` running? ({hint})"
         )
 
     def close(self) -> None:
@@ -246,6 +253,7 @@ def follow(
     sub.linger = 0
     try:
         sub.subscribe(b"")
+        endpoints.secure(sub)
         sub.connect(endpoints.events)
         with DaemonClient(endpoints, context=ctx) as client:
             first = {"topic": "status", "seq": None, **client.request("status")}

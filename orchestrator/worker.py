@@ -110,8 +110,9 @@ def run_worker(
             sock.linger = 0
         frames.maxmsgsize = MAX_FRAME_BYTES + 65536
         frames.rcvhwm = 4  # few frames queued here: a dying worker takes few with it
-        frames.connect(endpoints.frames)
-        results.connect(endpoints.results)
+        for sock, url in ((frames, endpoints.frames), (results, endpoints.results)):
+            endpoints.secure(sock)
+            sock.connect(url)
         plain = {"worker": worker, "stage": stage}
         results.send_multipart(encode_result(ResultHeader(kind="hello", **plain)))
         next_beat = time.monotonic() + heartbeat_s

@@ -20,6 +20,7 @@ from rig.config import RigConfig
 from rig.errors import ConfigError, PlanError
 from rig.kinematics import forward, inverse
 from rig.plan import Plan
+from rig.timing import motion_s, step_timing
 
 __all__ = ["Estimate", "Schedule", "Shot", "Step", "compile_plan"]
 
@@ -207,13 +208,7 @@ def _make_steps(keys, groups, plan: Plan, config: RigConfig) -> tuple[Step, ...]
 
 
 def _move_cost(config: RigConfig, tt0, arc0, tt1, arc1) -> np.ndarray:
-    tt_axis, arc_axis = config.turntable.axis, config.light_arc.axis
-    d_tt = np.abs(np.asarray(tt1) - tt0)
-    d_arc = np.abs(np.asarray(arc1) - arc0)
-    move = np.maximum(tt_axis.move_time_s(d_tt), arc_axis.move_time_s(d_arc))
-    settle = np.maximum(
-        np.where(d_tt > 1e-9, tt_axis.settle_s, 0.0), np.where(d_arc > 1e-9, arc_axis.settle_s, 0.0)
-    )
+    move, settle = motion_s(config, (tt0, arc0), (tt1, arc1))
     return move + settle
 
 
@@ -250,29 +245,19 @@ def _frame_bytes(config: RigConfig, camera_id: str, scale: float) -> int:
 
 
 def estimate(steps, plan: Plan, config: RigConfig) -> Estimate:
-    """Modelled duration and data size of ``steps`` executed in order."""
+    """Modelled duration (:mod:`rig.timing`) and data size of ``steps`` executed in order."""
     scale = plan.resolution.scale
     here = (config.turntable.axis.min_deg, config.light_arc.axis.min_deg)
     motion = lamp = capture = 0.0
     frames = size = 0
     by_kind: dict[str, float] = defaultdict(float)
-    tilt_axis_speed = config.laser.sweep_speed_deg_s
     for step in steps:
-        move = float(_move_cost(config, here[0], here[1], step.turntable_deg, step.arc_deg))
+        timing = step_timing(config, step, here, scale=scale)
         here = (step.turntable_deg, step.arc_deg)
-        readout = max(config.camera(c).readout_s for c in step.cameras) * scale
-        if step.kind == "mdf":
-            sweep = step.tilt_deg[1] - step.tilt_deg[0]
-            scan = max(step.scan_frames / config.laser.frame_rate_hz, sweep / tilt_axis_speed)
-            shot_time = scan + sweep / tilt_axis_speed  # scan, then tilt back
-            lamp_time = 0.0
-        else:
-            shot_time = sum(e + readout for e in step.exposures_s)
-            lamp_time = config.lamp_bank.warmup_s
-        motion += move
-        lamp += lamp_time
-        capture += shot_time
-        by_kind[step.kind] += move + lamp_time + shot_time
+        motion += timing.move_s + timing.settle_s
+        lamp += timing.lamp_s
+        capture += timing.capture_s
+        by_kind[step.kind] += timing.total_s
         n = step.frames_per_camera
         frames += n * len(step.cameras)
         size += sum(n * _frame_bytes(config, c, scale) for c in step.cameras)

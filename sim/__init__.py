@@ -12,13 +12,11 @@ Public API::
 from sim.samples import Generator, SampleGeometry, generator_names, register_sample
 from sim.scene import EFFECTS, Scene, SceneSpec, load_scene, scene_from_dict
 from sim.simulator import Frame, Simulator
-from sim.timing import CaptureTiming, capture_timing
 from sim.truth import TexelTruth, Truth
 from sim.world import World, WorldSnapshot
 
 __all__ = [
     "EFFECTS",
-    "CaptureTiming",
     "Frame",
     "Generator",
     "SampleGeometry",
@@ -29,7 +27,6 @@ __all__ = [
     "Truth",
     "World",
     "WorldSnapshot",
-    "capture_timing",
     "generator_names",
     "load_scene",
     "register_sample",

@@ -29,6 +29,7 @@ from pathlib import Path
 import numpy as np
 
 from rig.camera import PinholeCamera
+from rig.timing import StepTiming, motion_s, shots_s
 from sim.illumination import direct_radiance, visible_from
 from sim.model import SceneModel
 from sim.raster import IdRasterizer
@@ -43,7 +44,6 @@ from sim.sensor import (
     vignetting_factor,
 )
 from sim.shading import SurfaceHits
-from sim.timing import CaptureTiming, capture_timing
 from sim.truth import (
     TexelTruth,
     Truth,
@@ -69,7 +69,8 @@ class Frame:
         values in 0 … 2**bit_depth − 1 (clipped to the dtype's range)
     signal : same shape, float32 — the value before quantisation, in DN (after
         the tone curve when the scene has ``response``)
-    timing : how long the capture took (move, settle, exposure, readout)
+    timing : how long the capture took (move, settle, exposure and readout), as
+        :mod:`rig.timing` models it
     """
 
     image: np.ndarray
@@ -79,7 +80,7 @@ class Frame:
     exposure_s: float
     bit_depth: int
     effects: tuple[str, ...]
-    timing: CaptureTiming | None = None
+    timing: StepTiming | None = None
 
     @property
     def metadata(self) -> dict:
@@ -241,12 +242,14 @@ class Simulator:
     def capture_timing(
         self, camera_id: str, start: WorldSnapshot, *, turntable_deg: float, arc_deg: float,
         exposure_s: float | None = None,
-    ) -> CaptureTiming:  # fmt: skip
+    ) -> StepTiming:  # fmt: skip
         """How long moving from ``start``, settling, exposing and reading out take."""
-        return capture_timing(
-            self.scene.rig, camera_id, start,
-            turntable_deg=turntable_deg, arc_deg=arc_deg, exposure_s=self._exposure(exposure_s),
-        )  # fmt: skip
+        rig = self.scene.rig
+        move, settle = motion_s(
+            rig, (start.turntable_deg, start.arc_deg), (turntable_deg, arc_deg)
+        )
+        capture = shots_s(rig, [camera_id], [self._exposure(exposure_s)])
+        return StepTiming(float(move), float(settle), 0.0, capture)
 
     def capture(
         self, world: World, camera_id: str, *, turntable_deg: float, arc_deg: float,
@@ -270,7 +273,7 @@ class Simulator:
             self.counters["stage.motion_timing"] += 1
             world.clock.sleep(timing.move_s + timing.settle_s)
             snapshot = world.snapshot()
-            world.clock.sleep(timing.exposure_s + timing.readout_s)
+            world.clock.sleep(timing.capture_s)
         else:
             snapshot = replace(world.snapshot(), turntable_deg=turntable_deg, arc_deg=arc_deg)
         return replace(self.render(camera_id, snapshot, exposure), timing=timing)

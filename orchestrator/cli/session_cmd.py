@@ -17,6 +17,26 @@ __all__ = ["FaultHints", "register"]
 
 CONNECT = typer.Option("--connect", help="the daemon's control address, tcp://HOST[:PORT]")
 DEFAULT_CONNECT = "tcp://127.0.0.1"
+SERVER_KEY = typer.Option(
+    "--curve-server-key", help="the daemon's public CURVE certificate (a daemon with keys)"
+)
+SECRET_KEY = typer.Option(
+    "--curve-secret-key",
+    help="this client's secret CURVE certificate (its public half in the daemon's clients dir)",
+)
+
+
+def _daemon_at(connect: str, server_key: Path | None, secret_key: Path | None):
+    """The daemon's endpoints, with this client's CURVE keys when given."""
+    from orchestrator.daemon.endpoints import ClientKeys, Endpoints
+
+    if (server_key is None) != (secret_key is None):
+        raise ConfigError(
+            "--curve-server-key and --curve-secret-key: give both for a daemon with CURVE "
+            "keys, or neither for one on this machine without them"
+        )
+    keys = None if server_key is None else ClientKeys.load(server_key, secret_key)
+    return Endpoints.from_base(connect, keys=keys)
 
 
 def _print_status(state: dict) -> None:
@@ -122,28 +142,34 @@ def register(app: typer.Typer) -> None:
             Path | None, typer.Option("--archive", help="where to write (default: the plan's)")
         ] = None,
         connect: Annotated[str, CONNECT] = DEFAULT_CONNECT,
+        server_key: Annotated[Path | None, SERVER_KEY] = None,
+        secret_key: Annotated[Path | None, SECRET_KEY] = None,
     ) -> None:
         """Submit a plan to the running daemon."""
         from orchestrator import client
 
-        _print_status(client.submit(plan, archive=archive, connect=connect))
+        daemon = _daemon_at(connect, server_key, secret_key)
+        _print_status(client.submit(plan, archive=archive, connect=daemon))
 
     @app.command()
     def status(
         follow: Annotated[bool, typer.Option("--follow", "-f", help="keep following")] = False,
         connect: Annotated[str, CONNECT] = DEFAULT_CONNECT,
+        server_key: Annotated[Path | None, SERVER_KEY] = None,
+        secret_key: Annotated[Path | None, SECRET_KEY] = None,
     ) -> None:
         """Show the daemon's session state; --follow draws progress until it ends."""
         from orchestrator import client
 
+        daemon = _daemon_at(connect, server_key, secret_key)
         if not follow:
-            _print_status(client.status(connect=connect))
+            _print_status(client.status(connect=daemon))
             return
         with SessionProgress() as view:
             hints = FaultHints(view, connect)
-            for event in client.follow(connect, until=client.session_ended):
+            for event in client.follow(daemon, until=client.session_ended):
                 hints(event)
-        _print_status(client.status(connect=connect))
+        _print_status(client.status(connect=daemon))
 
     for name, doc in (
         ("pause", "Pause the running session after the current step."),
@@ -151,10 +177,16 @@ def register(app: typer.Typer) -> None:
         ("shutdown", "Stop the daemon cleanly."),
     ):
 
-        def command(connect: Annotated[str, CONNECT] = DEFAULT_CONNECT, _name=name) -> None:
+        def command(
+            connect: Annotated[str, CONNECT] = DEFAULT_CONNECT,
+            server_key: Annotated[Path | None, SERVER_KEY] = None,
+            secret_key: Annotated[Path | None, SECRET_KEY] = None,
+            _name=name,
+        ) -> None:
             from orchestrator import client
 
-            _print_status(getattr(client, _name)(connect=connect))
+            daemon = _daemon_at(connect, server_key, secret_key)
+            _print_status(getattr(client, _name)(connect=daemon))
 
         command.__doc__ = doc
         app.command(name)(command)
@@ -174,11 +206,14 @@ def register(app: typer.Typer) -> None:
             ),
         ] = None,
         connect: Annotated[str, CONNECT] = DEFAULT_CONNECT,
+        server_key: Annotated[Path | None, SERVER_KEY] = None,
+        secret_key: Annotated[Path | None, SECRET_KEY] = None,
     ) -> None:
         """Resume a paused session, or continue a crashed one from its archive."""
         from orchestrator import client
 
-        _print_status(client.resume(archive, config=config, connect=connect))
+        daemon = _daemon_at(connect, server_key, secret_key)
+        _print_status(client.resume(archive, config=config, connect=daemon))
 
     @app.command()
     def run(
@@ -275,6 +310,8 @@ def register(app: typer.Typer) -> None:
             typer.Argument(help="live stage(s), comma-separated: stats, register, laser, ps"),
         ],
         connect: Annotated[str, CONNECT] = DEFAULT_CONNECT,
+        server_key: Annotated[Path | None, SERVER_KEY] = None,
+        secret_key: Annotated[Path | None, SECRET_KEY] = None,
     ) -> None:
         """Pull frames from a daemon, run live stages on them, push results (Ctrl-C stops).
 
@@ -287,7 +324,7 @@ def register(app: typer.Typer) -> None:
         stop = threading.Event()
         previous = signal.signal(signal.SIGINT, lambda *_: stop.set())
         try:
-            done = run_worker(stage, connect, stop=stop)
+            done = run_worker(stage, _daemon_at(connect, server_key, secret_key), stop=stop)
         finally:
             signal.signal(signal.SIGINT, previous)
         console.print(f"worker processed {done} frame(s)")

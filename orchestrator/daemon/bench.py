@@ -2,11 +2,12 @@
 
 A session runs through the real daemon, sockets, archive and stats workers,
 against ``_ModelledRig``: a bench harness that spends exactly the modelled
-hardware time (moves, settle, lamp warm-up, exposure + readout, laser sweeps,
-as in ``rig.schedule.estimate``) on a ``VirtualClock`` and hands out constant
-frames. Everything the wall clock then measures is the daemon's own work:
-step sequencing, commits (zstd + journal), events, streaming. The overhead is
-reported as a fraction of the modelled session time (goal: under 2 %).
+hardware time (moves, settle, lamp warm-up, exposure + readout: the
+:mod:`rig.timing` model that ``rig.schedule.estimate`` uses) on a
+``VirtualClock`` and hands out constant frames. Everything the wall clock then
+measures is the daemon's own work: step sequencing, commits (zstd + journal),
+events, streaming. The overhead is reported as a fraction of the modelled
+session time (goal: under 2 %).
 """
 
 from __future__ import annotations
@@ -24,6 +25,9 @@ from orchestrator.daemon.session import frame_formats
 from rig.archive import FrameFormat
 from rig.clock import VirtualClock
 from rig.config import RigConfig, default_rig_config
+from rig.plan import load_plan
+from rig.schedule import compile_plan
+from rig.timing import motion_s, shots_s
 
 __all__ = ["run_bench"]
 
@@ -44,7 +48,7 @@ class _ModelledRig:
     """The hardware's modelled time on a virtual clock, constant frames (bench only)."""
 
     def __init__(self, config: RigConfig, *, clock: VirtualClock, scale: float, laser: bool):
-        self.config, self.clock = config, clock
+        self.config, self.clock, self.scale = config, clock, scale
         self.formats: dict[str, FrameFormat] = frame_formats(config, scale=scale)
         self.images = {c: np.full(f.shape, 100, dtype=f.dtype) for c, f in self.formats.items()}
         self.here = (config.turntable.axis.min_deg, config.light_arc.axis.min_deg)
@@ -53,27 +57,21 @@ class _ModelledRig:
         self.here = (0.0, 0.0)
 
     def move(self, *, turntable_deg: float, arc_deg: float) -> dict[str, float]:
-        tt, arc = self.config.turntable.axis, self.config.light_arc.axis
-        d_tt, d_arc = abs(turntable_deg - self.here[0]), abs(arc_deg - self.here[1])
-        move = max(float(tt.move_time_s(d_tt)), float(arc.move_time_s(d_arc)))
-        settle = max(tt.settle_s if d_tt > 1e-9 else 0.0, arc.settle_s if d_arc > 1e-9 else 0.0)
-        self.clock.sleep(move + settle)
+        move, settle = motion_s(self.config, self.here, (turntable_deg, arc_deg))
+        self.clock.sleep(float(move + settle))
         self.here = (turntable_deg, arc_deg)
         return {"turntable_deg": turntable_deg, "arc_deg": arc_deg}
 
     def lamp(self, lamp_id: str, on: bool) -> None:
-        if on:
-            self.clock.sleep(self.config.lamp_bank.warmup_s)
+        self.clock.sleep(self.config.lamp_bank.warmup_s)  # the bank waits on and off
 
     def laser(self, mount: int, on: bool) -> None:
         pass
 
     def capture(self, cameras, exposures_s) -> dict[str, list[Captured]]:
         frames = {c: [] for c in cameras}
-        readout = max(self.config.camera(c).readout_s for c in cameras)
         for sub, exposure in enumerate(exposures_s):
-            scale = self.formats[cameras[0]].height / self.config.camera(cameras[0]).height
-            self.clock.sleep(exposure + readout * scale)
+            self.clock.sleep(shots_s(self.config, cameras, [exposure], scale=self.scale))
             for c in cameras:
                 frames[c].append(Captured(self.images[c], sub, exposure, self.clock.now()))
         return frames
@@ -121,6 +119,7 @@ def _session(plan_text: str, *, workers: int, root: Path) -> dict:
         "frames": session["frames"],
         "processed": final["stream"]["processed"],
         "modelled_s": clock.now(),
+        "estimate_s": compile_plan(load_plan(plan), config).estimate.total_s,
         "wall_s": wall,
         "overhead_per_step_ms": 1e3 * wall / session["steps"],
         "overhead_fraction": wall / clock.now(),
@@ -133,8 +132,10 @@ def run_bench(quick: bool = False) -> list[dict]:
 
     ``overhead_fraction`` = wall time of the session / modelled hardware time
     (the wall time is all daemon: the modelled rig only advances a virtual
-    clock). ``frames_per_s`` counts frames captured, committed and streamed
-    per wall second (with workers: also processed before the session ends).
+    clock); ``modelled_s`` equals ``estimate_s``, the plan's estimate, when the
+    daemon runs the steps as planned. ``frames_per_s`` counts frames captured,
+    committed and streamed per wall second (with workers: also processed before
+    the session ends).
     """
     sizes = [("[[0, 0], [30, 0]]", 8, 0.125)] if quick else [
         ("[[0, 0], [30, 0], [30, 90], [45, 180]]", 12, 0.125),

@@ -257,13 +257,14 @@ class RigDevices:
         return tilt.wait_until_settled()
 
     def _shoot(self, cameras, exposure_s, sub, frames) -> None:
-        for camera in cameras:
-            self._camera(camera).trigger(exposure_s)
-        for camera in cameras:
-            frame = self._camera(camera).read()
-            frames[camera].append(
-                Captured(frame.image, sub, float(frame.exposure_s), float(frame.timestamp))
-            )
+        with self.clock.parallel():  # the cameras expose at once: time passes once
+            for camera in cameras:
+                self._camera(camera).trigger(exposure_s)
+            for camera in cameras:
+                frame = self._camera(camera).read()
+                frames[camera].append(
+                    Captured(frame.image, sub, float(frame.exposure_s), float(frame.timestamp))
+                )
 
     def all_off(self) -> None:
         """Lamps and laser off, axes stopped; every device tried, the first error raised."""

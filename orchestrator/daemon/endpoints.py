@@ -17,24 +17,77 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from rig.errors import ConfigError
 
-__all__ = ["DEFAULT_PORT", "DaemonSettings", "Endpoints", "is_loopback"]
+__all__ = ["DEFAULT_PORT", "ClientKeys", "DaemonSettings", "Endpoints", "is_loopback"]
 
 DEFAULT_PORT = 5570
 _ROLES = ("control", "events", "frames", "results")
 
 
+def _certificate(path: Path, option: str, *, secret: bool) -> tuple[bytes, bytes | None]:
+    import zmq.auth
+
+    try:
+        public, secret_key = zmq.auth.load_certificate(str(path))
+    except (OSError, ValueError) as err:
+        raise ConfigError(
+            f"{option} {str(path)!r}: not a readable CURVE certificate ({err}); "
+            "make one with zmq.auth.create_certificates"
+        ) from err
+    if secret and secret_key is None:
+        raise ConfigError(
+            f"{option} {str(path)!r} holds only a public key; give the secret certificate "
+            "(the .key_secret file zmq.auth.create_certificates wrote)"
+        )
+    return public, secret_key
+
+
+@dataclass(frozen=True)
+class ClientKeys:
+    """A client's CURVE keys for a daemon that has them: the daemon's public key and
+    this client's key pair (z85), whose public half is in the daemon's clients folder."""
+
+    server_public: bytes
+    public: bytes
+    secret: bytes
+
+    @classmethod
+    def load(cls, server_key: Path, secret_key: Path) -> ClientKeys:
+        """From the daemon's public certificate and this client's secret certificate."""
+        server_public, _ = _certificate(server_key, "--curve-server-key", secret=False)
+        public, secret = _certificate(secret_key, "--curve-secret-key", secret=True)
+        return cls(server_public, public, secret)
+
+    def apply(self, sock) -> None:
+        """Make ``sock`` (before it connects) a CURVE client of the daemon."""
+        sock.curve_serverkey = self.server_public
+        sock.curve_publickey = self.public
+        sock.curve_secretkey = self.secret
+
+
 @dataclass(frozen=True)
 class Endpoints:
-    """The URLs of the daemon's control, events, frames and results sockets."""
+    """The URLs of the daemon's control, events, frames and results sockets, and the
+    keys a client connects with (None: plain sockets, loopback only)."""
 
     control: str
     events: str
     frames: str
     results: str
+    keys: ClientKeys | None = None
+
+    def secure(self, sock) -> None:
+        """Apply the client keys, if any, to ``sock`` before it connects."""
+        if self.keys is not None:
+            self.keys.apply(sock)
 
     @classmethod
-    def from_base(cls, url: str = f"tcp://127.0.0.1:{DEFAULT_PORT}") -> Endpoints:
-        """``tcp://HOST[:BASE]`` → the four sockets on ports BASE … BASE + 3."""
+    def from_base(
+        cls, url: str = f"tcp://127.0.0.1:{DEFAULT_PORT}", *, keys: ClientKeys | None = None
+    ) -> Endpoints:
+        """``tcp://HOST[:BASE]`` → the four sockets on ports BASE … BASE + 3.
+
+        A host beyond loopback needs ``keys``: a daemon listens there only with CURVE.
+        """
         parts = urlsplit(url)
         try:
             port = parts.port
@@ -49,8 +102,14 @@ class Endpoints:
         if not 1 <= base <= 65532:
             raise ConfigError(f"daemon address {url!r}: port {base} must be in 1..65532")
         host = parts.hostname
+        if keys is None and not is_loopback(host):
+            raise ConfigError(
+                f"daemon address {url!r} is beyond this machine, where the daemon speaks "
+                "CURVE only: give --curve-server-key (its public certificate) and "
+                "--curve-secret-key (this client's secret certificate)"
+            )
         host = f"[{host}]" if ":" in host else host
-        return cls(*(f"tcp://{host}:{base + i}" for i in range(4)))
+        return cls(*(f"tcp://{host}:{base + i}" for i in range(4)), keys=keys)
 
 
 def is_loopback(host: str) -> bool:

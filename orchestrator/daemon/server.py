@@ -21,13 +21,13 @@ import time
 from collections import OrderedDict
 from pathlib import Path
 
-import numpy as np
 import zmq
 
 from orchestrator.daemon.admission import rig_config_from_toml
 from orchestrator.daemon.control import Preparation, as_message_error, split_envelope
 from orchestrator.daemon.devices import build_devices
 from orchestrator.daemon.endpoints import DaemonSettings, Endpoints
+from orchestrator.daemon.live import LiveWriter
 from orchestrator.daemon.protocol import (
     MAX_CONTROL_BYTES,
     MAX_FRAME_BYTES,
@@ -86,7 +86,7 @@ class Daemon:
         self._ledger = FrameLedger(resend_after_s=self.settings.resend_after_s)
         self._session: Session | None = None
         self._thread: threading.Thread | None = None
-        self._results: dict[str, list] = {}
+        self._live: dict[str, LiveWriter] = {}  # session id → its results' writer
         self._workers: dict[str, float] = {}
         self._not_streamed = 0
         self._replies: OrderedDict[tuple, bytes] = OrderedDict()
@@ -195,6 +195,8 @@ class Daemon:
                 self._check_drains()
                 self._reap_session()
                 now = time.monotonic()
+                for session, writer in self._live.items():
+                    self._report_live(session, writer)
                 self._ledger.requeue_overdue(now)
                 if now >= next_status:
                     self._publish("status", self.status())
@@ -204,6 +206,9 @@ class Daemon:
                 self._preparing.wait()
                 self._reply_prepared()
             self._shutdown_session()
+            for writer in self._live.values():  # a session that never drained
+                writer.close()
+            self._live.clear()
             self._publish_queued()
             self._close_sockets()
 
@@ -367,7 +372,7 @@ class Daemon:
             session.archive.close()
             raise
         self._session = session
-        self._results[session.id] = []
+        self._live[session.id] = LiveWriter(session.archive.material)
         self._thread = threading.Thread(target=session.run, name=f"session-{session.id}")
         self._thread.start()
         return self.status()
@@ -420,6 +425,8 @@ class Daemon:
             and not self._stop.is_set()
             and self.machine.state != SessionState.ABORTED
         )
+        if streaming and any(writer.backlogged for writer in self._live.values()):
+            return  # the disk is behind the workers: let the session wait
         while not streaming or self._ledger.in_flight < self.settings.max_in_flight:
             try:
                 header, parts = self._outbox.frames.get_nowait()
@@ -460,10 +467,14 @@ class Daemon:
                 continue
             if self._ledger.ack(header.frame_id) is None:
                 continue
-            results = self._results.get(header.session)
-            if results is not None:
-                copied = {name: np.array(a) for name, a in arrays.items()}
-                results.append((header.model_dump(), copied))
+            writer = self._live.get(header.session)
+            if writer is not None and arrays:
+                writer.append(header.model_dump(), arrays)  # written on the writer's thread
+
+    def _report_live(self, session: str, writer: LiveWriter) -> None:
+        for error in writer.take_errors():
+            log.warning("session %s: live results not stored: %s", session, error)
+            self._publish("log", {"kind": "live_not_stored", "session": session, "error": error})
 
     def _check_drains(self) -> None:
         while True:
@@ -475,12 +486,19 @@ class Daemon:
             session = request["session"]
             outstanding = self._ledger.outstanding(session)
             gave_up = time.monotonic() > request["deadline"] or not self._workers_alive()
-            if outstanding and not gave_up:
+            waiting = not self._outbox.frames.empty()  # held back while the disk caught up
+            if (outstanding or waiting) and not gave_up:
                 continue
             if outstanding:
                 dropped = self._ledger.forget(session)
                 self._publish("log", {"kind": "unprocessed", "session": session, "frames": dropped})
-            request["results"] = self._results.pop(session, [])
+            writer = self._live.get(session)
+            if writer is not None:
+                if not writer.finish():
+                    continue  # still writing: look again next turn
+                self._report_live(session, writer)
+                del self._live[session]
+            request["stored"] = 0 if writer is None else writer.frames
             self._drains.remove(request)
             request["done"].set()
 

@@ -44,7 +44,6 @@ from rig.calfile import load_calibration
 from rig.clock import Clock
 from rig.config import RigConfig
 from rig.kinematics import forward
-from rig.material import write_live
 from rig.plan import Plan, parse_plan
 from rig.schedule import Schedule, Step, compile_plan
 
@@ -61,7 +60,8 @@ class SessionOutbox(Protocol):
 
     def publish(self, topic: str, payload: dict) -> None: ...
     def stream(self, header: FrameHeader, image: np.ndarray) -> None: ...
-    def drain(self, session: str, timeout_s: float) -> list[tuple[dict, dict]]: ...
+    def drain(self, session: str, timeout_s: float) -> int:
+        """Wait for the session's outstanding results; for how many frames some were stored."""
 
 
 def frame_formats(config: RigConfig, *, scale: float) -> dict[str, FrameFormat]:
@@ -312,7 +312,7 @@ class Session:
     def _run_step(self, step: Step, devices: DeviceSet) -> None:
         with self._lock:
             self._progress.step_index = step.index
-        started_at = time.time()
+        started_at = self.clock.now()
         actuators = devices.move(turntable_deg=step.turntable_deg, arc_deg=step.arc_deg)
         self.outbox.publish("telemetry", {"session": self.id, "step": step.index, **actuators})
         if self.machine.state == SessionState.ABORTED:  # the move took long: light nothing
@@ -417,11 +417,8 @@ class Session:
 
     def _finish(self, devices: DeviceSet) -> None:
         devices.all_off()
-        results = self.outbox.drain(self.id, self.drain_timeout_s)
-        if results:
-            with self.archive.replace_material("live") as group:
-                write_live(group, results)
-        self._log("session", action="finished", session=self.id, processed=len(results))
+        stored = self.outbox.drain(self.id, self.drain_timeout_s)
+        self._log("session", action="finished", session=self.id, processed=stored)
 
     # -- endings ----------------------------------------------------------------------------
 

@@ -125,9 +125,11 @@ class Outbox:
     def stream(self, header: FrameHeader, image: np.ndarray) -> None:
         self.frames.put((header, encode_frame(header, image)))  # blocks while the loop is behind
 
-    def drain(self, session: str, timeout_s: float) -> list[tuple[dict, dict]]:
+    def drain(self, session: str, timeout_s: float) -> int:
+        """Wait until the session's frames are processed (or ``timeout_s``); the number of
+        live results stored in the archive."""
         done = threading.Event()
         request = {"session": session, "deadline": time.monotonic() + timeout_s, "done": done}
         self.drains.put(request)
         done.wait()
-        return request["results"]
+        return request["stored"]

@@ -61,6 +61,15 @@ class PsStage:
             frames = [archive.read_frame(s.index, item.camera, 0) for s in steps]
             # only K and dist are used: the frame's intrinsics, at the plan's resolution
             lens = frame_camera(archive, config, item.camera, item.turntable_deg)
+        return self.solve(item, config, lens, steps, frames)
+
+    def solve(self, item: View, config: RigConfig, lens, steps, frames) -> dict:
+        """The view's photometric stereo from its frames in memory.
+
+        ``steps``: the view's committed step records; ``frames``: each step's frame of
+        ``item.camera`` (sub 0), as archived; ``lens``: the camera of those frames
+        (:func:`processing.offline.frame_camera`). What :meth:`compute` returns.
+        """
         bits = config.camera(item.camera).bit_depth
         full_scale = float(2**bits - 1)
         images, usable, lamps, registered = [], None, [], 0

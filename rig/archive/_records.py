@@ -149,7 +149,8 @@ class StepRecord:
     lamp, laser : str, int or None
         Id of the lit lamp and of the laser source, if any.
     started_at : float
-        Unix time (s) the step started.
+        Time (s) the step started on the session's clock: monotonic seconds on a
+        rig, virtual seconds in the simulator; replay paces steps by its differences.
     committed_at : float or None
         Unix time (s) of the commit; set by the archive, None before.
     """

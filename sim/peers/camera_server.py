@@ -208,9 +208,10 @@ class CameraServer:
     def _capture(self, request: dict) -> list | None:
         spec = self._spec(request["camera_id"])
         exposure_s, gain = float(request["exposure_s"]), float(request["gain"])
-        snapshot = self.world.snapshot()
-        image = self._render(spec, snapshot, exposure_s, gain)
-        self.world.clock.sleep(exposure_s + spec.readout_s)
+        with self.world.clock.lane(spec.id):  # each camera exposes on its own time line
+            snapshot = self.world.snapshot()
+            image = self._render(spec, snapshot, exposure_s, gain)
+            self.world.clock.sleep(exposure_s + spec.readout_s)
         seq = self._sequence.get(spec.id, 0)
         self._sequence[spec.id] = seq + 1
         self.frames_exposed += 1

@@ -127,3 +127,29 @@ def test_a_failing_stage_is_reported_and_the_frame_still_acknowledged():
     assert result.kind == "result" and result.frame_id == 7  # acknowledged: never resent
     assert "stage broken: RuntimeError: lens cap on" in result.message
     assert set(arrays) == {"stats.mean", "stats.saturated"}
+
+
+def test_live_ps_reads_only_the_frames_it_was_not_sent(session, monkeypatch):
+    from processing.live import live_ps
+
+    with Archive.open(session) as arch:
+        ps_steps = [s.index for s in arch.step_table() if s.kind == "ps"]
+        frames = {i: arch.read_frame(i, "cam0", 0) for i in ps_steps}
+        stored = arch.material["live/ps/cam0"]["normals"][0]
+    reads = []
+    original = Archive.read_frame
+
+    def counted(self, step, camera, sub=0):
+        reads.append(step)
+        return original(self, step, camera, sub)
+
+    monkeypatch.setattr(Archive, "read_frame", counted)
+    for run, sent in (("all", ps_steps), ("half", ps_steps[1::2])):  # another worker: the rest
+        results = [
+            live_ps(frames[i], {"kind": "ps", "step": i, "camera": "cam0", "sub": 0,
+                                "session": f"again-{run}", "archive": str(session)})
+            for i in sent
+        ]  # fmt: skip
+        assert [bool(r) for r in results] == [False] * (len(sent) - 1) + [True]
+        np.testing.assert_allclose(results[-1]["normals"], stored, atol=1e-6)
+        assert reads == sorted(set(ps_steps) - set(sent)), run

@@ -154,3 +154,36 @@ def test_scene_fault_tables_are_injected_and_bad_peers_refused(tmp_path):
     scene["faults"] = {"toaster": {"burn": True}}
     with pytest.raises(ConfigError, match=r"unknown peer\(s\) \['toaster'\]; valid are"):
         SimulatedRig(scene_from_dict(scene), clock=VirtualClock())
+
+
+TIMED_PLAN = """
+[sample]
+name = "timed"
+[exposure]
+exposure_s = 0.02
+hdr_brackets = [1.0, 4.0]
+""" + "".join(
+    f'[[captures.fixed]]\nturntable_deg = 0\nlamp = "{lamp}"\n'
+    'cameras = ["cam0", "cam1", "cam2", "cam3"]\n'
+    for lamp in ("lamp2", "lamp4", "lamp6")
+)
+
+
+def test_cameras_fired_together_take_the_time_of_one(scene, tmp_path):
+    """Steps at one position, through the real drivers and peers on virtual time: each
+    step lasts lamp on + off and, per exposure, exposure + one readout (not four)."""
+    from rig.plan import load_plan
+    from rig.schedule import compile_plan
+    from rig.timing import step_timing
+
+    clock = VirtualClock()
+    with SimulatedRig(scene, clock=clock) as sim:
+        archive, status = run_session(sim, clock, tmp_path, TIMED_PLAN)
+        config = sim.rig_config()
+    assert status["state"] == "done", status
+    with Archive.open(archive) as arch:
+        started = [r.started_at for r in arch.step_table()]
+    steps = compile_plan(load_plan(tmp_path / "plan.toml"), config).steps
+    modelled = step_timing(config, steps[1], (0.0, 0.0)).total_s
+    assert modelled == pytest.approx(0.1 + 0.02 + 0.08 + 2 * config.camera("cam0").readout_s)
+    assert np.diff(started)[1:] == pytest.approx([modelled], rel=1e-9)

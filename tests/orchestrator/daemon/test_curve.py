@@ -1,85 +1,80 @@
-"""CURVE keys: a file that is not the server's secret certificate is refused by name, at
-once (nothing left open to hang the exit); a secret certificate serves."""
+"""Remote operation: a daemon with CURVE keys, a worker and clients over TCP with theirs."""
+
+from __future__ import annotations
+
+from dataclasses import replace
+from pathlib import Path
 
 import pytest
 import zmq.auth
 from typer.testing import CliRunner
 
 from orchestrator.cli import app
-from orchestrator.daemon import DaemonSettings, daemon_thread
-from rig.config import default_rig_config
+from orchestrator.client import DaemonClient, DaemonUnreachable, wait_for_state
+from orchestrator.daemon.endpoints import ClientKeys, Endpoints
 from rig.errors import ConfigError
-
-runner = CliRunner()
+from tests.orchestrator.daemon.conftest import LAMP_PLAN, running_daemon, running_workers
 
 
 @pytest.fixture
 def certificates(tmp_path):
-    keys, clients = tmp_path / "keys", tmp_path / "clients"
-    keys.mkdir()
-    clients.mkdir()
-    public, secret = zmq.auth.create_certificates(keys, "server")
-    (tmp_path / "junk.bin").write_bytes(b"\xff\xfe\x00 not a certificate")
-    return {"public": public, "secret": secret, "junk": tmp_path / "junk.bin", "clients": clients}
+    """The daemon's key pair, an allowed client's and a stranger's (zmq.auth files)."""
+    for folder in ("server", "clients", "client", "stranger"):
+        (tmp_path / folder).mkdir()
+    server_public, server_secret = zmq.auth.create_certificates(tmp_path / "server", "daemon")
+    client_public, client_secret = zmq.auth.create_certificates(tmp_path / "client", "lab-pc")
+    _, stranger_secret = zmq.auth.create_certificates(tmp_path / "stranger", "stranger")
+    (tmp_path / "clients" / "lab-pc.key").write_bytes(Path(client_public).read_bytes())
+    return {
+        "daemon": {"curve_secret_key": server_secret, "curve_clients_dir": tmp_path / "clients"},
+        "client": ClientKeys.load(server_public, client_secret),
+        "stranger": ClientKeys.load(server_public, stranger_secret),
+        "files": (server_public, client_secret),
+    }
 
 
-@pytest.mark.timeout(60)
-@pytest.mark.parametrize(
-    ("which", "says"),
-    [
-        ("public", "holds only a public key"),
-        ("junk", "not a CURVE certificate"),
-    ],
-)
-def test_rig_daemon_refuses_a_bad_key_file_by_name(certificates, which, says):
-    key = certificates[which]
-    result = runner.invoke(
-        app,
-        [
-            "daemon",
-            "--port",
-            "0",
-            "--curve-secret-key",
-            str(key),
-            "--curve-clients-dir",
-            str(certificates["clients"]),
-        ],
-    )
-    assert result.exit_code == 2, result.output
-    assert f"curve_secret_key {key}" in result.output and says in result.output
+def test_worker_and_client_run_a_session_over_curve(config, rig, certificates, tmp_path):
+    with running_daemon(config, rig, **certificates["daemon"]) as plain:
+        assert plain.control.startswith("tcp://127.0.0.1:")
+        endpoints = replace(plain, keys=certificates["client"])
+        with running_workers(endpoints, n=1) as counts:
+            with DaemonClient(endpoints) as client:
+                client.request("submit", plan_toml=LAMP_PLAN, archive=str(tmp_path / "s.zarr"))
+            done = wait_for_state(endpoints, ("done",), settled=True)
+        frames = done["session"]["frames"]
+        assert frames > 0 and done["stream"]["processed"] == frames
+    assert counts["w0"] == frames  # every frame went through the encrypted worker
 
 
-@pytest.mark.parametrize("clients", [None, "nowhere"])
-def test_a_key_without_a_folder_of_clients_is_refused(certificates, tmp_path, clients):
-    settings = DaemonSettings(
-        port=0,
-        curve_secret_key=certificates["secret"],
-        curve_clients_dir=None if clients is None else tmp_path / clients,
-    )
-    with pytest.raises(ConfigError, match=r"daemon curve_clients_dir .*public certificates"):
-        settings.curve_keys()
+@pytest.mark.parametrize("who", ["no keys", "stranger"])
+def test_a_client_without_allowed_keys_gets_no_answer(config, rig, certificates, who):
+    with running_daemon(config, rig, **certificates["daemon"]) as plain:
+        endpoints = plain if who == "no keys" else replace(plain, keys=certificates[who])
+        with (
+            DaemonClient(endpoints, timeout_s=0.3, retries=0) as client,
+            pytest.raises(DaemonUnreachable, match="curve"),
+        ):
+            client.request("status")
 
 
-def test_a_secret_certificate_serves_a_known_client(certificates):
-    _, client_secret = zmq.auth.create_certificates(certificates["clients"], "lab")
-    settings = DaemonSettings(
-        port=0,
-        curve_secret_key=certificates["secret"],
-        curve_clients_dir=certificates["clients"],
-    )
-    server_public, _ = zmq.auth.load_certificate(certificates["public"])
-    with daemon_thread(default_rig_config(), settings=settings) as endpoints:
-        ctx = zmq.Context()
-        sock = ctx.socket(zmq.REQ)
-        sock.linger = 0
-        sock.curve_publickey, sock.curve_secretkey = zmq.auth.load_certificate(client_secret)
-        sock.curve_serverkey = server_public
-        try:
-            sock.connect(endpoints.control)
-            sock.send_json({"id": "c1", "command": "status", "args": {}})
-            assert sock.poll(5000), "no reply over CURVE"
-            reply = sock.recv_json()
-        finally:
-            sock.close(linger=0)
-            ctx.term()
-    assert reply["ok"] and reply["result"]["state"] == "idle"
+def test_rig_status_takes_the_client_keys(config, rig, certificates):
+    server_public, client_secret = certificates["files"]
+    runner = CliRunner()
+    with running_daemon(config, rig, **certificates["daemon"]) as endpoints:
+        connect = ["--connect", endpoints.control]
+        keys = ["--curve-server-key", server_public, "--curve-secret-key", client_secret]
+        result = runner.invoke(app, ["status", *connect, *keys])
+        assert result.exit_code == 0, result.output
+        assert "daemon: idle" in result.output
+    half = runner.invoke(app, ["status", *connect, "--curve-server-key", server_public])
+    assert half.exit_code == 2 and "give both" in half.output
+    swapped = ["--curve-server-key", server_public, "--curve-secret-key", server_public]
+    result = runner.invoke(app, ["worker", "stats", *connect, *swapped])
+    assert result.exit_code == 2 and "only a public key" in result.output
+
+
+def test_a_remote_address_needs_client_keys(certificates):
+    with pytest.raises(ConfigError, match="curve-server-key"):
+        Endpoints.from_base("tcp://10.0.0.2")
+    remote = Endpoints.from_base("tcp://10.0.0.2:6000", keys=certificates["client"])
+    assert (remote.control, remote.results) == ("tcp://10.0.0.2:6000", "tcp://10.0.0.2:6003")

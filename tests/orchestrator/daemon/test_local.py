@@ -1,5 +1,7 @@
 """`rig run` in one process, and the daemon benchmark's shape (speed is not asserted here)."""
 
+import pytest
+
 from orchestrator.daemon.bench import run_bench
 from orchestrator.daemon.local import run_local
 from rig.archive import Archive
@@ -27,4 +29,6 @@ def test_bench_rows(benchmark):
     for row in rows:
         assert row["frames"] > 0 and row["modelled_s"] > 0
         assert row["overhead_fraction"] > 0 and row["frames_per_s"] > 0
+        # the modelled rig spends the estimate's time: one timing model for both
+        assert row["modelled_s"] == pytest.approx(row["estimate_s"], rel=1e-9)
     assert rows[1]["processed"] == rows[1]["frames"]

@@ -197,9 +197,9 @@ def test_beyond_loopback_needs_curve_keys(tmp_path):
 
 
 def test_endpoints_from_an_address():
-    e = Endpoints.from_base("tcp://example.org:6000")
-    assert (e.control, e.results) == ("tcp://example.org:6000", "tcp://example.org:6003")
-    assert Endpoints.from_base("tcp://10.0.0.2").frames == "tcp://10.0.0.2:5572"
+    e = Endpoints.from_base("tcp://localhost:6000")
+    assert (e.control, e.results) == ("tcp://localhost:6000", "tcp://localhost:6003")
+    assert Endpoints.from_base("tcp://127.0.0.2").frames == "tcp://127.0.0.2:5572"
     for bad in ("udp://x:1", "tcp://:5", "tcp://h:notaport", "tcp://h:65535"):
         with pytest.raises(ConfigError, match="daemon address"):
             Endpoints.from_base(bad)
