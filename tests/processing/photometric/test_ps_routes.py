@@ -13,6 +13,7 @@ from numpy.testing import assert_allclose, assert_array_equal
 from processing.photometric import DistantLights, PhotometricError, Reason, solve
 from processing.photometric._block import solve_block
 from processing.photometric._inputs import check_stack
+from processing.photometric._robust import _median_abs
 from processing.photometric._solve import _check_options
 from tests.processing.photometric.ps_synthetic import ring_directions
 
@@ -110,3 +111,17 @@ def test_a_nan_is_reported_at_its_pixel_by_either_route():
     images[3, 4, 7] = np.nan
     with pytest.raises(PhotometricError, match=r"images\[3\].*row 4, column 7"):
         solve(images, DistantLights(DIRS), method="lsq")
+
+
+@pytest.mark.parametrize("n_lights", [7, 8])
+def test_irls_scale_is_the_median_of_the_supported_residuals(n_lights):
+    rng = np.random.default_rng(n_lights)
+    residual = rng.normal(0, 1, (n_lights, 40))
+    support = rng.random((n_lights, 40)) < 0.6
+    support[:, 0] = False
+    support[:, 1] = np.arange(n_lights) == 2
+    expected = [
+        np.median(np.abs(residual[support[:, j], j])) if support[:, j].any() else 0.0
+        for j in range(40)
+    ]
+    assert_allclose(_median_abs(residual, support), expected, rtol=1e-6)
