@@ -68,28 +68,36 @@ def irls_weights(
 
     Starts from :func:`threshold_weights`; every observation above the shadow
     floor may come back in (a bright but consistent lamp is not a highlight)
-    or drop out (a cast shadow or a specular tail above the floor).
+    or drop out (a cast shadow or a specular tail above the floor). The
+    per-observation arrays of the iterations are float32 (half the memory
+    traffic; weights need no more digits); the 3×3 systems are solved in
+    float64, and so is the final fit with these weights.
     """
     ref = reference_level(grey, highlight_fraction)
     support = usable & (grey >= shadow_fraction * ref)
-    weights = (support & (grey <= ref)).astype(np.float64)
+    weights = (support & (grey <= ref)).astype(np.float32)
     floor = _SCALE_FLOOR * np.maximum(ref, 0.0)
+    grey32 = grey.astype(np.float32)
+    lights32 = lights.astype(np.float32)
+    shadow_level = (shadow_fraction * ref).astype(np.float32)
     for _ in range(iterations):
-        a = _system.normal_matrix(lights, weights)
+        a = _system.normal_matrix(lights32, weights).astype(np.float64)
         ok = _system.condition(a) <= max_condition
-        b = _system.solve_sym3(a, _system.moment(lights, weights, grey), ok)
-        predicted = _system.predict(lights, b)
+        g = _system.moment(lights32, weights, grey32).astype(np.float64)
+        b = _system.solve_sym3(a, g, ok).astype(np.float32)
+        predicted = _system.predict(lights32, b)
         # |residual| in place: the biweight below needs only its square.
-        residual = np.subtract(grey, predicted)
+        residual = np.subtract(grey32, predicted)
         np.abs(residual, out=residual)
         scale = np.maximum(_MAD_TO_SIGMA * _median(residual, weights > 0), floor)
         inverse = np.divide(1.0, TUKEY_C * scale, out=np.zeros_like(scale), where=scale > 0)
+        u = np.multiply(residual, inverse.astype(np.float32), out=residual)
         # Tukey's biweight (1 − u²)²₊ with u = residual / (c · scale), in place.
-        u2 = np.square(residual * inverse, out=residual)
+        u2 = np.square(u, out=u)
         tukey = np.square(np.clip(np.subtract(1.0, u2, out=u2), 0.0, None, out=u2), out=u2)
         # An observation the current fit puts in attached shadow carries no information.
-        weights = np.multiply(tukey, support & (predicted > shadow_fraction * ref), out=tukey)
-    return weights
+        weights = np.multiply(tukey, support & (predicted > shadow_level), out=tukey)
+    return weights.astype(np.float64)
 
 
 def _median(magnitude: np.ndarray, support: np.ndarray) -> np.ndarray:
