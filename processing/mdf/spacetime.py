@@ -174,7 +174,8 @@ class SpaceTimeTracker:
         complete &= self._index <= self._count - 1 - self._r
         # Fit only where there is a complete window of a lit pixel.
         fit = np.flatnonzero(lit & complete)
-        window = np.take(self._window, fit, axis=1).astype(np.float32) - low[fit]
+        window = np.take(self._window, fit, axis=1).astype(np.float64)
+        window -= low[fit]
         offset, ok = peak_offset(window, method=self.method)
         reason = np.full(contrast.shape, Reason.UNLIT, np.uint8)
         reason[lit] = Reason.AT_SEQUENCE_EDGE
