@@ -65,14 +65,15 @@ app = typer.Typer(no_args_is_help=True, help="Benchmarks: accuracy against time,
 
 
 def print_rows(title: str, rows: list[dict]) -> None:
-    """One table, or one per kind when the rows say their kind in a ``"row"`` column."""
-    if rows and all("row" in r for r in rows):
-        kinds = dict.fromkeys(r["row"] for r in rows)
+    """One table, or one per kind when every row names its kind (``"row"`` or ``"kind"``)."""
+    key = next((k for k in ("row", "kind") if rows and all(k in r for r in rows)), None)
+    if key is not None:
+        kinds = dict.fromkeys(r[key] for r in rows)
         if len(kinds) > 1:
             for kind in kinds:
-                group = [dict(r) for r in rows if r["row"] == kind]
+                group = [dict(r) for r in rows if r[key] == kind]
                 for r in group:
-                    del r["row"]
+                    del r[key]
                 _print_table(f"{title}: {kind}", group)
             return
     _print_table(title, rows)

@@ -6,12 +6,15 @@ above a prescribed threshold the pixel saw a lit mesostructure point at that
 time, otherwise the point was occluded (-1). The time is refined to a fraction
 of a frame with a sub-pixel peak detector.
 
-The tracker streams: it keeps a running maximum, its frame index, a running
-minimum (the background: the contrast max - min is what is thresholded, so
-bright albedo is not mistaken for laser light), a ring of the last ``2r+1``
-frames and, per pixel, the ``2r+1`` samples around its maximum, snapshotted
-from the ring once ``r`` frames have followed it. Memory is ``O((4r+4)·H·W)``
-whatever the sequence length.
+The tracker streams in blocks of frames: it buffers ``block`` frames after
+the last ``2r`` it has seen and folds the block in at once — a running
+maximum with its frame index, a running minimum (the background: the
+contrast max - min is what is thresholded, so bright albedo is not mistaken
+for laser light) and, per pixel, the ``2r+1`` samples around its maximum,
+copied once ``r`` frames have followed it. Per frame that is a copy into the
+buffer plus its share of one max and one min reduction over the block; the
+frame of the maximum is searched only where the block raised it. Memory is
+``O((4r+1+block)·H·W)`` whatever the sequence length.
 """
 
 from __future__ import annotations
@@ -62,21 +65,28 @@ class SpaceTimeTracker:
     min_contrast : float
         A pixel whose peak does not rise this far above its darkest frame is
         UNLIT, in frame units.
+    block : int
+        Frames buffered and folded in at once (memory ``block`` frames; the
+        per-frame cost falls with it up to ~16).
     """
 
-    def __init__(self, shape, *, method: PeakMethod = "gaussian", min_contrast: float):
+    def __init__(
+        self, shape, *, method: PeakMethod = "gaussian", min_contrast: float, block: int = 16
+    ):
         if len(shape) != 2 or min(shape) < 1:
             raise MdfError(f"SpaceTimeTracker: shape must be (H, W), got {shape}")
         if not min_contrast > 0:
             raise MdfError(f"min_contrast must be > 0 (frame units), got {min_contrast}")
+        if int(block) != block or block < 1:
+            raise MdfError(f"block must be a whole number of frames ≥ 1, got {block!r}")
         self.shape = (int(shape[0]), int(shape[1]))
         self.method = method
         self.min_contrast = float(min_contrast)
         self._r = peak_radius(method)
+        self._block = int(block)
         self._dtype: np.dtype | None = None  # fixed by the first frame
-        self._count = 0
-        # Pixels whose maximum moved, per frame of the last r + 1.
-        self._moved: list[np.ndarray] = []
+        self._count = 0  # frames added
+        self._folded = 0  # frames folded into the running state
 
     @property
     def frames(self) -> int:
@@ -85,14 +95,17 @@ class SpaceTimeTracker:
 
     def _allocate(self, dtype: np.dtype) -> None:
         size = self.shape[0] * self.shape[1]
-        span = 2 * self._r + 1
         self._dtype = dtype
-        self._ring = np.zeros((span, size), dtype)
-        self._window = np.zeros((span, size), dtype)
-        self._best = np.zeros(size, dtype)
-        self._low = np.zeros(size, dtype)
+        # Rows 0..2r-1: the last 2r frames folded in; then the block being filled.
+        self._buffer = np.zeros((2 * self._r + self._block, size), dtype)
+        self._window = np.zeros((2 * self._r + 1, size), dtype)
+        self._best = np.full(size, _lowest(dtype), dtype)
+        self._can_matter = _lowest(dtype) + self.min_contrast
+        self._low = np.full(size, _highest(dtype), dtype)
         self._index = np.zeros(size, np.int32)
         self._snapped = np.zeros(size, bool)
+        # Pixels whose maximum is too recent for its window to be complete.
+        self._waiting = np.zeros(0, np.intp)
 
     def update(self, frame) -> None:
         """Add the next frame, (H, W) or (H, W, C), any numeric dtype.
@@ -103,52 +116,72 @@ class SpaceTimeTracker:
         f = _native_intensity(frame)
         if f.shape != self.shape:
             raise MdfError(f"frame {self._count} has shape {f.shape}, the scan has {self.shape}")
-        f = f.ravel()
-        k, r = self._count, self._r
-        span = 2 * r + 1
         if self._dtype is None:
             self._allocate(f.dtype)
-            self._best[:] = f
-            self._low[:] = f
-        elif f.dtype != self._dtype:
-            f = f.astype(self._dtype)
-        self._ring[k % span] = f
-        moved = np.flatnonzero(f > self._best)
-        self._best[moved] = f[moved]
-        self._index[moved] = k
-        np.minimum(self._low, f, out=self._low)
-        self._moved.append(moved)
-        if len(self._moved) > r + 1:
-            self._moved.pop(0)
-        if k >= 2 * r:
-            # Pixels whose maximum is now r frames old get their window.
-            sel = self._moved[0]
-            sel = sel[self._index[sel] == k - r]
-            if sel.size:
-                order = [(k - 2 * r + j) % span for j in range(span)]
-                self._window[:, sel] = self._ring[np.ix_(order, sel)]
-                self._snapped[sel] = True
+        self._buffer[2 * self._r + self._count - self._folded] = f.ravel()
         self._count += 1
+        if self._count - self._folded == self._block:
+            self._fold()
+
+    def _fold(self) -> None:
+        """Fold the buffered frames into the running maximum, minimum and windows."""
+        r, first = self._r, self._folded
+        n_new = self._count - first
+        if n_new == 0:
+            return
+        new = self._buffer[2 * r : 2 * r + n_new]
+        np.minimum(self._low, new.min(axis=0), out=self._low)
+        block_max = new.max(axis=0)
+        raised_mask = block_max > self._best
+        np.maximum(self._best, block_max, out=self._best)
+        # A maximum below min_contrast above the dtype's floor can never be lit:
+        # its frame and window are not needed (most raises of a dark background).
+        raised_mask &= block_max >= self._can_matter
+        raised = np.flatnonzero(raised_mask)
+        if raised.size:
+            # First frame of the block reaching its maximum (ties keep the earliest).
+            at = np.argmax(np.take(new, raised, axis=1), axis=0)
+            self._index[raised] = first + at
+            self._snapped[raised] = False
+        # Windows that are complete now: buffer row of frame k is k - first + 2r.
+        candidates = np.concatenate([self._waiting[~raised_mask[self._waiting]], raised])
+        last = self._count - 1
+        peak = self._index[candidates]
+        ready = peak + r <= last
+        sel = candidates[ready]
+        if sel.size:
+            rows = (peak[ready] - first + 2 * r)[None] + np.arange(-r, r + 1)[:, None]
+            flat = np.maximum(rows, 0) * self._buffer.shape[1] + sel
+            self._window[:, sel] = np.take(self._buffer, flat)
+            self._snapped[sel] = True
+        self._waiting = candidates[~ready]
+        # Keep the last 2r frames in front of the next block.
+        if 2 * r:
+            self._buffer[: 2 * r] = self._buffer[n_new : n_new + 2 * r].copy()
+        self._folded = self._count
 
     def result(self) -> PixelPeaks:
         """The peaks of the frames seen so far."""
         if self._count == 0:
             raise MdfError("SpaceTimeTracker.result: no frame was added")
+        self._fold()
         best = self._best.astype(np.float32)
         low = self._low.astype(np.float32)
         contrast = best - low
         lit = contrast >= self.min_contrast
-        # A window is complete only if it was snapshotted for the final maximum.
+        # A window is complete only if it was copied for the final maximum.
         complete = self._snapped & (self._index >= self._r)
         complete &= self._index <= self._count - 1 - self._r
-        window = self._window.astype(np.float32) - low
+        # Fit only where there is a complete window of a lit pixel.
+        fit = np.flatnonzero(lit & complete)
+        window = np.take(self._window, fit, axis=1).astype(np.float64)
+        window -= low[fit]
         offset, ok = peak_offset(window, method=self.method)
-        reason = np.full(contrast.shape, Reason.OK, np.uint8)
-        reason[~ok] = Reason.FIT_FAILED
-        reason[~complete] = Reason.AT_SEQUENCE_EDGE
-        reason[~lit] = Reason.UNLIT
-        good = reason == Reason.OK
-        time = np.where(good, self._index + offset, -1.0).astype(np.float32)
+        reason = np.full(contrast.shape, Reason.UNLIT, np.uint8)
+        reason[lit] = Reason.AT_SEQUENCE_EDGE
+        reason[fit] = np.where(ok, Reason.OK, Reason.FIT_FAILED)
+        time = np.full(contrast.shape, -1.0, np.float32)
+        time[fit[ok]] = self._index[fit[ok]] + offset[ok]
         h, w = self.shape
         return PixelPeaks(
             time=time.reshape(h, w),
@@ -156,6 +189,14 @@ class SpaceTimeTracker:
             reason=reason.reshape(h, w),
             frames=self._count,
         )
+
+
+def _lowest(dtype: np.dtype):
+    return np.iinfo(dtype).min if np.issubdtype(dtype, np.integer) else -np.inf
+
+
+def _highest(dtype: np.dtype):
+    return np.iinfo(dtype).max if np.issubdtype(dtype, np.integer) else np.inf
 
 
 def _native_intensity(frame) -> np.ndarray:

@@ -21,6 +21,7 @@ import numpy as np
 
 from ._block import solve_block
 from ._errors import PhotometricError
+from ._fast import PinvRoute
 from ._inputs import Stack, check_mask, check_stack
 from ._lights import DistantLights, NearLights, PixelGrid, light_set_condition
 from ._result import CONDITION_CAP, PhotometricResult, Reason
@@ -138,25 +139,26 @@ def solve(
     chunk = chunk_pixels or max(256, _CHUNK_BYTES // (8 * lights.n_lights * stack.channels))
     if points is not None:
         chunk = max(64, chunk // 4)  # per-pixel light vectors take 3× the memory
-    shared_condition = light_matrix = None
+    shared_condition = light_matrix = route = None
     if isinstance(lights, DistantLights):
         light_matrix = lights.light_matrix()
         shared_condition = min(light_set_condition(light_matrix), CONDITION_CAP)
-    for start in range(0, n_pixels, chunk):
-        if selected is None:
-            index = slice(start, min(start + chunk, n_pixels))
-        else:
-            index = start + np.flatnonzero(selected[start : start + chunk])
-            if index.size == 0:
+        if options.method == "lsq" and shared_condition <= options.max_condition:
+            route = PinvRoute.prepare(light_matrix, shared_condition, stack, options.dark_level)
+    for index in _chunks(n_pixels, chunk, selected):
+        if route is not None:
+            block, hard = route.solve(stack.values[:, index])
+            _store(out, index, block)
+            if not hard.any():
                 continue
+            index = _pixel_ids(index)[hard]
         obs, energy = _read_chunk(stack, index)
         if points is None:
             block = solve_block(obs, energy, light_matrix, shared_condition, options)
         else:
             light_vectors = lights.light_vectors(points[index])
             block = solve_block(obs, energy, light_vectors, None, options)
-        for name, values in block.items():
-            out[name][index] = values
+        _store(out, index, block)
     h, w = stack.shape
     albedo_shape = (h, w) if stack.channels == 1 else (h, w, 3)
     return PhotometricResult(
@@ -237,6 +239,26 @@ def _pixel_points(lights, pixels, shape) -> np.ndarray | None:
             f"(z = {lowest_lamp:.4g} mm)"
         )
     return points
+
+
+def _chunks(n_pixels: int, chunk: int, selected: np.ndarray | None):
+    """Ranges of ``chunk`` pixels; with a mask, the selected pixels packed ``chunk`` at a time."""
+    if selected is None:
+        for start in range(0, n_pixels, chunk):
+            yield slice(start, min(start + chunk, n_pixels))
+        return
+    chosen = np.flatnonzero(selected)
+    for start in range(0, chosen.size, chunk):
+        yield chosen[start : start + chunk]
+
+
+def _pixel_ids(index) -> np.ndarray:
+    return np.arange(index.start, index.stop) if isinstance(index, slice) else index
+
+
+def _store(out: dict[str, np.ndarray], index, block: dict) -> None:
+    for name, values in block.items():
+        out[name][index] = values
 
 
 def _allocate(n_pixels: int, channels: int) -> dict[str, np.ndarray]:

@@ -3,8 +3,10 @@
 ``s`` is a light vector (direction × intensity × falloff) and ``b = ρ n`` the
 scaled normal. A light matrix ``S`` is either shared, (L, 3) for distant
 lamps, or per pixel, (L, n, 3) for near lamps. Observations are (L, n) grey
-or (L, n, C) colour, weights (L, n). Everything here is float64 and closed
-form, so a million pixels solve without a Python loop or a LAPACK call each.
+or (L, n, C) colour, weights (L, n). Everything here is closed form, so a
+million pixels solve without a Python loop or a LAPACK call each; the sums
+over the lights keep the dtype they are given (float64, or float32 for the
+IRLS reweighting steps), the 3×3 solves and conditions take float64.
 """
 
 from __future__ import annotations
@@ -20,10 +22,11 @@ _FULL_FROM_PAIRS = np.array([0, 1, 2, 1, 3, 4, 2, 4, 5])
 
 
 def normal_matrix(lights: np.ndarray, weights: np.ndarray) -> np.ndarray:
-    """Σ_l w s sᵀ per pixel: (n, 3, 3) float64."""
+    """Σ_l w s sᵀ per pixel: (n, 3, 3), in the dtype of ``lights`` and ``weights``."""
     if lights.ndim == 2:
-        outer = np.stack([lights[:, i] * lights[:, j] for i, j in _PAIRS], axis=1)
-        upper = np.einsum("ln,lk->nk", weights, outer)
+        outer = np.stack([lights[:, i] * lights[:, j] for i, j in _PAIRS])
+        # (6, n) first: einsum writing pixel-major rows is ~10× slower.
+        upper = np.einsum("kl,ln->kn", outer, weights).T
     else:
         weighted = lights * weights[..., None]
         upper = np.stack(
@@ -47,7 +50,7 @@ def moment(lights: np.ndarray, weights: np.ndarray | None, obs: np.ndarray) -> n
 def predict(lights: np.ndarray, scaled_normals: np.ndarray) -> np.ndarray:
     """s·b for every light and pixel: (L, n) from b (n, 3)."""
     if lights.ndim == 2:
-        return np.einsum("li,ni->ln", lights, scaled_normals)
+        return np.einsum("li,in->ln", lights, np.ascontiguousarray(scaled_normals.T))
     return np.einsum("lni,ni->ln", lights, scaled_normals)
 
 

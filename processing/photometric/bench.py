@@ -3,12 +3,16 @@
 :func:`run_bench` returns table rows (dicts) of three kinds:
 
 ``read``
-    The baseline: one pass over the float32 image stack (``stack.sum()``)
-    and one read with a conversion (``stack.astype(np.float32).sum()``).
+    The floors, timed interleaved with the solves: one pass over the float32
+    image stack (``stack.sum()``), a read with a conversion
+    (``stack.astype(np.float32).sum()``), one product with the
+    pseudo-inverse over the whole stack (``pinv(L) @ I``, what least squares
+    cannot beat), and the masked pixels gathered and solved packed.
 ``solver`` / ``integrator``
     Seconds per megapixel for each method on the same stack, the least
-    squares time as a ratio to both baselines, and each robust method's cost
-    as a multiple of least squares.
+    squares time as a ratio to the floors (``ratio_to_gemm``), each robust
+    method's cost as a multiple of least squares, and the masked solve as a
+    ratio to the packed one (``ratio_to_packed``).
 ``accuracy``
     Mean angular error against the number of lamps used, on a synthetic
     surface per scenario (see ``SCENARIOS``) and method;
@@ -31,6 +35,8 @@ LAMP_COUNTS = (3, 4, 6, 12, 24, None)  # None: all lamps
 #: only), and with cast shadows (10 % of observations at 5 %), Blinn-Phong
 #: highlights (strength 0.8, exponent 60) and the same noise.
 SCENARIOS = ("noise", "shadows+specular+noise")
+#: Share of pixels in the timed mask.
+MASK_FRACTION = 0.05
 
 
 def run_bench(
@@ -67,47 +73,70 @@ def run_bench(
     stack = rng.random((n_lights, size_px, size_px), dtype=np.float32)
     lights = DistantLights(lamp_layout(n_lights))
     mpx = size_px * size_px / 1e6
-    # Interleave the baselines with the solve so drifting load hits all alike.
-    read_s = convert_s = lsq_s = np.inf
-    for _ in range(max(1, repeats)):
-        read_s = min(read_s, _best(lambda: stack.sum(), 1))
-        convert_s = min(convert_s, _best(lambda: stack.astype(np.float32).sum(), 1))
-        lsq_s = min(lsq_s, _best(lambda: solve(stack, lights, method="lsq"), 1) / mpx)
+    flat = stack.reshape(n_lights, -1)
+    pinv = np.linalg.pinv(lights.light_matrix()).astype(np.float32)
+    mask = rng.random(stack.shape[1:]) < MASK_FRACTION
+    part = stack[:, :robust_rows]
+    part_mpx = part.shape[1] * part.shape[2] / 1e6
+    near = NearLights(lights.directions * 500.0)
+    grid = PixelGrid(part.shape[1:], 0.05)
+    # Everything interleaved, best of `repeats`: drifting load hits floors and solves alike.
+    # The slower solvers run on `part` and are compared with lsq on the same rows.
+    timed = _best_interleaved(
+        {
+            "sum": lambda: stack.sum(),
+            "astype_sum": lambda: stack.astype(np.float32).sum(),
+            "gemm": lambda: pinv @ flat,
+            "lsq": lambda: solve(stack, lights, method="lsq"),
+            "masked": lambda: solve(stack, lights, method="lsq", mask=mask),
+            "packed": lambda: solve(stack[:, mask][..., None], lights, method="lsq"),
+            "part lsq": lambda: solve(part, lights, method="lsq"),
+            **{m: lambda m=m: solve(part, lights, method=m) for m in METHODS if m != "lsq"},
+            "near lsq": lambda: solve(part, near, pixels=grid, method="lsq"),
+        },
+        repeats,
+    )
+    lsq_s = timed["lsq"] / mpx
     rows = [
-        {"kind": "read", "name": "stack.sum()", "seconds_per_mpx": read_s / mpx},
-        {"kind": "read", "name": "stack.astype(float32).sum()", "seconds_per_mpx": convert_s / mpx},
+        {"kind": "read", "name": "stack.sum()", "seconds_per_mpx": timed["sum"] / mpx},
+        {
+            "kind": "read",
+            "name": "stack.astype(float32).sum()",
+            "seconds_per_mpx": timed["astype_sum"] / mpx,
+        },
+        {"kind": "read", "name": "pinv(L) @ I (one GEMM)", "seconds_per_mpx": timed["gemm"] / mpx},
         {
             "kind": "solver",
             "name": "lsq",
             "seconds_per_mpx": lsq_s,
-            "ratio_to_sum": lsq_s * mpx / read_s,
-            "ratio_to_astype_sum": lsq_s * mpx / convert_s,
+            "ratio_to_sum": timed["lsq"] / timed["sum"],
+            "ratio_to_astype_sum": timed["lsq"] / timed["astype_sum"],
+            "ratio_to_gemm": timed["lsq"] / timed["gemm"],
             "cost_vs_lsq": 1.0,
         },
+        {
+            "kind": "read",
+            "name": f"stack[:, mask] + lsq of those ({MASK_FRACTION:.0%} of pixels)",
+            "seconds_per_mpx": timed["packed"] / mpx,
+        },
+        {
+            "kind": "solver",
+            "name": f"lsq, {MASK_FRACTION:.0%} mask",
+            "seconds_per_mpx": timed["masked"] / mpx,
+            "ratio_to_packed": timed["masked"] / timed["packed"],
+        },
     ]
-    part = stack[:, :robust_rows]
-    part_mpx = part.shape[1] * part.shape[2] / 1e6
-    for method in (m for m in METHODS if m != "lsq"):
-        seconds = _best(lambda m=method: solve(part, lights, method=m), repeats) / part_mpx
+    for name in (*(m for m in METHODS if m != "lsq"), "near lsq"):
+        cost = timed[name] / timed["part lsq"]
         rows.append(
             {
                 "kind": "solver",
-                "name": method,
-                "seconds_per_mpx": seconds,
-                "cost_vs_lsq": seconds / lsq_s,
+                "name": name,
+                "seconds_per_mpx": timed[name] / part_mpx,
+                "ratio_to_gemm": cost * timed["lsq"] / timed["gemm"],
+                "cost_vs_lsq": cost,
             }
         )
-    near = NearLights(lights.directions * 500.0)
-    grid = PixelGrid(part.shape[1:], 0.05)
-    seconds = _best(lambda: solve(part, near, pixels=grid, method="lsq"), repeats) / part_mpx
-    rows.append(
-        {
-            "kind": "solver",
-            "name": "near lsq",
-            "seconds_per_mpx": seconds,
-            "cost_vs_lsq": seconds / lsq_s,
-        }
-    )
     rows.extend(_integrator_rows(size_px, repeats))
     rows.extend(_accuracy_rows(n_lights, accuracy_px, lamp_counts, capture_time_s, rng))
     return rows
@@ -197,6 +226,14 @@ def _accuracy_rows(n_lights, side, lamp_counts, capture_time_s, rng) -> list[dic
                     }
                 )
     return rows
+
+
+def _best_interleaved(calls: dict[str, Callable[[], object]], repeats: int) -> dict[str, float]:
+    best = dict.fromkeys(calls, np.inf)
+    for _ in range(max(1, repeats)):
+        for name, call in calls.items():
+            best[name] = min(best[name], _best(call, 1))
+    return best
 
 
 def _best(call: Callable[[], object], repeats: int) -> float:

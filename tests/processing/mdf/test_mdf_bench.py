@@ -22,7 +22,9 @@ def test_capture_time_from_the_rig_config():
 def test_quick_bench_rows():
     rows = run_bench(quick=True)
     kinds = [r["kind"] for r in rows]
-    assert kinds.count("read") == 1
+    assert kinds.count("read") == 2
+    tracked = [r for r in rows if r["kind"] == "space_time"]
+    assert all(r["ratio_to_read"] > 0 and r["speedup_vs_argmax"] > 0 for r in tracked)
     assert kinds.count("space_time") == len(PEAK_METHODS)
     assert kinds.count("detector") == len(PEAK_METHODS)
     accuracy = [r for r in rows if r["kind"] == "accuracy"]

@@ -106,6 +106,8 @@ def test_colour_and_non_finite_frames():
 def test_bad_inputs():
     with pytest.raises(MdfError, match="min_contrast"):
         SpaceTimeTracker((4, 4), min_contrast=0)
+    with pytest.raises(MdfError, match="block"):
+        SpaceTimeTracker((4, 4), min_contrast=1, block=0)
     tracker = SpaceTimeTracker((4, 4), min_contrast=1)
     with pytest.raises(MdfError, match="no frame"):
         tracker.result()
@@ -113,3 +115,20 @@ def test_bad_inputs():
         tracker.update(np.zeros((5, 4)))
     with pytest.raises(MdfError, match="no frames"):
         space_time_peaks([], min_contrast=1)
+
+
+@settings(max_examples=20)
+@given(seed=st.integers(0, 2**31), block=st.integers(1, 9), pause=st.integers(1, 24))
+def test_block_size_and_a_result_midway_change_nothing(seed, block, pause):
+    centres = np.random.default_rng(seed).uniform(2, 22, (6, 5))
+    stack = sweep(centres, 25, noise=2.0, seed=seed)
+    reference = space_time_peaks(stack, min_contrast=20.0)
+    tracker = SpaceTimeTracker((6, 5), min_contrast=20.0, block=block)
+    for k, frame in enumerate(stack):
+        tracker.update(frame)
+        if k + 1 == pause:
+            tracker.result()
+    got = tracker.result()
+    np.testing.assert_array_equal(got.reason, reference.reason)
+    np.testing.assert_array_equal(got.time, reference.time)
+    np.testing.assert_array_equal(got.contrast, reference.contrast)

@@ -19,8 +19,10 @@ def test_run_bench_rows_on_a_small_stack():
     kinds = {r["kind"] for r in rows}
     assert kinds == {"read", "solver", "integrator", "accuracy"}
     solvers = {r["name"]: r for r in rows if r["kind"] == "solver"}
-    assert set(solvers) == {"lsq", "threshold", "irls", "near lsq"}
+    assert set(solvers) == {"lsq", "lsq, 5% mask", "threshold", "irls", "near lsq"}
     assert solvers["lsq"]["ratio_to_astype_sum"] > 0
+    assert solvers["lsq"]["ratio_to_gemm"] > 0 and solvers["irls"]["ratio_to_gemm"] > 0
+    assert solvers["lsq, 5% mask"]["ratio_to_packed"] > 0
     accuracy = [r for r in rows if r["kind"] == "accuracy"]
     assert sorted({r["n_lamps"] for r in accuracy}) == [3, 6, 12]
     assert len(accuracy) == 3 * 2 * 3  # lamp counts × scenarios × methods

@@ -1,0 +1,127 @@
+"""The pseudo-inverse route and the per-pixel route give the same answer.
+
+``solve(method="lsq")`` with distant lamps answers pixels whose observations
+are all usable with one product by the pseudo-inverse and sends the rest
+(saturated observations, bad values) to the per-pixel float64 route. The
+reference here runs the per-pixel route on every pixel.
+"""
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose, assert_array_equal
+
+from processing.photometric import DistantLights, PhotometricError, Reason, solve
+from processing.photometric._block import solve_block
+from processing.photometric._inputs import check_stack
+from processing.photometric._robust import _median
+from processing.photometric._solve import _check_options
+from tests.processing.photometric.ps_synthetic import ring_directions
+
+DIRS = ring_directions(16, theta_deg=(20, 45, 65))
+N_PIXELS = 60
+
+
+def per_pixel_reference(images, dirs, *, dark_level=0.0):
+    """Every pixel through the per-pixel route, float64 throughout."""
+    stack = check_stack(images, len(dirs), None)
+    options = _check_options("lsq", dark_level, stack.saturation, 100.0, 0.05, 0.1, 3)
+    obs = stack.values.astype(np.float64) * stack.scale
+    energy = np.einsum("ln...,ln...->n...", obs, obs)
+    condition = np.linalg.cond(dirs)
+    return solve_block(obs, energy, dirs, condition, options)
+
+
+def scene(dtype, colour, *, exclusions, seed=0):
+    """(L, 6, 10[, 3]) images; with exclusions: dark, shadowed, glossy, tilted-away pixels."""
+    rng = np.random.default_rng(seed)
+    normals = rng.normal([0.0, 0.0, 1.0], 0.3, (N_PIXELS, 3))
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    albedo = rng.uniform(0.2, 0.6, N_PIXELS)
+    shading = DIRS @ normals.T
+    if exclusions:
+        normals[:5] = [0.3, 0.1, -0.95]  # facing away: n_z < 0 (negative float images)
+        shading = DIRS @ normals.T
+        shading[:, 5:] = np.clip(shading[:, 5:], 0, None)  # attached shadows
+        shading[rng.random(shading.shape) < 0.1] *= 0.05  # cast shadows
+        shading[rng.random(shading.shape) < 0.05] += 0.8  # highlights
+    images = shading * albedo
+    if colour:
+        images = images[..., None] * np.array([1.0, 0.8, 0.6])
+    images = images + rng.normal(0, 0.004, images.shape)
+    if exclusions:
+        images[:, 10:13] = 0.0  # dark pixels
+    if np.issubdtype(dtype, np.integer):
+        top = np.iinfo(dtype).max
+        images = np.round(np.clip(images, 0, 1) * top)
+        if exclusions:
+            images[:4, 20] = top  # saturated: 4 observations clipped
+            images[:14, 21] = top  # 14 clipped: fewer than 3 left
+    shape = (len(DIRS), 6, 10) + ((3,) if colour else ())
+    return images.astype(dtype).reshape(shape)
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.float64, np.uint8, np.uint16])
+@pytest.mark.parametrize("colour", [False, True])
+@pytest.mark.parametrize("exclusions", [False, True])
+def test_routes_agree(dtype, colour, exclusions):
+    images = scene(dtype, colour, exclusions=exclusions)
+    result = solve(images, DistantLights(DIRS), method="lsq", dark_level=0.01, chunk_pixels=16)
+    reference = per_pixel_reference(images, DIRS, dark_level=0.01)
+    albedo_shape = (N_PIXELS, 3) if colour else (N_PIXELS,)
+    assert_array_equal(result.reason.ravel(), reference["reason"])
+    assert_array_equal(result.lights_used.ravel(), reference["lights_used"])
+    assert_allclose(result.condition.ravel(), reference["condition"], rtol=1e-6)
+    assert_allclose(result.normals.reshape(-1, 3), reference["normals"], atol=2e-6)
+    assert_allclose(result.albedo.reshape(albedo_shape), reference["albedo"], rtol=2e-6, atol=1e-7)
+    assert_allclose(result.residual.ravel(), reference["residual"], rtol=1e-4, atol=1e-7)
+    if exclusions:
+        reasons = set(np.unique(result.reason).tolist())
+        assert {Reason.OK, Reason.DARK} <= reasons
+        if np.issubdtype(dtype, np.integer):
+            assert result.reason.ravel()[21] == Reason.SATURATED
+            assert result.lights_used.ravel()[20] == len(DIRS) - 4
+        else:
+            assert Reason.BELOW_HORIZON in reasons
+
+
+def test_mask_packs_the_chosen_pixels_and_leaves_the_rest():
+    images = scene(np.float32, False, exclusions=True)
+    mask = np.random.default_rng(1).random((6, 10)) < 0.3
+    masked = solve(images, DistantLights(DIRS), method="lsq", mask=mask, chunk_pixels=4)
+    whole = solve(images, DistantLights(DIRS), method="lsq")
+    assert np.all(masked.reason[~mask] == Reason.MASKED)
+    for name in ("reason", "lights_used"):
+        assert_array_equal(getattr(masked, name)[mask], getattr(whole, name)[mask], name)
+    for name in ("normals", "albedo", "condition", "residual"):
+        # float32 sums may round differently in a packed chunk than in a strided one
+        assert_allclose(getattr(masked, name)[mask], getattr(whole, name)[mask], atol=1e-6)
+
+
+def test_a_float32_stack_overflowing_its_squares_is_solved_in_float64():
+    # 1e20² overflows float32: the pixel goes to the float64 route and is solved there.
+    images = scene(np.float64, False, exclusions=False) * 1e20
+    result = solve(images.astype(np.float32), DistantLights(DIRS), method="lsq")
+    reference = per_pixel_reference(images.astype(np.float32), DIRS)
+    assert result.valid.all()
+    assert_allclose(result.residual.ravel(), reference["residual"], rtol=1e-4)
+
+
+def test_a_nan_is_reported_at_its_pixel_by_either_route():
+    images = scene(np.float32, False, exclusions=False)
+    images[3, 4, 7] = np.nan
+    with pytest.raises(PhotometricError, match=r"images\[3\].*row 4, column 7"):
+        solve(images, DistantLights(DIRS), method="lsq")
+
+
+@pytest.mark.parametrize("n_lights", [7, 8])
+def test_irls_scale_is_the_median_of_the_supported_residuals(n_lights):
+    rng = np.random.default_rng(n_lights)
+    residual = rng.normal(0, 1, (n_lights, 40))
+    support = rng.random((n_lights, 40)) < 0.6
+    support[:, 0] = False
+    support[:, 1] = np.arange(n_lights) == 2
+    expected = [
+        np.median(np.abs(residual[support[:, j], j])) if support[:, j].any() else 0.0
+        for j in range(40)
+    ]
+    assert_allclose(_median(np.abs(residual), support), expected, rtol=1e-6)
