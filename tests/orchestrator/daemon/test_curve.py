@@ -20,8 +20,7 @@ def certificates(tmp_path):
     clients.mkdir()
     public, secret = zmq.auth.create_certificates(keys, "server")
     (tmp_path / "junk.bin").write_bytes(b"\xff\xfe\x00 not a certificate")
-    return {"public": public, "secret": secret, "junk": tmp_path / "junk.bin",
-            "missing": tmp_path / "none.key", "clients": clients}  # fmt: skip
+    return {"public": public, "secret": secret, "junk": tmp_path / "junk.bin", "clients": clients}
 
 
 @pytest.mark.timeout(60)
@@ -30,7 +29,6 @@ def certificates(tmp_path):
     [
         ("public", "holds only a public key"),
         ("junk", "not a CURVE certificate"),
-        ("missing", "not a CURVE certificate"),
     ],
 )
 def test_rig_daemon_refuses_a_bad_key_file_by_name(certificates, which, says):
