@@ -143,7 +143,7 @@ def _prepared(connect: Endpoints | str, command: str, **args) -> dict:
     large plan gets the time it needs to compile."""
     with DaemonClient(connect) as client:
         client.request("status")
-        client.timeout_s = PREPARE_TIMEOUT_S
+        client.timeout_s, client.retries = PREPARE_TIMEOUT_S, 1
         return client.request(command, **args)
 
 
