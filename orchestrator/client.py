@@ -150,7 +150,7 @@ def _prepared(connect: Endpoints | str, command: str, **args) -> dict:
     large plan gets the time it needs to compile."""
     with DaemonClient(connect) as client:
         client.request("status")
-        client.timeout_s = PREPARE_TIMEOUT_S
+        client.timeout_s, client.retries = PREPARE_TIMEOUT_S, 1
         return client.request(command, **args)
 
 
@@ -198,8 +198,12 @@ def resume(
             raise ConfigError("a rig config goes with an archive to resume; give ARCHIVE too")
         return _one(connect, "resume")
     path = Path(archive).resolve()
-    if path.is_dir():
-        _refuse_finished(path)
+    if path.is_dir():  # the daemon checks again, for archives only it sees
+        from orchestrator.daemon.admission import check_not_finished
+        from rig.archive import Archive
+
+        with Archive.open(path, mode="r") as recorded:
+            check_not_finished(recorded)
     args = {"archive": str(path)}
     if config is not None:
         from rig.config import load_rig_config
@@ -207,19 +211,6 @@ def resume(
         load_rig_config(config)  # a bad file is reported here, naming it
         args.update(config_toml=Path(config).read_text(), config_source=str(config))
     return _prepared(connect, "resume", **args)
-
-
-def _refuse_finished(path: Path) -> None:
-    from rig.archive import Archive
-
-    with Archive.open(path, mode="r") as recorded:
-        sessions = recorded.events("session")
-        committed = len(recorded.committed_steps())
-    if any(event.payload.get("action") == "finished" for event in sessions):
-        raise RigError(
-            f"{path}: its session finished ({committed} step(s) committed); nothing to resume. "
-            "Process it with `rig process`, or submit the plan again to a new archive"
-        )
 
 
 def abort(*, connect="tcp://127.0.0.1", timeout_s: float = 60.0) -> dict:

@@ -161,7 +161,7 @@ class MdfCapture(_Closed):
 
     views: SamplingSpec
     laser_locations: SamplingSpec
-    scan_step_deg: float = Field(0.1, gt=0, le=10, description="sheet tilt between frames")
+    scan_step_deg: float = Field(0.1, ge=0.001, le=10, description="sheet tilt between frames")
 
 
 class FixedShot(_Closed):

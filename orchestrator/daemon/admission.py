@@ -13,6 +13,7 @@ from pathlib import Path
 from pydantic import BaseModel, ValidationError
 
 from orchestrator.daemon.protocol import MAX_PLAN_PAIRS
+from rig.archive import Archive
 from rig.config import RigConfig, format_validation_error
 from rig.errors import PlanError, RigError
 from rig.plan import Plan
@@ -20,6 +21,7 @@ from rig.plan import Plan
 __all__ = [
     "SessionError",
     "check_archive_place",
+    "check_not_finished",
     "check_plan_size",
     "check_same_rig",
     "rig_config_from_toml",
@@ -73,6 +75,17 @@ def check_archive_place(path: Path, field: str) -> None:
                     field=field,
                 )
             return
+
+
+def check_not_finished(archive: Archive) -> None:
+    """Refuse to resume an archive whose session finished."""
+    if any(e.payload.get("action") == "finished" for e in archive.events("session")):
+        raise SessionError(
+            f"{archive.path}: its session finished ({len(archive.committed_steps())} step(s) "
+            "committed); nothing to resume. Process it with `rig process`, or submit the "
+            "plan again to a new archive",
+            field="args.archive",
+        )
 
 
 def rig_config_from_toml(text: str, *, source: str) -> RigConfig:

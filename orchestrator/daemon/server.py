@@ -1,9 +1,9 @@
 """The daemon: ZeroMQ sockets around one session at a time.
 
-One loop thread owns every socket: it answers the control ROUTER, publishes
-events on PUB (with a sequence number each, and a ``status`` snapshot every
-``status_interval_s`` for late joiners), pushes frames to the workers and
-pulls their results. The session runs on its own thread and talks to the loop
+One loop thread owns every socket (``sockets.DaemonSockets``): it answers the
+control ROUTER, publishes events on PUB (with a sequence number each, and a
+``status`` snapshot every ``status_interval_s`` for late joiners), pushes frames
+to the workers and pulls their results. The session runs on its own thread and talks to the loop
 through an ``Outbox`` (thread-safe queues); the loop never blocks on a socket, so
 the daemon answers control requests while frames wait at the workers' HWM. A
 new session is prepared (plan compiled, archive created) on a thread of its own
@@ -30,7 +30,6 @@ from orchestrator.daemon.endpoints import DaemonSettings, Endpoints
 from orchestrator.daemon.live import LiveWriter
 from orchestrator.daemon.protocol import (
     MAX_CONTROL_BYTES,
-    MAX_FRAME_BYTES,
     MessageError,
     Request,
     decode_request,
@@ -42,6 +41,7 @@ from orchestrator.daemon.protocol import (
     validate_request,
 )
 from orchestrator.daemon.session import DeviceFactory, Session
+from orchestrator.daemon.sockets import DaemonSockets
 from orchestrator.daemon.state import (
     IllegalTransition,
     SessionEvent,
@@ -93,9 +93,7 @@ class Daemon:
         self._drains: list[dict] = []
         self._seq = 0
         self._stop = threading.Event()
-        self._ctx: zmq.Context | None = None
-        self._auth = None
-        self._curve_keys: tuple[bytes, bytes] | None = None
+        self._sockets = DaemonSockets(self.settings)
         self._preparing: Preparation | None = None
         self.endpoints: Endpoints | None = None
 
@@ -103,66 +101,8 @@ class Daemon:
 
     def bind(self) -> Endpoints:
         """Create and bind the four sockets; returns where they listen."""
-        self._curve_keys = self.settings.curve_keys()  # a bad key file: before any socket
-        self._ctx = zmq.Context()
-        try:
-            # A part a little over the limit still gets a reply saying so; a larger one
-            # makes ZeroMQ drop the sender before it holds the message in memory.
-            self._control = self._socket(zmq.ROUTER, maxmsgsize=MAX_CONTROL_BYTES + 65536)
-            self._events = self._socket(zmq.PUB)
-            self._frames = self._socket(zmq.PUSH)
-            self._results_sock = self._socket(zmq.PULL, maxmsgsize=MAX_FRAME_BYTES)
-            urls = self.settings.bind_urls()
-            sockets = {
-                "control": self._control,
-                "events": self._events,
-                "frames": self._frames,
-                "results": self._results_sock,
-            }
-            for role, sock in sockets.items():
-                sock.bind(urls[role])
-            bound = {r: s.getsockopt_string(zmq.LAST_ENDPOINT) for r, s in sockets.items()}
-        except BaseException:
-            self._close_sockets()
-            raise
-        self.endpoints = Endpoints(**bound)
-        log.info("daemon listening: %s", self.endpoints)
+        self.endpoints = self._sockets.bind()
         return self.endpoints
-
-    def _socket(self, kind: int, *, maxmsgsize: int = -1) -> zmq.Socket:
-        sock = self._ctx.socket(kind)
-        sock.linger = 0
-        try:
-            sock.maxmsgsize = maxmsgsize
-            if self._curve_keys is not None:
-                self._curve_server(sock, *self._curve_keys)
-        except BaseException:
-            sock.close(linger=0)  # an open socket would keep ctx.term() waiting forever
-            raise
-        return sock
-
-    def _curve_server(self, sock: zmq.Socket, public: bytes, secret: bytes) -> None:
-        from zmq.auth.thread import ThreadAuthenticator
-
-        if self._auth is None:
-            self._auth = ThreadAuthenticator(self._ctx)
-            self._auth.start()
-            self._auth.configure_curve(domain="*", location=str(self.settings.curve_clients_dir))
-        sock.curve_secretkey = secret
-        sock.curve_publickey = public
-        sock.curve_server = True
-
-    def _close_sockets(self) -> None:
-        for name in ("_control", "_events", "_frames", "_results_sock"):
-            sock = getattr(self, name, None)
-            if sock is not None:
-                sock.close(linger=0)
-        if self._auth is not None:
-            self._auth.stop()
-            self._auth = None
-        if self._ctx is not None:
-            self._ctx.term()
-            self._ctx = None
 
     # -- the loop ---------------------------------------------------------------------------
 
@@ -172,22 +112,22 @@ class Daemon:
 
     def serve(self) -> None:
         """Run until shutdown; aborts an active session and closes every socket on the way out."""
-        if self._ctx is None:
+        if not self._sockets.bound:
             self.bind()
         poller = zmq.Poller()
-        poller.register(self._control, zmq.POLLIN)
-        poller.register(self._results_sock, zmq.POLLIN)
+        poller.register(self._sockets.control, zmq.POLLIN)
+        poller.register(self._sockets.results, zmq.POLLIN)
         next_status = 0.0
         try:
             while not self._stop.is_set():
                 want_out = self._ledger.next_to_send() is not None and self._workers_alive()
-                poller.register(self._frames, zmq.POLLOUT if want_out else 0)
+                poller.register(self._sockets.frames, zmq.POLLOUT if want_out else 0)
                 active = self._thread is not None or self._preparing is not None
                 ready = dict(poller.poll(10 if active or want_out else 100))
-                if ready.get(self._control):
+                if ready.get(self._sockets.control):
                     self._serve_control()
                 self._reply_prepared()
-                if ready.get(self._results_sock):
+                if ready.get(self._sockets.results):
                     self._take_results()
                 self._take_frames()
                 self._send_frames()
@@ -210,7 +150,7 @@ class Daemon:
                 writer.close()
             self._live.clear()
             self._publish_queued()
-            self._close_sockets()
+            self._sockets.close()
 
     # -- control ----------------------------------------------------------------------------
 
@@ -218,13 +158,13 @@ class Daemon:
         for _ in range(_BATCH):
             try:
                 # Frames, not bytes: an oversized message is measured and refused uncopied.
-                parts = self._control.recv_multipart(zmq.NOBLOCK, copy=False)
+                parts = self._sockets.control.recv_multipart(zmq.NOBLOCK, copy=False)
             except zmq.Again:
                 return
             envelope, body = split_envelope(parts)
             reply = self._answer(envelope, body)
             if reply is not None:  # None: a session is being prepared; it replies when ready
-                self._control.send_multipart([*envelope, reply])
+                self._sockets.control.send_multipart([*envelope, reply])
 
     def _answer(self, envelope: list[zmq.Frame], body: list[zmq.Frame]) -> bytes | None:
         """The reply to one request; every failure becomes an error reply naming the request."""
@@ -312,7 +252,7 @@ class Daemon:
             )
         self._remember(preparing.key, reply)
         for envelope in preparing.envelopes:
-            self._control.send_multipart([*envelope, reply])
+            self._sockets.control.send_multipart([*envelope, reply])
 
     def _dispatch(self, request: Request) -> dict:
         match request.command:
@@ -442,7 +382,7 @@ class Daemon:
             return
         while (entry := self._ledger.next_to_send()) is not None:
             try:
-                self._frames.send_multipart(entry.parts, zmq.NOBLOCK, copy=False)
+                self._sockets.frames.send_multipart(entry.parts, zmq.NOBLOCK, copy=False)
             except zmq.Again:
                 return  # every worker's queue is full: try again when POLLOUT
             self._ledger.mark_sent(entry, time.monotonic())
@@ -450,7 +390,7 @@ class Daemon:
     def _take_results(self) -> None:
         for _ in range(_BATCH):
             try:
-                parts = self._results_sock.recv_multipart(zmq.NOBLOCK, copy=False)
+                parts = self._sockets.results.recv_multipart(zmq.NOBLOCK, copy=False)
             except zmq.Again:
                 return
             try:
@@ -526,7 +466,7 @@ class Daemon:
 
     def _publish(self, topic: str, payload: dict) -> None:
         self._seq += 1
-        self._events.send_multipart(encode_event(topic, self._seq, time.time(), payload))
+        self._sockets.events.send_multipart(encode_event(topic, self._seq, time.time(), payload))
 
     def _publish_queued(self) -> None:
         while True:

@@ -33,6 +33,7 @@ from drivers.errors import DeviceError
 from orchestrator.daemon.admission import (
     SessionError,
     check_archive_place,
+    check_not_finished,
     check_plan_size,
     check_same_rig,
 )
@@ -173,12 +174,7 @@ class Session:
         try:
             if archive.plan_toml is None:
                 raise SessionError(f"{archive_path}: the archive keeps no plan text to resume")
-            if any(e.payload.get("action") == "finished" for e in archive.events("session")):
-                raise SessionError(
-                    f"{archive_path}: this session finished; there is nothing to resume "
-                    "(submit the plan again to a new archive to measure again)",
-                    field="args.archive",
-                )
+            check_not_finished(archive)
             recorded = RigConfig.model_validate(archive.rig_config)
             check_same_rig(recorded, config, source=str(archive_path))
             plan = parse_plan(archive.plan_toml, source=f"{archive_path} (stored plan)")

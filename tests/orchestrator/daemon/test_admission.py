@@ -120,11 +120,14 @@ def test_an_archive_place_that_exists_or_sits_under_a_file_is_refused(tmp_path):
     check_archive_place(tmp_path / "new" / "deeper" / "x.zarr", "args.archive")
 
 
-def test_only_connections_and_calibration_may_differ():
+def test_only_device_sections_and_calibration_may_differ():
     recorded = default_rig_config()
-    lamp_bank = recorded.lamp_bank.model_copy(
-        update={"device": recorded.lamp_bank.device.model_copy(update={"port": 1502})}
+    device = recorded.lamp_bank.device
+    registers = device.registers.model_copy(update={"coils": 8})  # rewired, too
+    moved_device = device.model_copy(
+        update={"port": 1502, "host": "10.0.0.7", "registers": registers}
     )
+    lamp_bank = recorded.lamp_bank.model_copy(update={"device": moved_device})
     moved = recorded.model_copy(update={"lamp_bank": lamp_bank, "calibration": "new.toml"})
     assert rig_differences(recorded, moved) == []
     cameras = list(moved.camera_arc.cameras)
