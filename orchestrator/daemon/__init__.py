@@ -13,7 +13,13 @@ from orchestrator.daemon.devices import (
     ThreadedCamera,
     build_devices,
 )
-from orchestrator.daemon.endpoints import DEFAULT_PORT, DaemonSettings, Endpoints, is_loopback
+from orchestrator.daemon.endpoints import (
+    DEFAULT_PORT,
+    ClientKeys,
+    DaemonSettings,
+    Endpoints,
+    is_loopback,
+)
 from orchestrator.daemon.local import daemon_thread, replay_local, run_daemon, run_local
 from orchestrator.daemon.protocol import MessageError
 from orchestrator.daemon.replay import ReplayDevices, replay_factory
@@ -32,6 +38,7 @@ __all__ = [
     "DEFAULT_PORT",
     "TRANSITIONS",
     "Captured",
+    "ClientKeys",
     "Daemon",
     "DaemonSettings",
     "DeviceSet",

@@ -19,6 +19,10 @@ from tests.orchestrator.daemon.test_session import _check_archive
 ROOT = Path(__file__).resolve().parents[3]
 
 
+def daemon_json(endpoints: Endpoints) -> str:
+    return json.dumps(endpoints.__dict__)
+
+
 def _spawn(module: str, *args: str) -> subprocess.Popen:
     return subprocess.Popen(
         [sys.executable, "-m", module, *args],
@@ -39,7 +43,7 @@ def test_a_worker_killed_mid_stream_loses_no_frame(config, rig, tmp_path):
     path = tmp_path / "w.zarr"
     settings = {"resend_after_s": 0.3, "worker_timeout_s": 1.0}
     with running_daemon(config, rig, **settings) as endpoints:
-        spec = json.dumps(endpoints.__dict__)
+        spec = daemon_json(endpoints)
         dying = _spawn("tests.orchestrator.daemon.worker_proc", spec, "dying", "--die-after", "3")
         steady = _spawn("tests.orchestrator.daemon.worker_proc", spec, "steady")
         try:
@@ -99,3 +103,75 @@ def test_daemon_killed_mid_session_resumes_without_loss_or_repeat(config, tmp_pa
         starts = [e.payload for e in archive.events("session") if e.payload["action"] == "start"]
         assert [s["committed"] for s in starts] == [0, len(before)]
     assert done["session"]["committed"] == done["session"]["steps"]
+
+
+def _live_rows(path: Path) -> set[tuple[str, int, int]]:
+    """(camera, step, sub) of every complete row of live/stats; the arrays agree in length."""
+    rows = set()
+    with Archive.open(path) as archive:
+        if "live" not in archive.material:
+            return rows
+        stats = archive.material["live/stats"]
+        for camera in stats.group_keys():
+            group = stats[camera]
+            n = group["step"].shape[0]
+            assert group["sub"].shape[0] == group["mean"].shape[0] == n
+            pairs = zip(group["step"][:], group["sub"][:], strict=True)
+            found = [(camera, int(step), int(sub)) for step, sub in pairs]
+            assert len(set(found)) == len(found)  # each frame at most once
+            rows |= set(found)
+    return rows
+
+
+def test_live_results_written_before_a_crash_survive_it(config, tmp_path):
+    path = tmp_path / "live.zarr"
+    daemon = _spawn("tests.orchestrator.daemon.soft_daemon", "--delay", "0.1")
+    worker = None
+    try:
+        endpoints = Endpoints(**json.loads(daemon.stdout.readline()))
+        worker = _spawn("tests.orchestrator.daemon.worker_proc", daemon_json(endpoints), "w")
+        with DaemonClient(endpoints) as client:
+            deadline = time.monotonic() + 20
+            while client.request("status")["workers"] < 1:
+                assert time.monotonic() < deadline, "the worker never said hello"
+                time.sleep(0.05)
+            client.request("submit", plan_toml=LAMP_PLAN, archive=str(path))
+            started = None
+            for event in follow(endpoints, timeout_s=10):
+                if event["topic"] == "progress":
+                    started = started or time.monotonic()
+                    if event["step"] >= 4 and time.monotonic() - started > 1.5:  # a flush
+                        break
+            daemon.send_signal(signal.SIGKILL)
+            assert daemon.wait(10) == -signal.SIGKILL
+    finally:
+        _stop(daemon)
+        if worker is not None:
+            _stop(worker)
+    with Archive.open(path) as archive:
+        committed = set(archive.committed_steps())
+    before = _live_rows(path)
+    assert before and {step for _, step, _ in before} <= committed  # kept, and only real ones
+    again = _spawn("tests.orchestrator.daemon.soft_daemon")
+    worker = None
+    try:
+        endpoints = Endpoints(**json.loads(again.stdout.readline()))
+        worker = _spawn("tests.orchestrator.daemon.worker_proc", daemon_json(endpoints), "w2")
+        with DaemonClient(endpoints) as client:
+            deadline = time.monotonic() + 20
+            while client.request("status")["workers"] < 1:
+                assert time.monotonic() < deadline, "the worker never said hello"
+                time.sleep(0.05)
+            client.request("resume", archive=str(path))
+            wait_for_state(endpoints, ("done",), settled=True)
+            client.request("shutdown")
+        assert again.wait(10) == 0
+    finally:
+        _stop(again)
+        if worker is not None:
+            _stop(worker)
+    table, _ = _check_archive(path, config, LAMP_PLAN)
+    after = _live_rows(path)
+    resumed = {(str(c), int(s), int(u)) for c, s, u in zip(
+        table["camera"], table["step"], table["sub"], strict=True) if s not in committed}
+    assert before <= after and resumed <= after  # the old rows stay, the new steps all come
