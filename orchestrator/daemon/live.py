@@ -1,9 +1,8 @@
 """The workers' results, written into the session archive as they arrive.
 
-``material/live/<stage>/<camera>/`` holds ``step`` and ``sub`` (n,) int64 and
-each array the stage returned, ``(n, *shape)``: row i belongs to frame
-(``step[i]``, ``sub[i]``); rows are in the order the results came in. Workers
-name arrays ``<stage>.<name>``; one frame may carry several stages.
+They go to ``material/live/<stage>/<camera>/`` in the material format's layout
+(``rig.material``: :func:`~rig.material.live_rows`, :class:`~rig.material.LiveAppender`,
+read back with :func:`~rig.material.read_live`); rows in the order the results came in.
 
 A writer thread per session appends them in small batches — a stage and
 camera's rows once 32 of them or 4 MB wait, everything at least once a second,
@@ -12,9 +11,7 @@ results, and one append per array per batch keeps the writes few. The
 daemon's loop never waits on the disk: it hands results over and stops taking
 new frames from the session while more than ``max_backlog_bytes`` wait
 (:attr:`LiveWriter.backlogged`), so memory stays bounded however long the
-session. ``step`` is appended last, so a row is complete once ``step`` has it;
-the rows an interrupted batch left in the other arrays are cut off when the
-group is next opened for writing (a resumed session).
+session.
 """
 
 from __future__ import annotations
@@ -26,12 +23,13 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from rig.material import LiveAppender, MaterialError, live_rows
+
 __all__ = ["LiveWriter"]
 
 _BATCH_ROWS = 32
 _BATCH_BYTES = 4 << 20
 _FLUSH_EVERY_S = 1.0  # nothing waits longer to be written
-_CHUNK_BYTES = 1 << 16  # rows per chunk: about this many bytes, at least one row
 _CLOSE = object()
 
 
@@ -45,10 +43,8 @@ class LiveWriter:
     """
 
     def __init__(self, material, *, max_backlog_bytes: int = 16 << 20):
-        self._material = material
+        self._appender = LiveAppender(material)
         self.max_backlog_bytes = max_backlog_bytes
-        self._live = None
-        self._arrays: dict[tuple[str, str], dict] = {}
         self._waiting: dict[tuple[str, str], list[dict[str, np.ndarray]]] = {}
         self._inbox: queue.SimpleQueue = queue.SimpleQueue()
         self._lock = threading.Lock()
@@ -66,12 +62,12 @@ class LiveWriter:
 
     def append(self, header: Mapping, arrays: Mapping[str, np.ndarray]) -> None:
         """Hand over one frame's results; ``header`` has its ``step``, ``sub`` and ``camera``."""
-        ids = {"sub": np.int64(header["sub"]), "step": np.int64(header["step"])}
-        rows: dict[tuple[str, str], dict[str, np.ndarray]] = {}
-        for full, value in arrays.items():
-            stage, _, name = full.partition(".")
-            row = rows.setdefault((stage, str(header["camera"])), dict(ids))
-            row[name] = np.array(value)  # a copy: the message buffer goes back to the socket
+        try:
+            rows = live_rows(header, arrays)  # copies: the message buffer goes back to the socket
+        except MaterialError as err:
+            with self._lock:
+                self._errors.append(f"step {header['step']} sub {header['sub']}: {err}")
+            return
         if not rows:
             return
         with self._lock:
@@ -134,47 +130,13 @@ class LiveWriter:
     def _write(self, key: tuple[str, str]) -> None:
         rows = self._waiting.pop(key)
         try:
-            for row in rows[1:]:
-                if row.keys() != rows[0].keys():
-                    raise ValueError(
-                        f"step {row['step']} returned {sorted(row)}, step {rows[0]['step']} "
-                        f"{sorted(rows[0])}; a stage returns the same arrays for every frame"
-                    )
-            arrays = self._group(*key, rows[0])
-            names = [n for n in rows[0] if n not in ("sub", "step")]
-            for name in (*names, "sub", "step"):  # step last: the commit
-                arrays[name].append(np.stack([row[name] for row in rows]))
+            self._appender.append(*key, rows)
         except (OSError, ValueError) as err:  # a full disk, a stage that changed its arrays
             with self._lock:
                 self._errors.append(f"live/{key[0]}/{key[1]}: {len(rows)} row(s) lost: {err}")
         finally:
             with self._lock:
                 self._backlog -= _nbytes(rows)
-
-    def _group(self, stage: str, camera: str, example: Mapping[str, np.ndarray]) -> dict:
-        """The arrays of ``live/<stage>/<camera>``, created or cut back to ``len(step)``."""
-        arrays = self._arrays.get((stage, camera))
-        if arrays is None:
-            if self._live is None:
-                self._live = self._material.require_group("live")
-            group = self._live.require_group(stage).require_group(camera)
-            arrays = dict(group.arrays())
-            rows = arrays["step"].shape[0] if "step" in arrays else 0
-            for array in arrays.values():
-                if array.shape[0] != rows:  # a batch a crash interrupted
-                    array.resize((rows, *array.shape[1:]))
-            self._arrays[(stage, camera)] = arrays
-        rows = arrays["step"].shape[0] if "step" in arrays else 0
-        for name, value in example.items():
-            if name not in arrays:  # a new array starts with zero rows for the older frames
-                per_chunk = max(1, _CHUNK_BYTES // max(1, value.nbytes))
-                arrays[name] = self._live[stage][camera].create_array(
-                    name,
-                    shape=(rows, *value.shape),
-                    chunks=(per_chunk, *value.shape),
-                    dtype=value.dtype,
-                )
-        return arrays
 
 
 def _nbytes(rows: list[dict[str, np.ndarray]]) -> int:

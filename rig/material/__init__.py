@@ -14,7 +14,7 @@ from rig.material._btf_model import CompressedBTF, GlobalSVD, check_directions
 from rig.material._errors import MaterialError
 from rig.material._export import export_material
 from rig.material._flatfield import FlatFieldMaps, read_flat_field, write_flat_field
-from rig.material._live import LiveResults, read_live, write_live
+from rig.material._live import LiveAppender, LiveResults, live_rows, read_live
 from rig.material._material import Material, read_material
 from rig.material._mdf import UNSEEN, Mdf, read_mdf, write_mdf
 from rig.material._ps import PsView, read_ps, write_ps
@@ -25,6 +25,7 @@ __all__ = [
     "CompressedBTF",
     "FlatFieldMaps",
     "GlobalSVD",
+    "LiveAppender",
     "LiveResults",
     "Material",
     "MaterialError",
@@ -34,6 +35,7 @@ __all__ = [
     "btf_to_arrays",
     "check_directions",
     "export_material",
+    "live_rows",
     "read_btf",
     "read_flat_field",
     "read_live",
@@ -42,7 +44,6 @@ __all__ = [
     "read_ps",
     "write_btf",
     "write_flat_field",
-    "write_live",
     "write_mdf",
     "write_ps",
 ]

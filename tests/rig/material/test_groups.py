@@ -8,7 +8,9 @@ import zarr
 
 from rig.material import (
     FlatFieldMaps,
+    LiveAppender,
     MaterialError,
+    live_rows,
     read_btf,
     read_flat_field,
     read_live,
@@ -16,7 +18,6 @@ from rig.material import (
     read_ps,
     write_btf,
     write_flat_field,
-    write_live,
     write_mdf,
     write_ps,
 )
@@ -187,31 +188,55 @@ def _frames():
                            "register.valid": rng.uniform(size=(4, 4)) > 0.5}  # fmt: skip
 
 
-def test_live_round_trip_orders_frames_by_step():
+def _append_all(material, frames):
+    appender = LiveAppender(material)
+    rows: dict = {}
+    for header, arrays in frames:
+        for key, row in live_rows(header, arrays).items():
+            rows.setdefault(key, []).append(row)
+    for key, batch in rows.items():
+        appender.append(*key, batch)
+
+
+def test_live_round_trip_keeps_arrival_order_and_frame_ids():
     frames = list(_frames())
-    g = group()
-    write_live(g, frames)
-    live = read_live(g)
+    material = group()
+    _append_all(material, frames)
+    live = read_live(material["live"])
     assert sorted(live) == ["register", "stats"] and sorted(live["stats"]) == ["cam0", "cam2"]
     got = live["stats"]["cam2"]
-    assert got.step.tolist() == [1, 2, 3] and got.sub.tolist() == [0, 0, 0]
+    assert got.step.tolist() == [3, 1, 2] and got.sub.tolist() == [0, 0, 0]
     by_step = {h["step"]: a["stats.mean"] for h, a in frames if h["camera"] == "cam2"}
-    np.testing.assert_array_equal(got.arrays["mean"], np.stack([by_step[s] for s in (1, 2, 3)]))
+    np.testing.assert_array_equal(got.arrays["mean"], np.stack([by_step[s] for s in (3, 1, 2)]))
     assert live["register"]["cam0"].arrays["valid"].shape == (3, 4, 4)
-    del g.attrs["format"], g.attrs["version"]  # written before versioning: still reads
-    assert read_live(g)["stats"]["cam0"].step.tolist() == [1, 2, 3]
+    live_group = material["live"]
+    del live_group.attrs["format"], live_group.attrs["version"]  # before versioning: still reads
+    assert read_live(live_group)["stats"]["cam0"].step.tolist() == [3, 1, 2]
+
+
+def test_rows_beyond_step_are_not_read_and_are_cut_before_the_next_append():
+    material = group()
+    _append_all(material, list(_frames())[:2])
+    torn = material["live"]["stats"]["cam0"]
+    torn["mean"].append(np.ones((1, 3), np.float32))  # a batch a crash cut short: no step
+    assert read_live(material["live"])["stats"]["cam0"].arrays["mean"].shape == (1, 3)
+    _append_all(material, list(_frames())[2:4])
+    again = read_live(material["live"])["stats"]["cam0"]
+    assert again.step.tolist() == [3, 1] and again.arrays["mean"].shape == (2, 3)
+    assert not np.any(again.arrays["mean"] == 1.0)
 
 
 def test_bad_live_results_are_named():
     with pytest.raises(MaterialError, match=r"'mean': name it '<stage>\.<array>'"):
-        write_live(group(), [({"step": 0, "sub": 0, "camera": "c"}, {"mean": np.zeros(1)})])
-    frames = [({"step": s, "sub": 0, "camera": "c"}, {"stats.mean": np.zeros(s + 1)})
-              for s in range(2)]  # fmt: skip
-    with pytest.raises(MaterialError, match=r"live/stats: mean has shapes \[\(1,\), \(2,\)\]"):
-        write_live(group(), frames)
-    frames[1] = ({"step": 1, "sub": 0, "camera": "c"}, {"stats.max": np.zeros(1)})
+        live_rows({"step": 0, "sub": 0, "camera": "c"}, {"mean": np.zeros(1)})
+    rows = [live_rows({"step": s, "sub": 0, "camera": "c"}, {"stats.mean": np.zeros(s + 1)})
+            for s in range(2)]  # fmt: skip
+    batch = [r[("stats", "c")] for r in rows]
+    with pytest.raises(MaterialError, match=r"live/stats/c: mean has shapes \[\(1,\), \(2,\)\]"):
+        LiveAppender(group()).append("stats", "c", batch)
+    other = live_rows({"step": 1, "sub": 0, "camera": "c"}, {"stats.max": np.zeros(1)})
     with pytest.raises(MaterialError, match=r"step 1 sub 0 returned \['max'\]"):
-        write_live(group(), frames)
+        LiveAppender(group()).append("stats", "c", [batch[0], other[("stats", "c")]])
 
 
 def test_flat_field_round_trip_replaces_and_reads_the_old_npz(tmp_path):
