@@ -21,7 +21,7 @@ within r of c.
 from __future__ import annotations
 
 from dataclasses import dataclass
-from functools import partial
+from functools import lru_cache, partial
 
 import numpy as np
 
@@ -32,7 +32,8 @@ __all__ = ["CANDIDATES", "DirectionLookup", "build_lookup", "hemi_octahedral_cel
 
 #: Candidates per grid cell (the shader's fixed loop length, a multiple of 4).
 CANDIDATES = 16
-_RESOLUTIONS = (32, 64, 128, 256)
+# 64² cells: ~5 candidates per cell for H1 and nearest-4 (7 at 32²), built in 0.3 s.
+_RESOLUTIONS = (64, 128, 256)
 _METHOD_CODE = {"nearest": 0, "nearest4": 0, "barycentric": 1}
 
 
@@ -128,6 +129,9 @@ def _barycentric(centroid: np.ndarray, cap: np.ndarray, resolution: int) -> np.n
 def build_lookup(table_vectors, method: str, *, index=None) -> DirectionLookup:
     """The lookup of a direction table for ``method`` (as ``direction_weights``).
 
+    Lookups are kept for the last few tables, so renderers of one material
+    share them.
+
     Parameters
     ----------
     table_vectors : (n, 3) array
@@ -146,9 +150,18 @@ def build_lookup(table_vectors, method: str, *, index=None) -> DirectionLookup:
     """
     if method not in _METHOD_CODE:
         raise RenderError(f"interpolation method {method!r}: valid are {sorted(_METHOD_CODE)}")
-    table = np.asarray(table_vectors, dtype=np.float64)
-    table = table / np.linalg.norm(table, axis=1, keepdims=True)
+    table = np.ascontiguousarray(table_vectors, dtype=np.float64)
+    if table.ndim != 2 or table.shape[1] != 3 or len(table) == 0:
+        raise RenderError(f"direction table: expected (n, 3) vectors, got shape {table.shape}")
     index = np.arange(len(table)) if index is None else np.asarray(index, dtype=np.int64)
+    return _cached_lookup(table.tobytes(), method, index.tobytes())
+
+
+@lru_cache(maxsize=8)
+def _cached_lookup(table_bytes: bytes, method: str, index_bytes: bytes) -> DirectionLookup:
+    table = np.frombuffer(table_bytes, np.float64).reshape(-1, 3)
+    table = table / np.linalg.norm(table, axis=1, keepdims=True)
+    index = np.frombuffer(index_bytes, np.int64)
     if method == "barycentric":
         try:
             mesh = spherical_triangulation(table)
@@ -177,6 +190,9 @@ def build_lookup(table_vectors, method: str, *, index=None) -> DirectionLookup:
         )
     if method != "barycentric":
         candidates = np.where(candidates >= 0, index[np.maximum(candidates, 0)], -1)
-    return DirectionLookup(
+    lookup = DirectionLookup(
         method, _METHOD_CODE[method], k, candidates.astype(np.int32), texels.reshape(-1, 4)
     )
+    lookup.candidates.setflags(write=False)  # shared by every renderer of this table
+    lookup.table.setflags(write=False)
+    return lookup

@@ -15,7 +15,7 @@ import numpy as np
 from render._errors import RenderError
 from render._gl import shader_source, vertex_array
 from render.camera import Camera
-from render.lights import MAX_LIGHTS, PointLight
+from render.lights import PointLight
 
 __all__ = ["ShadowMaps", "light_camera"]
 
@@ -95,12 +95,8 @@ class ShadowMaps:
     def bind(self, program: moderngl.Program, *, unit: int) -> None:
         """Set the surface program's shadow uniforms; the atlas on texture ``unit``."""
         n = len(self.view_proj)
-        matrices = np.zeros((MAX_LIGHTS, 4, 4), np.float32)
-        matrices[:n] = np.transpose(self.view_proj, (0, 2, 1))
-        offsets = np.zeros(MAX_LIGHTS, np.float32)
-        offsets[:n] = self.texel_mm
-        program["light_view_proj"].write(matrices.tobytes())
-        program["shadow_offset"].write(offsets.tobytes())
+        program["light_view_proj"].write(np.transpose(self.view_proj, (0, 2, 1)).tobytes())
+        program["shadow_offset"].write(self.texel_mm.tobytes())
         program["shadow_tiles"].value = n
         program["shadow_size"].value = float(self.size)
         program["shadow_maps"].value = unit

@@ -22,12 +22,22 @@ __all__ = ["MAX_LIGHTS", "DirectionalLight", "Light", "PointLight"]
 MAX_LIGHTS = 8
 
 
+#: Largest colour · intensity: times float16 texels (≤ 65504) and 8 lights, and
+#: over the 1 µm² floor of a point light's r², the shader's float32 sums stay finite.
+MAX_EMISSION = 1e20
+
+
 def _checked(kind: str, colour, intensity) -> tuple[np.ndarray, float]:
     rgb = np.asarray(colour, dtype=np.float64)
     if rgb.shape != (3,) or not np.all(np.isfinite(rgb)) or np.any(rgb < 0):
         raise RenderError(f"{kind} colour = {colour!r}: expected three finite values ≥ 0 (r, g, b)")
     if not (np.isfinite(intensity) and intensity >= 0):
         raise RenderError(f"{kind} intensity = {intensity}: must be finite and ≥ 0")
+    if float(rgb.max()) * intensity > MAX_EMISSION:
+        raise RenderError(
+            f"{kind} colour · intensity = {float(rgb.max()) * intensity:.3g}: at most "
+            f"{MAX_EMISSION:.0e}"
+        )
     return rgb, float(intensity)
 
 

@@ -47,7 +47,7 @@ class MeshError(RigError):
     """A mesh cannot be read or built; the message names the file or the field."""
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)  # identity equality: arrays have no single truth value
 class Mesh:
     """A triangle mesh with UVs and tangent frames, read-only.
 

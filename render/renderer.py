@@ -1,8 +1,9 @@
 """The renderer: a measured material on a mesh under point and directional lights.
 
-One program per renderer, compiled for what the material holds (a per-view
-PCA or global-SVD BTF, photometric-stereo maps, or both); textures, lookups
-and buffers are made once and reused for every frame. Per fragment the view
+A renderer compiles its shader for what the material holds (a per-view PCA or
+global-SVD BTF, photometric-stereo maps, or both) and for each number of
+lights it is asked for; textures, lookups, programs and buffers are made once
+and reused for every frame. Per fragment the view
 and light directions go to the tangent frame, become (θ, φ), and blend the
 measured view slots and lights exactly as ``processing.btf.interpolate``
 (seed 000 §4.2 eq. (3)–(5), seed 001 §5), with macro shadows from per-light
@@ -98,41 +99,34 @@ class Renderer:
         self.bounds_center = (lo + hi) / 2
         self.bounds_radius = max(float(np.linalg.norm(hi - lo)) / 2, 1e-6)
         btf = material.btf if "btf" in self.layers else None
-        defines = {
+        self._defines = {
             "BTF_KIND": 0 if btf is None else (1 if isinstance(btf, CompressedBTF) else 2),
             "PS": int("ps" in self.layers),
             "SHADOWS": int(bool(shadows)),
-            "MAX_LIGHTS": MAX_LIGHTS,
             "CANDIDATES": CANDIDATES,
         }
-        header = "#version 330\n" + "".join(f"#define {k} {v}\n" for k, v in defines.items())
-        try:
-            self.program = self.ctx.program(
-                vertex_shader=shader_source("surface.vert"),
-                fragment_shader=header + shader_source("surface.frag"),
-            )
-        except moderngl.Error as err:
-            raise RenderError(f"the surface shader does not compile on this GL: {err}") from err
-        self._owned.append(self.program)
+        self._programs: dict[int, tuple[moderngl.Program, moderngl.VertexArray]] = {}
+        self._static: dict[str, object] = {}
         self.vbo, self.ibo = mesh_buffers(self.ctx, mesh)
-        self.vao = vertex_array(self.ctx, self.program, self.vbo, self.ibo)
-        self._owned += [self.vbo, self.ibo, self.vao]
+        self._owned += [self.vbo, self.ibo]
         self._units: list = []
         self.btf_textures = None
-        self._set("uv_scale", 1.0 / float(tile))
+        self.ps_textures = None
+        self.uv_scale = 1.0 / float(tile)
+        self._set("uv_scale", self.uv_scale)
         if btf is not None:
             self._bind_btf(btf, material.btf_slot_valid, light_method, view_method)
         if "ps" in self.layers:
-            ps = upload_ps(self.ctx, material.frontal_ps())
-            self._owned += [ps.albedo, ps.normals]
-            self._bind("ps_albedo", ps.albedo)
-            self._bind("ps_normals", ps.normals)
+            self.ps_textures = upload_ps(self.ctx, material.frontal_ps())
+            self._bind("ps_albedo", self.ps_textures.albedo)
+            self._bind("ps_normals", self.ps_textures.normals)
             self._set("specular", float(specular))
             self._set("shininess", float(shininess))
         self.shadows = (
             ShadowMaps(self.ctx, self.vbo, self.ibo, size=shadow_size) if shadows else None
         )
         self._framebuffers: dict[tuple[int, int], moderngl.Framebuffer] = {}
+        self._program(1)  # a shader this GL cannot compile fails here, not at the first frame
 
     @staticmethod
     def _check_layers(material, layers) -> tuple[str, ...]:
@@ -153,14 +147,38 @@ class Renderer:
         return wanted
 
     def _set(self, name: str, value) -> None:
-        if name in self.program:
-            self.program[name].value = value
+        """A uniform that stays for every frame (set on each program as it is made)."""
+        self._static[name] = value
 
     def _bind(self, name: str, texture) -> None:
-        unit = len(self._units)
+        """A texture that stays bound to sampler ``name`` on its own texture unit."""
         self._units.append(texture)
-        if name in self.program:
-            self.program[name].value = unit
+        self._set(name, len(self._units) - 1)
+
+    def _program(self, n_lights: int) -> tuple[moderngl.Program, moderngl.VertexArray]:
+        """The surface program for ``n_lights`` ≥ 1 lights, compiled on first use.
+
+        The number of lights is a constant of the shader, so its per-light
+        arrays stay in registers (a software rasteriser runs twice as fast).
+        """
+        if n_lights not in self._programs:
+            defines = {**self._defines, "N_LIGHTS": n_lights}
+            header = "#version 330\n" + "".join(f"#define {k} {v}\n" for k, v in defines.items())
+            try:
+                program = self.ctx.program(
+                    vertex_shader=shader_source("surface.vert"),
+                    fragment_shader=header + shader_source("surface.frag"),
+                )
+            except moderngl.Error as err:
+                raise RenderError(f"the surface shader does not compile on this GL: {err}") from err
+            for name, value in self._static.items():
+                if name in program:
+                    program[name].value = value
+            self._programs[n_lights] = (
+                program,
+                vertex_array(self.ctx, program, self.vbo, self.ibo),
+            )
+        return self._programs[n_lights]
 
     def _bind_btf(self, btf, slot_valid, light_method: str, view_method: str) -> None:
         valid = np.ones(len(btf.view_dirs_deg), bool) if slot_valid is None else slot_valid
@@ -229,34 +247,43 @@ class Renderer:
                 f"lights: expected up to {MAX_LIGHTS} PointLight/DirectionalLight, got "
                 f"{[type(light).__name__ for light in lights]}"
             )
-        place = np.zeros((MAX_LIGHTS, 4), np.float32)
-        emission = np.zeros((MAX_LIGHTS, 3), np.float32)
+        if lights:
+            self._draw_lit(camera, lights)
+        else:
+            fbo = self._framebuffer(camera.size)
+            fbo.use()
+            fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        return self._framebuffer(camera.size)
+
+    def _draw_lit(self, camera: Camera, lights: list) -> None:
+        program, vao = self._program(len(lights))
+        place = np.zeros((len(lights), 4), np.float32)
+        emission = np.zeros((len(lights), 3), np.float32)
         for i, light in enumerate(lights):
             if isinstance(light, PointLight):
                 place[i] = (*light.position, 1.0)
             else:
                 place[i] = (*light.unit_direction, 0.0)
             emission[i] = light.emission
-        self.program["n_lights"].value = len(lights)
-        self.program["light_place"].write(place.tobytes())
-        self.program["light_emission"].write(emission.tobytes())
-        if self.shadows is not None and lights:
+        program["light_place"].write(place.tobytes())
+        program["light_emission"].write(emission.tobytes())
+        if self.shadows is not None:
             self.shadows.draw(lights, self.bounds_center, self.bounds_radius)
-            self.shadows.bind(self.program, unit=len(self._units))
+            self.shadows.bind(program, unit=len(self._units))
         near, far = camera.depth_range(self.bounds_center, self.bounds_radius)
         view_proj = camera.projection_matrix(near, far) @ camera.view_matrix()
-        self.program["view_proj"].write(view_proj.T.astype(np.float32).tobytes())
-        self._set("orthographic", camera.fov_deg is None)
-        self._set("eye", tuple(camera.eye))
-        self._set("toward_camera", tuple(-camera.forward))
+        program["view_proj"].write(view_proj.T.astype(np.float32).tobytes())
+        for name, value in (("orthographic", camera.fov_deg is None), ("eye", tuple(camera.eye)),
+                            ("toward_camera", tuple(-camera.forward))):  # fmt: skip
+            if name in program:
+                program[name].value = value
         for unit, texture in enumerate(self._units):
             texture.use(location=unit)
         fbo = self._framebuffer(camera.size)
         fbo.use()
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         self.ctx.enable_only(moderngl.DEPTH_TEST)
-        self.vao.render(moderngl.TRIANGLES)
-        return fbo
+        vao.render(moderngl.TRIANGLES)
 
     def release(self) -> None:
         """Free the GPU objects (the shared context stays)."""
@@ -265,10 +292,14 @@ class Renderer:
                 attachment.release()
             fbo.release()
         self._framebuffers.clear()
-        if self.shadows is not None:
-            self.shadows.release()
-        if self.btf_textures is not None:
-            self.btf_textures.release()
+        for part in (self.shadows, self.btf_textures, self.ps_textures):
+            if part is not None:
+                part.release()
+        self.shadows = self.btf_textures = self.ps_textures = None
+        for program, vao in self._programs.values():
+            vao.release()
+            program.release()
+        self._programs.clear()
         for obj in reversed(self._owned):
             obj.release()
         self._owned.clear()

@@ -1,6 +1,6 @@
 // The measured material under point and directional lights (prepended by the
 // renderer: #version, and #defines BTF_KIND 0 none / 1 pca / 2 svd, PS 0/1,
-// SHADOWS 0/1, MAX_LIGHTS, CANDIDATES).
+// SHADOWS 0/1, N_LIGHTS (this program's number of lights, ≥ 1), CANDIDATES).
 //
 // Every direction is taken to the fragment's tangent frame (x along +u, y along
 // +v, z the normal): the sample frame of the measurement, where θ, φ are defined.
@@ -15,9 +15,8 @@ uniform vec3 eye;              // camera position (perspective)
 uniform vec3 toward_camera;    // unit, for an orthographic camera
 uniform bool orthographic;
 uniform float uv_scale;        // 1 / tile_mm: sample repeats per UV unit
-uniform int n_lights;
-uniform vec4 light_place[MAX_LIGHTS];   // xyz position (w = 1) or direction to the light (w = 0)
-uniform vec3 light_emission[MAX_LIGHTS];
+uniform vec4 light_place[N_LIGHTS];   // xyz position (w = 1) or direction to the light (w = 0)
+uniform vec3 light_emission[N_LIGHTS];
 
 struct Blend { ivec4 idx; vec4 w; };
 
@@ -44,6 +43,7 @@ Blend blend_nearest(isampler2DArray cand, sampler2D table, int k, ivec2 cell, ve
     ivec4 idx = ivec4(0);
     for (int layer = 0; layer < CANDIDATES / 4; ++layer) {
         ivec4 c4 = texelFetch(cand, ivec3(cell, layer), 0);
+        if (c4.x < 0) break;  // lists are −1 padded: nothing beyond
         for (int m = 0; m < 4; ++m) {
             int t = c4[m];
             if (t < 0) break;
@@ -84,6 +84,7 @@ Blend blend_barycentric(isampler2DArray cand, sampler2D table, ivec2 cell, vec3 
     int tri = -1;
     for (int layer = 0; layer < CANDIDATES / 4; ++layer) {
         ivec4 c4 = texelFetch(cand, ivec3(cell, layer), 0);
+        if (c4.x < 0) break;  // lists are −1 padded: nothing beyond
         for (int m = 0; m < 4; ++m) {
             int t = c4[m];
             if (t < 0) break;
@@ -128,7 +129,7 @@ uniform int light_method;
 uniform int light_k;
 uniform int n_table_lights;    // measured light directions
 uniform int components;        // c
-uniform sampler2D btf_weights; // pca: row slot·n_lights + light; svd: row slot; c/4 RGBA texels
+uniform sampler2D btf_weights; // pca: row slot·n_table_lights + light; svd: row slot; c/4 RGBA
 #endif
 
 #if BTF_KIND == 1
@@ -139,10 +140,10 @@ uniform sampler2DArray basis_tex;  // layer = slot·c + k
 // (seed 000 eq. (3), (5)): the light sums go into per-slot RGB coefficients
 // first, four components at a time, so each slot costs c + 1 texture fetches
 // however many lights there are.
-vec3 shade_btf(vec2 st, vec2 sx, vec2 sy, Blend view, Blend lights[MAX_LIGHTS],
-               vec3 irradiance[MAX_LIGHTS]) {
+vec3 shade_btf(vec2 st, vec2 sx, vec2 sy, Blend view, Blend lights[N_LIGHTS],
+               vec3 irradiance[N_LIGHTS]) {
     vec3 mean_coef = vec3(0.0);
-    for (int l = 0; l < n_lights; ++l) mean_coef += irradiance[l] * dot(lights[l].w, vec4(1.0));
+    for (int l = 0; l < N_LIGHTS; ++l) mean_coef += irradiance[l] * dot(lights[l].w, vec4(1.0));
     vec3 total = vec3(0.0);
     for (int j = 0; j < 4; ++j) {
         if (view.w[j] == 0.0) continue;
@@ -150,7 +151,7 @@ vec3 shade_btf(vec2 st, vec2 sx, vec2 sy, Blend view, Blend lights[MAX_LIGHTS],
         vec3 slot_rgb = mean_coef * textureGrad(mean_tex, vec3(st, slot), sx, sy).rgb;
         for (int k4 = 0; k4 < (components + 3) / 4; ++k4) {
             vec4 red = vec4(0.0), green = vec4(0.0), blue = vec4(0.0);
-            for (int l = 0; l < n_lights; ++l) {
+            for (int l = 0; l < N_LIGHTS; ++l) {
                 if (irradiance[l] == vec3(0.0)) continue;
                 for (int m = 0; m < 4; ++m) {
                     float tau = lights[l].w[m];
@@ -177,18 +178,18 @@ vec3 shade_btf(vec2 st, vec2 sx, vec2 sy, Blend view, Blend lights[MAX_LIGHTS],
 #endif
 
 #if BTF_KIND == 2
-uniform sampler2DArray eigen_tex;  // layer = k·n_lights + light
+uniform sampler2DArray eigen_tex;  // layer = k·n_table_lights + light
 
 // Σ_l E_l Σ_m τ_lm Σ_k (Σ_j ω_j W_jk) E_k(x, y, l_m) (seed 001 §5).
-vec3 shade_btf(vec2 st, vec2 sx, vec2 sy, Blend view, Blend lights[MAX_LIGHTS],
-               vec3 irradiance[MAX_LIGHTS]) {
+vec3 shade_btf(vec2 st, vec2 sx, vec2 sy, Blend view, Blend lights[N_LIGHTS],
+               vec3 irradiance[N_LIGHTS]) {
     vec3 total = vec3(0.0);
     for (int k4 = 0; k4 < (components + 3) / 4; ++k4) {
         vec4 omega = vec4(0.0);
         for (int j = 0; j < 4; ++j)
             if (view.w[j] != 0.0)
                 omega += view.w[j] * texelFetch(btf_weights, ivec2(k4, view.idx[j]), 0);
-        for (int l = 0; l < n_lights; ++l) {
+        for (int l = 0; l < N_LIGHTS; ++l) {
             if (irradiance[l] == vec3(0.0)) continue;
             for (int m = 0; m < 4; ++m) {
                 float tau = lights[l].w[m];
@@ -217,8 +218,8 @@ uniform float shininess;
 
 #if SHADOWS == 1
 uniform sampler2DShadow shadow_maps;       // atlas: light l's depth map is tile l of shadow_tiles
-uniform mat4 light_view_proj[MAX_LIGHTS];
-uniform float shadow_offset[MAX_LIGHTS];   // scene size of one shadow-map texel
+uniform mat4 light_view_proj[N_LIGHTS];
+uniform float shadow_offset[N_LIGHTS];   // scene size of one shadow-map texel
 uniform int shadow_tiles;
 uniform float shadow_size;                 // texels per tile side
 
@@ -252,9 +253,10 @@ float lit_fraction(int l, vec3 p, vec3 n, vec3 to_light) {
 void main() {
     vec3 n = safe_normalize(v_normal, vec3(0.0, 0.0, 1.0));
     vec3 to_eye = orthographic ? toward_camera : safe_normalize(eye - v_position, n);
-    // Two-sided: the back of a surface shows the material seen from its other side.
+    // Two-sided: the back of a surface shows the material turned over about its
+    // tangent (a rigid turn: the frame (t, −b, −n) stays right-handed).
     if (!gl_FrontFacing) n = -n;
-    float hand = (v_tangent.w < 0.0 ? -1.0 : 1.0) * (gl_FrontFacing ? 1.0 : -1.0);
+    float hand = v_tangent.w < 0.0 ? -1.0 : 1.0;
     vec3 t = v_tangent.xyz - n * dot(n, v_tangent.xyz);
     vec3 any_side = abs(n.x) < 0.9 ? vec3(1.0, 0.0, 0.0) : vec3(0.0, 1.0, 0.0);
     t = safe_normalize(t, safe_normalize(cross(any_side, n), vec3(1.0, 0.0, 0.0)));
@@ -266,17 +268,15 @@ void main() {
     vec2 sy = dFdy(st);
     vec3 view_local = to_local * to_eye;
 
-    vec3 irradiance[MAX_LIGHTS];
-    vec3 light_local[MAX_LIGHTS];
-    for (int l = 0; l < MAX_LIGHTS; ++l) {
+    vec3 irradiance[N_LIGHTS];
+    vec3 light_local[N_LIGHTS];
+    for (int l = 0; l < N_LIGHTS; ++l) {
         irradiance[l] = vec3(0.0);
-        light_local[l] = vec3(0.0, 0.0, 1.0);
-        if (l >= n_lights) continue;
         vec3 to_light;
         vec3 e = light_emission[l];
         if (light_place[l].w > 0.5) {
             vec3 d = light_place[l].xyz - v_position;
-            float r2 = max(dot(d, d), 1e-12);
+            float r2 = max(dot(d, d), 1e-6);
             to_light = d * inversesqrt(r2);
             e /= r2;
         } else {
@@ -293,8 +293,8 @@ void main() {
     vec3 colour = vec3(0.0);
 #if BTF_KIND > 0
     Blend view = blend_directions(view_cand, view_table, view_method, view_k, view_local);
-    Blend lights[MAX_LIGHTS];
-    for (int l = 0; l < MAX_LIGHTS; ++l) {
+    Blend lights[N_LIGHTS];
+    for (int l = 0; l < N_LIGHTS; ++l) {
         lights[l].idx = ivec4(0);
         lights[l].w = vec4(0.0);
         if (irradiance[l] != vec3(0.0))
@@ -310,7 +310,7 @@ void main() {
     vec3 bump = texture(ps_normals, st).xyz;
     vec3 bumped = safe_normalize(bump, vec3(0.0, 0.0, 1.0));
     vec3 albedo = texture(ps_albedo, st).rgb;
-    for (int l = 0; l < n_lights; ++l) {
+    for (int l = 0; l < N_LIGHTS; ++l) {
         if (irradiance[l] == vec3(0.0)) continue;
         float cos_in = dot(bumped, light_local[l]);
         if (cos_in <= 0.0) continue;

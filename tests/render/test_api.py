@@ -5,8 +5,9 @@ import pytest
 
 from processing.btf import interpolate
 from render import MAX_LIGHTS, Camera, DirectionalLight, PointLight, Renderer, RenderError
+from render.lights import MAX_EMISSION
 from render.meshes import plane
-from rig.geometry import direction_vector
+from rig.geometry import direction_angles, direction_vector
 from tests.render.conftest import SAMPLE_MM, material, ps_view, tilted_quad
 from tests.render.test_exact import FLOAT16_EPS, frontal_camera, numpy_ps_shading, render_at
 
@@ -85,6 +86,8 @@ def test_camera_and_light_errors_name_the_field():
         DirectionalLight((0, 0, 1), intensity=-1)
     with pytest.raises(RenderError, match="colour"):
         PointLight((0, 0, 1), colour=(1, 1))
+    with pytest.raises(RenderError, match="at most 1e"):
+        PointLight((0, 0, 1), colour=(1, 2, 1), intensity=MAX_EMISSION)
 
 
 def test_renderer_errors_name_the_option(pca_model):
@@ -106,3 +109,25 @@ def test_renderer_errors_name_the_option(pca_model):
         pytest.raises(RenderError, match=f"up to {MAX_LIGHTS}"),
     ):
         renderer.render(frontal_camera(), too_many)
+
+
+def test_no_lights_give_a_black_image(pca_model):
+    with Renderer(material(pca_model), plane(size_mm=SAMPLE_MM)) as renderer:
+        image = renderer.render(frontal_camera(), [])
+    assert image.shape == (16, 16, 3)
+    assert not image.any()
+
+
+def test_the_back_of_a_surface_shows_the_material_turned_over(pca_model):
+    """Seen from below, the quad's frame is (t, −b, −n): right-handed, the sample turned over
+    about its u axis; the camera below sees the texel columns mirrored."""
+    mesh, _ = tilted_quad((0.0, 0.0))
+    below = Camera.orthographic((0, 0, -100), (0, 0, 0), up=(0, 1, 0), height=SAMPLE_MM,
+                                size=(16, 16))  # fmt: skip
+    to_light = np.array([0.3, 0.4, -np.sqrt(0.75)])
+    with Renderer(material(pca_model), mesh, shadows=False) as renderer:
+        image = renderer.render(below, [DirectionalLight(tuple(to_light))])
+    local = to_light * [1.0, -1.0, -1.0]
+    light_deg = np.ravel(direction_angles(local))
+    expected = interpolate(pca_model, view_deg=(0.0, 0.0), light_deg=light_deg)[:, ::-1]
+    np.testing.assert_allclose(image, expected, atol=FLOAT16_EPS * np.abs(expected).max())

@@ -18,10 +18,10 @@ weight (the nearest-direction blend instead, say) misses it 30–260 times.
 import numpy as np
 import pytest
 
-from processing.btf import interpolate
-from render import Camera, DirectionalLight, Renderer
+from processing.btf import compress_btf, interpolate
+from render import Camera, DirectionalLight, PointLight, Renderer
 from render.texel_view import texel_camera
-from rig.geometry import direction_vector
+from rig.geometry import direction_angles, direction_vector, texel_centers_mm
 from tests.render.conftest import LIGHTS, SAMPLE_MM, VIEWS, N, material, ps_view, tilted_quad
 
 FLOAT16_EPS = 2.0**-11
@@ -81,3 +81,45 @@ def test_ps_shading_matches_numpy_lambert(view_deg, light_deg):
     )
     assert (expected > 0.05).mean() > 0.5  # most texels lit: the comparison means something
     np.testing.assert_allclose(image, expected, atol=1e-5, rtol=1e-4)
+
+
+def test_grey_btf_shades_all_three_channels_alike(synthetic_btf):
+    """A one-channel material (C = 1) renders grey: each channel equals the CPU's value."""
+    grey = np.asarray(synthetic_btf)[..., 1:2]
+    model = compress_btf(grey, view_dirs_deg=VIEWS, light_dirs_deg=LIGHTS, components=4)
+    image = render_at(material(model), (23.0, 41.0), (47.0, 200.0))
+    expected = interpolate(model, view_deg=(23.0, 41.0), light_deg=(47.0, 200.0))
+    assert expected.shape == (N, N, 1)
+    np.testing.assert_allclose(image, np.repeat(expected, 3, axis=2),
+                               atol=FLOAT16_EPS * np.abs(expected).max())  # fmt: skip
+
+
+@pytest.mark.parametrize("kind", ["pca", "svd"])
+def test_every_pixel_its_own_directions_under_perspective_and_a_lamp(kind, request):
+    """A camera on the quad's axis sees the fronto-parallel quad as a scaled copy, so pixels
+    still land on texel centres, but each pixel has its own view direction, and a lamp 60 mm
+    away its own light direction and 1/r²: each texel against the CPU at its own directions."""
+    model = request.getfixturevalue(f"{kind}_model")
+    mesh, frame = tilted_quad((30.0, 40.0))
+    distance = 60.0
+    camera = Camera.perspective(
+        (0, 0, distance),
+        (0, 0, 0),
+        up=(0, 1, 0),
+        size=(N, N),
+        fov_deg=2 * np.rad2deg(np.arctan(SAMPLE_MM / 2 / distance)),
+    )
+    lamp = np.array([25.0, -10.0, 60.0])
+    with Renderer(material(model), mesh, shadows=False) as renderer:
+        image = renderer.render(camera, [PointLight(tuple(lamp), intensity=5000.0)])
+    expected = np.zeros_like(image)
+    centres = texel_centers_mm(SAMPLE_MM, N)
+    for r in range(N):
+        for c in range(N):
+            p = np.array([*centres[r, c], 0.0])
+            to_lamp = lamp - p
+            view = direction_angles(frame.T @ (camera.eye - p))
+            light = direction_angles(frame.T @ to_lamp)
+            texture = interpolate(model, view_deg=np.ravel(view), light_deg=np.ravel(light))
+            expected[r, c] = 5000.0 / np.dot(to_lamp, to_lamp) * texture[r, c]
+    np.testing.assert_allclose(image, expected, atol=FLOAT16_EPS * np.abs(expected).max())

@@ -11,6 +11,7 @@ import pytest
 
 from processing.btf import interpolate
 from render import Camera, DirectionalLight, PointLight, Renderer
+from render.lights import MAX_EMISSION
 from render.meshes import Mesh, sphere
 from rig.geometry import direction_vector
 from rig.material import CompressedBTF
@@ -84,6 +85,18 @@ def test_empty_view_slots_are_skipped(pca_model):
         expected = interpolate(kept, view_deg=view_deg, light_deg=(34.0, 30.0),
                                view_method=method, light_method=method)  # fmt: skip
         np.testing.assert_allclose(image, expected, atol=FLOAT16_EPS * np.abs(expected).max())
+
+
+def test_lamps_touching_the_surface_at_the_largest_emission_stay_finite(pca_model):
+    mesh, _ = tilted_quad((0.0, 0.0))
+    # 0.1 µm above pixel centres (r² below the 1 µm² floor), and one on the surface.
+    lamps = [PointLight((x, 0.625, 1e-4), intensity=MAX_EMISSION) for x in (-4.375, 0.625)]
+    lamps.append(PointLight((5.0, 5.0, 0.0), intensity=MAX_EMISSION))
+    camera = Camera.orthographic((0, 0, 100), (0, 0, 0), up=(0, 1, 0), height=20.0, size=(16, 16))
+    with Renderer(material(pca_model, ps=ps_view()), mesh, specular=1.0) as renderer:
+        image = renderer.render(camera, lamps)
+    assert np.isfinite(image).all()
+    assert image.max() > 1e24
 
 
 def test_hdr_texels_up_to_6e4(pca_model):

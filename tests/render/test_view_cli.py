@@ -1,14 +1,23 @@
 """`rig view`: images, EXR, turntable GIF from a small material store; exit codes for bad input."""
 
+import json
+import os
+import subprocess
+import sys
+from pathlib import Path
+
 import numpy as np
 import OpenEXR
 import pytest
 import trimesh
 import zarr
+from numpy.testing import assert_allclose
 from PIL import Image
 from typer.testing import CliRunner
 
 from orchestrator.cli import app
+from orchestrator.cli.view_scene import mesh_centre, parse_camera, parse_light
+from render.meshes import mesh_by_name
 from rig.material import write_btf
 from tests.render.conftest import SAMPLE_MM
 
@@ -52,7 +61,7 @@ def test_png_lit_from_above_and_black_from_below(store, tmp_path):
 
 def test_exposure_brightens_and_exr_stays_linear(store, tmp_path):
     args = ("--light", "dir:30,0", "--camera", "orbit:0,0,100")
-    assert _view(store, *args, "--out", str(tmp_path / "a.png")).exit_code == 0
+    assert _view(store, *args, "--exposure", "0", "--out", str(tmp_path / "a.png")).exit_code == 0
     assert _view(store, *args, "--exposure", "1", "--out", str(tmp_path / "b.png")).exit_code == 0
     assert _png(tmp_path / "b.png").mean() > 1.2 * _png(tmp_path / "a.png").mean()
     result = _view(store, *args, "--exposure", "3", "--out", str(tmp_path / "a.exr"))
@@ -140,3 +149,71 @@ def test_window_without_a_display_exits_1(store, monkeypatch):
     result = runner.invoke(app, ["view", str(store), "--window"])
     assert result.exit_code == 1
     assert "needs an X11 or Wayland display" in result.output
+
+
+_WINDOW_SCRIPT = """
+import json
+import numpy as np
+import pyglet
+pyglet.options["headless"] = True  # an EGL window: no display server needed
+from render.window import open_window
+
+calls = []
+
+def act(dt):
+    window = next(iter(pyglet.app.windows))
+    if len(calls) == 1:  # the first frame is up: drag, then shift-drag
+        window.dispatch_event("on_mouse_drag", 5, 5, 20, 5, 1, 0)
+        window.dispatch_event("on_mouse_drag", 5, 5, 10, 0, 1, pyglet.window.key.MOD_SHIFT)
+    elif len(calls) > 1:
+        window.close()
+
+def draw(turn, tilt, light):
+    calls.append([turn, tilt, light])
+    pyglet.clock.schedule_once(act, 0.0)
+    return np.full((30, 40, 3), 0.5, np.float32)
+
+open_window(draw, size=(40, 30))
+print(json.dumps(calls))
+"""
+
+
+def test_window_orbits_the_camera_and_turns_the_lights(tmp_path):
+    """The viewer in a headless pyglet window: a drag re-renders from a turned and raised
+    camera, a shift-drag with the lights turned."""
+    env = {**os.environ, "DISPLAY": ":headless", "PYTHONPATH": str(Path(__file__).parents[2])}
+    result = subprocess.run(
+        [sys.executable, "-c", _WINDOW_SCRIPT], env=env, capture_output=True, text=True,
+        timeout=60, cwd=tmp_path, check=False,
+    )  # fmt: skip
+    assert result.returncode == 0, result.stderr
+    calls = json.loads(result.stdout.strip().splitlines()[-1])
+    # The drag (20, 5) px turned and raised the camera by 0.4°/px; the shift-drag (10, 0) px
+    # turned only the lights; both land in the next redraw.
+    assert calls == [[0.0, 0.0, 0.0], [-8.0, 2.0, 4.0]]
+
+
+@pytest.mark.parametrize("mesh", ["sphere", "torus", "cloth"])
+@pytest.mark.parametrize("direction", ["orbit:60,-90", "orbit:10,30", "orbit:0,0", "orbit:120,200"])
+def test_orbit_camera_frames_the_whole_mesh(mesh, direction):
+    """Every vertex lands in the image, and the outline fills it on its tighter side."""
+    built = mesh_by_name(mesh)
+    camera = parse_camera(direction).camera(built, (160, 90), 30.0)
+    near, far = camera.depth_range(mesh_centre(built), 1e4)
+    clip = np.c_[built.positions, np.ones(len(built.positions))] @ (
+        camera.projection_matrix(near, far) @ camera.view_matrix()
+    ).T.astype(np.float64)
+    ndc = clip[:, :2] / clip[:, 3:]
+    assert np.abs(ndc).max() <= 1.0
+    # Centred: the outline reaches equally far to either side.
+    assert_allclose(ndc.max(axis=0), -ndc.min(axis=0), atol=1e-3)
+    assert np.abs(ndc).max() == pytest.approx(1 / 1.1, abs=0.01)
+
+
+def test_point_light_power_is_the_irradiance_at_the_centre():
+    centre = np.array([10.0, 0.0, 0.0])
+    light = parse_light("point:10,0,200:2.5:1,0.5,0").light(centre)
+    assert light.intensity / 200.0**2 == pytest.approx(2.5)
+    assert light.colour == (1.0, 0.5, 0.0)
+    turned = parse_light("point:110,0,0").light(centre, 90.0)
+    assert_allclose(turned.position, (10.0, 100.0, 0.0), atol=1e-9)

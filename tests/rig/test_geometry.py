@@ -12,6 +12,7 @@ from rig.geometry import (
     direction_angles,
     direction_vector,
     nearest_directions,
+    spherical_triangulation,
     texel_centers_mm,
 )
 
@@ -134,6 +135,21 @@ def test_barycentric_reproduces_linear_functions_inside_a_triangle():
     assert_allclose(angular_distance_deg(blended, q), 0.0, atol=1e-6)
     exact = barycentric_weights(table, table)
     assert_allclose(np.max(exact.weights, axis=1), 1.0, atol=1e-9)
+
+
+def test_spherical_triangulation_covers_the_hemisphere_once():
+    """Each triangle's inverse undoes its corners; corners name table rows (mirrored below)."""
+    table = Sampling.named("H1").vectors
+    mesh = spherical_triangulation(table)
+    corners_t = np.transpose(mesh.corners, (0, 2, 1))
+    assert_allclose(mesh.inverse @ corners_t, np.broadcast_to(np.eye(3), corners_t.shape),
+                    atol=1e-9)  # fmt: skip
+    assert_allclose(np.abs(mesh.corners), np.abs(table[mesh.owner]), atol=1e-12)
+    # Every upper-hemisphere direction lies in exactly one triangle (edges aside).
+    rng = np.random.default_rng(1)
+    q = direction_vector(rng.uniform(0, 90, 400), rng.uniform(0, 360, 400))
+    inside = (np.einsum("tij,mj->mti", mesh.inverse, q).min(axis=2) > 1e-9).sum(axis=1)
+    assert np.all(inside == 1)
 
 
 def test_barycentric_degenerate_table():
