@@ -105,19 +105,21 @@ def run_local(
     on_event: Callable[[dict], None] | None = None,
     devices: DeviceFactory = build_devices,
     clock: Clock | None = None,
+    on_fault: str = "pause",
 ) -> dict:
     """Daemon + workers + submit + follow in one process; the final status (``rig run``).
 
     Every socket is on free loopback ports; ``workers`` threads run the live
     ``stages`` (comma-separated, see ``orchestrator.worker``); ``on_event`` sees each
-    event (e.g. to draw a progress bar).
+    event (e.g. to draw a progress bar). ``on_fault``: ``"pause"`` (a person resumes
+    the session) or ``"fail"`` (the run ends with the fault, for unattended runs).
     """
     from orchestrator import client
 
     def submit(endpoints: Endpoints) -> None:
         client.submit(plan_path, archive=archive, connect=endpoints)
 
-    settings = DaemonSettings(port=0)
+    settings = DaemonSettings(port=0, on_fault=on_fault)
     return _in_process(
         _rig_config(config), submit, settings, devices, clock, workers, stages, on_event
     )

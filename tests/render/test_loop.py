@@ -14,9 +14,15 @@ brightness, wrong texture) scores near 7 dB: the 10 dB margin asked for below
 separates "this sample, coarsely sampled" from "some other material".
 """
 
+import numpy as np
 import pytest
 
-from orchestrator.render_loop import run_bench
+from orchestrator.render_loop import SCENES, plot_bench, run_bench
+from render import DirectionalLight, Renderer
+from render.texel_view import texel_camera, texel_quad
+from sim.scene import scene_from_dict
+from sim.simulator import Simulator
+from tests.render.conftest import SAMPLE_MM, N, material, ps_view
 
 #: float16's relative precision: the renderer reads the same half-float texels
 #: as processing.btf.interpolate (see test_exact.py).
@@ -47,3 +53,26 @@ def test_units_follow_from_the_radiometry(rows):
     # the derived scale (lamp intensity / r² / full-scale exposure) is the least-squares one
     for row in rows:
         assert row["scale_fit_ratio"] == pytest.approx(1.0, abs=0.05)
+
+
+def test_the_plot_is_written(rows, tmp_path):
+    plot_bench(rows, tmp_path / "loop.png")
+    assert (tmp_path / "loop.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_the_renderer_draws_after_the_simulator_rasterised_in_this_process():
+    # both use EGL on the same display: the simulator's rasteriser unbinds its
+    # context after each frame and destroys it on close, neither may break the renderer's
+    lit = material(ps=ps_view())
+    mesh, _ = texel_quad(SAMPLE_MM, (0.0, 0.0))
+
+    def draw():
+        with Renderer(lit, mesh, shadows=False) as renderer:
+            return renderer.render(texel_camera(SAMPLE_MM, N), [DirectionalLight((0, 0, 1))])
+
+    before = draw()
+    scene = scene_from_dict(SCENES["bumps"] | {"render": {"scale": 0.1}})
+    with Simulator(scene) as sim:
+        sim.render_state("cam0", turntable_deg=0.0, arc_deg=40.0, lamps_on=["lamp3"], laser=False)
+    assert before.max() > 0.1
+    np.testing.assert_array_equal(draw(), before)
