@@ -15,6 +15,7 @@ lives on top of all three.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import tempfile
 from pathlib import Path
@@ -22,7 +23,7 @@ from pathlib import Path
 import numpy as np
 
 from orchestrator.daemon import run_local
-from processing.btf import CompressedBTF, interpolate, psnr_db, rmse
+from processing.btf import CompressedBTF, interpolate, psnr_db, reconstruct, rmse
 from processing.offline import BtfStage, run_stages
 from render import DirectionalLight, Renderer
 from render.texel_view import texel_camera, texel_quad
@@ -180,6 +181,11 @@ def irradiance_scale(scene: Scene, config: RigConfig) -> float:
     return irradiance / radiometry.full_scale_exposure
 
 
+def _truth(sim: Simulator, pairs, size: int) -> np.ndarray:
+    """(pairs, N, N, 3) noise-free BTF of the simulated sample at (view, light) pairs."""
+    return np.stack([sim.btf_truth(view, light, size) for view, light in pairs])
+
+
 def _gap_deg(held: np.ndarray, table_deg: np.ndarray) -> float:
     """The smallest angle between a held-out direction and a captured one."""
     a = direction_vector(held[:, None, 0], held[:, None, 1])
@@ -187,10 +193,25 @@ def _gap_deg(held: np.ndarray, table_deg: np.ndarray) -> float:
     return float(angular_distance_deg(a, b).min())
 
 
-def _rows(name, plan, material, truths, scale, components, held_out, capture_s):
+def _nearest(table_deg: np.ndarray, query_deg) -> int:
+    v = direction_vector(*query_deg)
+    return int(np.argmin(angular_distance_deg(direction_vector(*table_deg.T), v)))
+
+
+def _captured_pairs(btf: CompressedBTF, valid: np.ndarray, held_out) -> list[tuple[int, int]]:
+    """(valid view slot, light) of the captured pair nearest each held-out one."""
+    slots = np.flatnonzero(valid)
+    return [(int(slots[_nearest(btf.view_dirs_deg[slots], v)]),
+             _nearest(btf.light_dirs_deg, light)) for v, light in held_out]  # fmt: skip
+
+
+def _rows(name, plan, material, sims, scale, components, held_out, capture_s):
     btf, valid = material.btf, np.asarray(material.btf_slot_valid, bool)
-    own, other = truths
+    own, other = (_truth(sim, held_out, material.size) for sim in sims)
     peak = float(own.max())
+    captured = _captured_pairs(btf, valid, held_out)
+    at_captured = _truth(sims[0], [(btf.view_dirs_deg[j], btf.light_dirs_deg[i])
+                                   for j, i in captured], material.size)  # fmt: skip
     views = np.array([v for v, _ in held_out], float)
     lights = np.array([light for _, light in held_out], float)
     rows = []
@@ -200,6 +221,7 @@ def _rows(name, plan, material, truths, scale, components, held_out, capture_s):
         reference = _valid_slots(model, valid)
         cpu = np.stack([interpolate(reference, view_deg=v, light_deg=light)
                         for v, light in held_out]) / scale  # fmt: skip
+        measured = np.stack([reconstruct(model, view=j, light=i) for j, i in captured]) / scale
         fit = float(np.sum(rendered * own) / np.sum(rendered * rendered))
         rows.append({
             "scene": name, "plan": plan, "views": int(valid.sum()),
@@ -207,6 +229,7 @@ def _rows(name, plan, material, truths, scale, components, held_out, capture_s):
             "capture_s": round(capture_s, 1), "components": c,
             "psnr_db": round(psnr_db(rmse(rendered, own), peak=peak), 2),
             "psnr_cpu_db": round(psnr_db(rmse(cpu, own), peak=peak), 2),
+            "psnr_captured_db": round(psnr_db(rmse(measured, at_captured), peak=peak), 2),
             "render_vs_cpu": float(np.abs(rendered - cpu).max() / peak),
             "psnr_other_sample_db": round(psnr_db(rmse(rendered, other), peak=peak), 2),
             "scale_fit_ratio": round(1.0 / fit, 4),
@@ -227,7 +250,9 @@ def run_bench(
     session estimate on the scene's rig), ``components`` c, ``psnr_db`` of the
     rendered material against the truth at the held-out (view, light) pairs
     (peak: the truth's maximum, all pairs pooled), ``psnr_cpu_db`` of
-    ``processing.btf.interpolate`` the same way, ``render_vs_cpu`` (largest
+    ``processing.btf.interpolate`` the same way, ``psnr_captured_db`` (the
+    material at the captured pair nearest each held-out one against the truth
+    there: the measurement's own error, no interpolation), ``render_vs_cpu`` (largest
     difference over the peak), ``psnr_other_sample_db`` (the rendering against
     the *other* sample's truth: what an unrelated material scores),
     ``scale_fit_ratio`` (least-squares scale over the derived one, see
@@ -247,23 +272,21 @@ def run_bench(
             f"unknown scene or plan {unknown}; valid scenes {list(SCENES)}, plans {list(PLANS)}"
         )
     loaded = {name: scene_from_dict(spec) for name, spec in SCENES.items()}
-    truths = {}
-    for name, scene in loaded.items():
-        with Simulator(scene) as sim:
-            truths[name] = np.stack([sim.btf_truth(v, light, size) for v, light in held_out])
     rows = []
-    for name in scenes:
-        other = next(s for s in SCENES if s != name)
-        for plan in plans:
-            text = plan_toml(plan)
-            with tempfile.TemporaryDirectory(prefix="rig-render-loop-") as tmp:
-                material, config = _measure(
-                    loaded[name], text, Path(tmp), size=size, components=max(components)
-                )
-                capture_s = compile_plan(parse_plan(text), config).estimate.total_s
-                rows += _rows(name, plan, material, (truths[name], truths[other]),
-                              irradiance_scale(loaded[name], config), components, held_out,
-                              capture_s)  # fmt: skip
+    with contextlib.ExitStack() as stack:
+        sims = {name: stack.enter_context(Simulator(scene)) for name, scene in loaded.items()}
+        for name in scenes:
+            other = next(s for s in SCENES if s != name)
+            for plan in plans:
+                text = plan_toml(plan)
+                with tempfile.TemporaryDirectory(prefix="rig-render-loop-") as tmp:
+                    material, config = _measure(
+                        loaded[name], text, Path(tmp), size=size, components=max(components)
+                    )
+                    capture_s = compile_plan(parse_plan(text), config).estimate.total_s
+                    rows += _rows(name, plan, material, (sims[name], sims[other]),
+                                  irradiance_scale(loaded[name], config), components, held_out,
+                                  capture_s)  # fmt: skip
     return rows
 
 
