@@ -313,9 +313,10 @@ def plot_bench(rows: list[dict], path: str | Path) -> None:
                 "k--", label=f"at the nearest captured pairs, c = {most}")  # fmt: skip
         ax.plot([r["capture_s"] / 60 for r in first], [r["psnr_other_sample_db"] for r in first],
                 ":", color="gray", label="another sample")  # fmt: skip
-        for r in first:
+        for k, r in enumerate(first):  # above and below in turn: plans may cost alike
             ax.annotate(f"{r['plan']} ({r['frames']} frames)", (r["capture_s"] / 60, r["psnr_db"]),
-                        textcoords="offset points", xytext=(4, -12), fontsize=7)  # fmt: skip
+                        textcoords="offset points", xytext=(-30, 8 if k % 2 else -14),
+                        fontsize=7)  # fmt: skip
         ax.set_title(f"{scene}: rendered vs the simulator's truth at held-out directions")
         ax.set_xlabel("capture time, session estimate (min)")
         ax.title.set_fontsize(9)
