@@ -21,9 +21,19 @@ _GL_VERSION = 330
 _ATTRIBUTES = (("in_position", 3), ("in_normal", 3), ("in_uv", 2), ("in_tangent", 4))
 
 
-@cache
 def gl_context() -> moderngl.Context:
-    """The shared standalone context (EGL backend, OpenGL ≥ 3.3 core)."""
+    """The shared standalone context (EGL backend, OpenGL ≥ 3.3 core), current on this thread.
+
+    Another EGL user of the process (the simulator's rasteriser) makes its own
+    context current and unbinds it afterwards, so each call binds this one again.
+    """
+    ctx = _created_context()
+    ctx.__enter__()
+    return ctx
+
+
+@cache
+def _created_context() -> moderngl.Context:
     try:
         ctx = moderngl.create_context(standalone=True, backend="egl", require=_GL_VERSION)
     except Exception as err:  # moderngl raises bare Exception for EGL failures

@@ -13,10 +13,8 @@ buffers instead.
 
 from __future__ import annotations
 
-import ctypes
 import os
 import threading
-from typing import ClassVar
 
 os.environ.setdefault("PYOPENGL_PLATFORM", "egl")
 
@@ -75,20 +73,12 @@ class _SharedDisplayEGL(egl.EGLPlatform):
 
     pyrender's ``make_uncurrent`` does nothing, so the context stays bound to
     the thread that last rendered and any other thread gets EGL_BAD_ACCESS;
-    here it unbinds. All contexts on a device share one EGLDisplay; pyrender
-    terminates it when any one context is deleted, which breaks every other
-    live Simulator. Here the display is terminated only when its last context
-    goes.
+    here it unbinds. All contexts on a device share one EGLDisplay — every
+    Simulator's, and any other EGL user's in the process (a GL renderer's);
+    pyrender terminates it when any one context is deleted, which destroys
+    all the others. Here only the context is destroyed: the display stays
+    initialised until the process ends.
     """
-
-    _live: ClassVar[dict[int, int]] = {}
-    _live_lock: ClassVar[threading.Lock] = threading.Lock()
-
-    def init_context(self):
-        super().init_context()
-        with self._live_lock:
-            key = ctypes.cast(self._egl_display, ctypes.c_void_p).value
-            self._live[key] = self._live.get(key, 0) + 1
 
     def make_uncurrent(self):
         from OpenGL.EGL import EGL_NO_CONTEXT, EGL_NO_SURFACE, eglMakeCurrent
@@ -97,19 +87,13 @@ class _SharedDisplayEGL(egl.EGLPlatform):
             raise RuntimeError("EGL: could not release the context")
 
     def delete_context(self):
-        from OpenGL.EGL import eglDestroyContext, eglTerminate
+        from OpenGL.EGL import eglDestroyContext
 
         if self._egl_display is None:
             return
         if self._egl_context is not None:
             eglDestroyContext(self._egl_display, self._egl_context)
             self._egl_context = None
-        with self._live_lock:
-            key = ctypes.cast(self._egl_display, ctypes.c_void_p).value
-            self._live[key] -= 1
-            if self._live[key] == 0:
-                del self._live[key]
-                eglTerminate(self._egl_display)
         self._egl_display = None
 
 

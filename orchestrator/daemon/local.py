@@ -105,6 +105,7 @@ def run_local(
     on_event: Callable[[dict], None] | None = None,
     devices: DeviceFactory = build_devices,
     clock: Clock | None = None,
+    on_fault: str = "pause",
 ) -> dict:
     """Daemon + workers + submit + follow in one process; the final status (``rig run``).
 
@@ -112,13 +113,15 @@ def run_local(
     ``stages`` (comma-separated, see ``orchestrator.worker``); ``on_event`` sees each
     event (e.g. to draw a progress bar), first a ``daemon`` event with the ``control``
     address, where ``rig resume`` or ``rig abort --connect`` reach this run.
+    ``on_fault``: ``"pause"`` (a person resumes the session) or ``"fail"`` (the run ends
+    with the fault, for unattended runs).
     """
     from orchestrator import client
 
     def submit(endpoints: Endpoints) -> None:
         client.submit(plan_path, archive=archive, connect=endpoints)
 
-    settings = DaemonSettings(port=0)
+    settings = DaemonSettings(port=0, on_fault=on_fault)
     return _in_process(
         _rig_config(config), submit, settings, devices, clock, workers, stages, on_event
     )

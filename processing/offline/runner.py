@@ -179,9 +179,12 @@ def run_stages(
             raise ConfigError(f"{path}: nothing for stage {stage.name!r} in this archive")
     cluster = None
     if scheduler is None:
+        # The scheduler serves HTTP even without a dashboard, on 8787 unless told
+        # otherwise, and warns when another cluster of the machine holds that port:
+        # a free loopback port never collides.
         cluster = LocalCluster(
             n_workers=1, threads_per_worker=workers, processes=False,
-            dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR,  # never a taken 8787
+            dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR,
         )  # fmt: skip
     runs = []
     try:

@@ -12,7 +12,8 @@ import pytest
 from processing.btf import compress_btf, compress_global_svd
 from processing.btf.synthetic import SyntheticBTF
 from render.meshes import Mesh
-from rig.geometry import Sampling, direction_vector
+from render.texel_view import texel_quad
+from rig.geometry import Sampling
 from rig.material import Material, PsView
 
 SAMPLE_MM = 20.0
@@ -63,34 +64,7 @@ def ps_view(n: int = N, seed: int = 0) -> PsView:
     )  # fmt: skip
 
 
-def _rotation_to_z(v: np.ndarray) -> np.ndarray:
-    """The rotation F with F @ v = +z (Rodrigues about v × z)."""
-    z = np.array([0.0, 0.0, 1.0])
-    axis = np.cross(v, z)
-    s, c = np.linalg.norm(axis), float(np.dot(v, z))
-    if s < 1e-12:
-        return np.eye(3)
-    k = axis / s
-    kx = np.array([[0, -k[2], k[1]], [k[2], 0, -k[0]], [-k[1], k[0], 0]])
-    return np.eye(3) + s * kx + (1 - c) * kx @ kx
-
-
 def tilted_quad(view_deg) -> tuple[Mesh, np.ndarray]:
-    """The sample-sized quad in z = 0, its shading frame turned so that a camera on
-    +z sees it from ``view_deg`` in its tangent frame.
-
-    Each of the N × N pixels of an orthographic camera looking down −z (up +y,
-    height SAMPLE_MM) then lands on one texel centre and sees the texture from
-    the same local direction. Returns the mesh and the local → world rotation F.
-    """
-    f = _rotation_to_z(direction_vector(*view_deg))
-    s = SAMPLE_MM / 2
-    positions = np.array([[-s, -s, 0], [s, -s, 0], [s, s, 0], [-s, s, 0]], np.float32)
-    uvs = (positions[:, :2] + s).astype(np.float32)  # mm of surface, 0…SAMPLE_MM
-    normal, tangent = f @ [0.0, 0.0, 1.0], f @ [1.0, 0.0, 0.0]
-    mesh = Mesh(
-        positions=positions, normals=np.tile(normal, (4, 1)).astype(np.float32), uvs=uvs,
-        tangents=np.tile([*tangent, 1.0], (4, 1)).astype(np.float32),
-        faces=np.array([[0, 1, 2], [0, 2, 3]], np.uint32), name="tilted quad",
-    )  # fmt: skip
-    return mesh, f
+    """The SAMPLE_MM quad seen from ``view_deg`` by a camera on +z (``render.texel_view``):
+    the mesh and the local → world rotation F."""
+    return texel_quad(SAMPLE_MM, view_deg)

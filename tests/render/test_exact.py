@@ -20,6 +20,7 @@ import pytest
 
 from processing.btf import compress_btf, interpolate
 from render import Camera, DirectionalLight, PointLight, Renderer
+from render.texel_view import texel_camera
 from rig.geometry import direction_angles, direction_vector, texel_centers_mm
 from tests.render.conftest import LIGHTS, SAMPLE_MM, VIEWS, N, material, ps_view, tilted_quad
 
@@ -35,7 +36,7 @@ CASES = {
 
 
 def frontal_camera() -> Camera:
-    return Camera.orthographic((0, 0, 100), (0, 0, 0), up=(0, 1, 0), height=SAMPLE_MM, size=(N, N))
+    return texel_camera(SAMPLE_MM, N)
 
 
 def render_at(model_material, view_deg, light_deg, **options) -> np.ndarray:
