@@ -1,5 +1,5 @@
 """Material arrays → GL textures: the BTF as float16 texture arrays, the weights
-and direction lookups as float32/int32 textures, the photometric-stereo maps.
+and direction lookups as float32 textures, the photometric-stereo maps.
 
 Texel grids follow ``rig.geometry.texel_centers_mm`` (row 0 at +y); GL's first
 row is at texture coordinate t = 0, the sample's −y edge, so rows are flipped
@@ -14,10 +14,10 @@ import moderngl
 import numpy as np
 
 from render._errors import RenderError
-from render._lookup import CANDIDATES, DirectionLookup
+from render._lookup import DirectionLookup
 from rig.material import GlobalSVD
 
-__all__ = ["BtfTextures", "PsTextures", "lookup_textures", "upload_btf", "upload_ps"]
+__all__ = ["BtfTextures", "PsTextures", "lookup_texture", "upload_btf", "upload_ps"]
 
 
 def _layers(ctx: moderngl.Context, name: str, stack: np.ndarray) -> moderngl.TextureArray:
@@ -136,14 +136,11 @@ def upload_ps(ctx: moderngl.Context, view) -> PsTextures:
     return PsTextures(_map(ctx, albedo), _map(ctx, normals))
 
 
-def lookup_textures(
-    ctx: moderngl.Context, lookup: DirectionLookup
-) -> tuple[moderngl.TextureArray, moderngl.Texture]:
-    """The candidate grid (int32 array texture, 4 per texel) and the table texture."""
-    r = lookup.resolution
-    layers = lookup.candidates.reshape(r, r, CANDIDATES // 4, 4).transpose(2, 0, 1, 3)
-    candidates = ctx.texture_array(
-        (r, r, CANDIDATES // 4), 4, np.ascontiguousarray(layers, np.int32), dtype="i4"
-    )
-    candidates.filter = (moderngl.NEAREST, moderngl.NEAREST)
-    return candidates, _rows(ctx, f"{lookup.method} table", lookup.table[:, None, :])
+def lookup_texture(ctx: moderngl.Context, lookup: DirectionLookup) -> moderngl.TextureArray:
+    """The candidate grid: a float32 array texture, layer per candidate texel (see
+    ``DirectionLookup.cell_texels``), read by texelFetch."""
+    texels = lookup.cell_texels()
+    layers, r = texels.shape[:2]
+    texture = ctx.texture_array((r, r, layers), 4, texels, dtype="f4")
+    texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+    return texture

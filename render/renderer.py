@@ -17,9 +17,9 @@ import numpy as np
 
 from render._errors import RenderError
 from render._gl import gl_context, mesh_buffers, shader_source, vertex_array
-from render._lookup import CANDIDATES, build_lookup
+from render._lookup import build_lookup
 from render._shadows import ShadowMaps
-from render._textures import lookup_textures, upload_btf, upload_ps
+from render._textures import lookup_texture, upload_btf, upload_ps
 from render.camera import Camera
 from render.lights import MAX_LIGHTS, DirectionalLight, PointLight
 from rig.material import CompressedBTF, Material
@@ -103,7 +103,6 @@ class Renderer:
             "BTF_KIND": 0 if btf is None else (1 if isinstance(btf, CompressedBTF) else 2),
             "PS": int("ps" in self.layers),
             "SHADOWS": int(bool(shadows)),
-            "CANDIDATES": CANDIDATES,
         }
         self._programs: dict[int, tuple[moderngl.Program, moderngl.VertexArray]] = {}
         self._static: dict[str, object] = {}
@@ -195,14 +194,15 @@ class Renderer:
             ("light", btf.light_vectors, light_method, None),
         ):
             lookup = build_lookup(table, method, index=index)
-            candidates, texels = lookup_textures(self.ctx, lookup)
-            self._owned += [candidates, texels]
-            self._bind(f"{role}_cand", candidates)
-            self._bind(f"{role}_table", texels)
-            self._set(f"{role}_method", lookup.code)
-            self._set(f"{role}_k", lookup.k)
+            cells = lookup_texture(self.ctx, lookup)
+            self._owned.append(cells)
+            self._bind(f"{role}_cells", cells)
+            # Constants of the shader: its loops have fixed lengths and no branch on the method.
+            self._defines[f"{role.upper()}_METHOD"] = lookup.code
+            self._defines[f"{role.upper()}_K"] = lookup.k
+            self._defines[f"{role.upper()}_CANDIDATES"] = lookup.length
         self._set("n_table_lights", textures.n_lights)
-        self._set("components", textures.components)
+        self._defines["COMPONENTS"] = textures.components
         self._bind("btf_weights", textures.weights)
         for name, texture in (("mean_tex", textures.mean), ("basis_tex", textures.basis),
                               ("eigen_tex", textures.eigen)):  # fmt: skip
