@@ -107,7 +107,11 @@ class Renderer:
         self._programs: dict[int, tuple[moderngl.Program, moderngl.VertexArray]] = {}
         self._static: dict[str, object] = {}
         self.vbo, self.ibo = mesh_buffers(self.ctx, mesh)
-        self._owned += [self.vbo, self.ibo]
+        self._depth_program = self.ctx.program(
+            vertex_shader=shader_source("depth.vert"), fragment_shader=shader_source("depth.frag")
+        )
+        self._depth_vao = vertex_array(self.ctx, self._depth_program, self.vbo, self.ibo)
+        self._owned += [self.vbo, self.ibo, self._depth_program, self._depth_vao]
         self._units: list = []
         self.btf_textures = None
         self.ps_textures = None
@@ -272,7 +276,9 @@ class Renderer:
             self.shadows.bind(program, unit=len(self._units))
         near, far = camera.depth_range(self.bounds_center, self.bounds_radius)
         view_proj = camera.projection_matrix(near, far) @ camera.view_matrix()
-        program["view_proj"].write(view_proj.T.astype(np.float32).tobytes())
+        view_proj = view_proj.T.astype(np.float32).tobytes()
+        program["view_proj"].write(view_proj)
+        self._depth_program["view_proj"].write(view_proj)
         for name, value in (("orthographic", camera.fov_deg is None), ("eye", tuple(camera.eye)),
                             ("toward_camera", tuple(-camera.forward))):  # fmt: skip
             if name in program:
@@ -283,7 +289,14 @@ class Renderer:
         fbo.use()
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         self.ctx.enable_only(moderngl.DEPTH_TEST)
+        # Depth first, then shade only what stays in front (depth equal): where the
+        # mesh folds over itself each pixel runs the costly shader once, not per layer.
+        fbo.color_mask = False, False, False, False
+        self._depth_vao.render(moderngl.TRIANGLES)
+        fbo.color_mask = True, True, True, True
+        self.ctx.depth_func = "<="
         vao.render(moderngl.TRIANGLES)
+        self.ctx.depth_func = "<"
 
     def release(self) -> None:
         """Free the GPU objects (the shared context stays)."""
