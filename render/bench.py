@@ -70,7 +70,7 @@ def _fps(draw, frames: int) -> float:
 
 
 class _PlainQuad:
-    """The speed floor: a renderer's mesh and first mean texture, one fetch per fragment."""
+    """The speed floor: a renderer's mesh and first BTF texture layer, one fetch per fragment."""
 
     def __init__(self, renderer: Renderer, size: tuple[int, int]) -> None:
         ctx = self.ctx = renderer.ctx
@@ -79,8 +79,8 @@ class _PlainQuad:
         )
         self.vao = vertex_array(ctx, self.program, renderer.vbo, renderer.ibo)
         self.program["uv_scale"].value = renderer.uv_scale
-        self.program["mean_tex"].value = 0
-        self.texture = renderer.btf_textures.mean
+        self.program["btf_images"].value = 0
+        self.texture = renderer.btf_textures.images
         self.bounds = renderer.bounds_center, renderer.bounds_radius
         self.colour = ctx.renderbuffer(size, 4, dtype="f4")
         self.depth = ctx.depth_renderbuffer(size)

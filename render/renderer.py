@@ -206,12 +206,10 @@ class Renderer:
             self._defines[f"{role.upper()}_K"] = lookup.k
             self._defines[f"{role.upper()}_CANDIDATES"] = lookup.length
         self._set("n_table_lights", textures.n_lights)
-        self._defines["COMPONENTS"] = textures.components
+        self._defines.update(COMPONENTS=textures.components, CHANNELS=textures.channels,
+                             PACKED=textures.packed)  # fmt: skip
         self._bind("btf_weights", textures.weights)
-        for name, texture in (("mean_tex", textures.mean), ("basis_tex", textures.basis),
-                              ("eigen_tex", textures.eigen)):  # fmt: skip
-            if texture is not None:
-                self._bind(name, texture)
+        self._bind("btf_images", textures.images)
 
     def _framebuffer(self, size: tuple[int, int]) -> moderngl.Framebuffer:
         if size not in self._framebuffers:

@@ -134,14 +134,20 @@ Blend blend_light(vec3 q) {
 }
 #endif
 
-#if BTF_KIND == 1
-uniform sampler2DArray mean_tex;   // layer = slot
-uniform sampler2DArray basis_tex;  // layer = slot·c + k
+#if BTF_KIND > 0
+// Per group (pca: a view slot, svd: a light) its images' values, CHANNELS per
+// texel each, packed four to a texel: value v of group g is component v % 4 of
+// layer g·PACKED + v / 4 (render/_textures.py).
+uniform sampler2DArray btf_images;
+#endif
 
+#if BTF_KIND == 1
 // Σ_l E_l Σ_j ω_j (mean_j Σ_m τ_lm + Σ_k γ_ljk B_jk), γ_ljk = Σ_m τ_lm p_{j, i_lm, k}
 // (seed 000 eq. (3), (5)): the light sums go into per-slot RGB coefficients
-// first, four components at a time, so each slot costs c + 1 texture fetches
-// however many lights there are. A light below the horizon has E_l = 0.
+// first, so each slot costs its ⌈CHANNELS·(c + 1)/4⌉ texture fetches however
+// many lights there are. Images k = 4g…4g + 3 (image c is the mean) fill
+// texels CHANNELS·g … CHANNELS·g + CHANNELS − 1 of their slot: a group's four
+// coefficients are used up by its own fetches. A light below the horizon has E_l = 0.
 vec3 shade_btf(vec2 st, vec2 sx, vec2 sy, Blend view, Blend lights[N_LIGHTS],
                vec3 irradiance[N_LIGHTS]) {
     vec3 mean_coef = vec3(0.0);
@@ -149,24 +155,38 @@ vec3 shade_btf(vec2 st, vec2 sx, vec2 sy, Blend view, Blend lights[N_LIGHTS],
     vec3 total = vec3(0.0);
     for (int j = 0; j < VIEW_K; ++j) {
         int slot = view.idx[j];
-        vec3 slot_rgb = mean_coef * textureGrad(mean_tex, vec3(st, slot), sx, sy).rgb;
-        for (int k4 = 0; k4 < (COMPONENTS + 3) / 4; ++k4) {
+        vec3 slot_rgb = vec3(0.0);
+        for (int g = 0; g <= COMPONENTS / 4; ++g) {
             vec4 red = vec4(0.0), green = vec4(0.0), blue = vec4(0.0);
-            for (int l = 0; l < N_LIGHTS; ++l) {
-                for (int m = 0; m < LIGHT_K; ++m) {
-                    vec3 e = irradiance[l] * lights[l].w[m];
-                    int row = slot * n_table_lights + lights[l].idx[m];
-                    vec4 p = texelFetch(btf_weights, ivec2(k4, row), 0);
-                    red += e.r * p;
-                    green += e.g * p;
-                    blue += e.b * p;
+            if (4 * g < COMPONENTS) {
+                for (int l = 0; l < N_LIGHTS; ++l) {
+                    for (int m = 0; m < LIGHT_K; ++m) {
+                        vec3 e = irradiance[l] * lights[l].w[m];
+                        int row = slot * n_table_lights + lights[l].idx[m];
+                        vec4 p = texelFetch(btf_weights, ivec2(g, row), 0);
+                        red += e.r * p;
+                        green += e.g * p;
+                        blue += e.b * p;
+                    }
                 }
             }
-            for (int q = 0; q < 4; ++q) {
-                int k = 4 * k4 + q;
-                if (k < COMPONENTS) {
-                    vec3 basis = textureGrad(basis_tex, vec3(st, slot * COMPONENTS + k), sx, sy).rgb;
-                    slot_rgb += vec3(red[q], green[q], blue[q]) * basis;
+            vec3 coef[4];  // RGB factor of images 4g…4g + 3
+            for (int q = 0; q < 4; ++q)
+                coef[q] = 4 * g + q == COMPONENTS ? mean_coef : vec3(red[q], green[q], blue[q]);
+            for (int t = 0; t < CHANNELS; ++t) {
+                if (CHANNELS * g + t < PACKED) {
+                    vec4 texel = textureGrad(btf_images, vec3(st, slot * PACKED + CHANNELS * g + t),
+                                             sx, sy);
+                    for (int q = 0; q < 4; ++q) {
+                        int v = 4 * t + q;  // value within the group: image 4g + v / CHANNELS
+                        if (4 * g + v / CHANNELS <= COMPONENTS) {
+#if CHANNELS == 1
+                            slot_rgb += coef[v] * texel[q];
+#else
+                            slot_rgb[v % 3] += coef[v / 3][v % 3] * texel[q];
+#endif
+                        }
+                    }
                 }
             }
         }
@@ -177,28 +197,34 @@ vec3 shade_btf(vec2 st, vec2 sx, vec2 sy, Blend view, Blend lights[N_LIGHTS],
 #endif
 
 #if BTF_KIND == 2
-uniform sampler2DArray eigen_tex;  // layer = k·n_table_lights + light
-
 // Σ_l E_l Σ_m τ_lm Σ_k (Σ_j ω_j W_jk) E_k(x, y, l_m) (seed 001 §5).
 vec3 shade_btf(vec2 st, vec2 sx, vec2 sy, Blend view, Blend lights[N_LIGHTS],
                vec3 irradiance[N_LIGHTS]) {
-    vec3 total = vec3(0.0);
+    float omega[COMPONENTS];  // the view slots' blended weight of each eigen image
     for (int k4 = 0; k4 < (COMPONENTS + 3) / 4; ++k4) {
-        vec4 omega = vec4(0.0);
+        vec4 blended = vec4(0.0);
         for (int j = 0; j < VIEW_K; ++j)
-            omega += view.w[j] * texelFetch(btf_weights, ivec2(k4, view.idx[j]), 0);
-        for (int l = 0; l < N_LIGHTS; ++l) {
-            for (int m = 0; m < LIGHT_K; ++m) {
-                vec3 texel = vec3(0.0);
+            blended += view.w[j] * texelFetch(btf_weights, ivec2(k4, view.idx[j]), 0);
+        for (int q = 0; q < 4; ++q)
+            if (4 * k4 + q < COMPONENTS) omega[4 * k4 + q] = blended[q];
+    }
+    vec3 total = vec3(0.0);
+    for (int l = 0; l < N_LIGHTS; ++l) {
+        for (int m = 0; m < LIGHT_K; ++m) {
+            int light = lights[l].idx[m];
+            vec3 light_rgb = vec3(0.0);
+            for (int p = 0; p < PACKED; ++p) {
+                vec4 texel = textureGrad(btf_images, vec3(st, light * PACKED + p), sx, sy);
                 for (int q = 0; q < 4; ++q) {
-                    int k = 4 * k4 + q;
-                    if (k < COMPONENTS) {
-                        float layer = float(k * n_table_lights + lights[l].idx[m]);
-                        texel += omega[q] * textureGrad(eigen_tex, vec3(st, layer), sx, sy).rgb;
-                    }
+                    int v = 4 * p + q;
+#if CHANNELS == 1
+                    if (v < COMPONENTS) light_rgb += vec3(omega[v] * texel[q]);
+#else
+                    if (v < 3 * COMPONENTS) light_rgb[v % 3] += omega[v / 3] * texel[q];
+#endif
                 }
-                total += irradiance[l] * lights[l].w[m] * texel;
             }
+            total += irradiance[l] * lights[l].w[m] * light_rgb;
         }
     }
     return total;
