@@ -9,7 +9,9 @@
 //
 // Loop lengths are compile-time constants and nothing branches on data: a
 // software rasteriser runs every side of a branch with masked lanes anyway,
-// and unrolls fixed loops into straight code.
+// and unrolls fixed loops into straight code. So every texture fetch is in
+// uniform control flow and may take its level of detail from the implicit
+// derivatives (cheaper than textureGrad with explicit ones).
 
 in vec3 v_position;
 in vec3 v_normal;
@@ -148,8 +150,7 @@ uniform sampler2DArray btf_images;
 // many lights there are. Images k = 4g…4g + 3 (image c is the mean) fill
 // texels CHANNELS·g … CHANNELS·g + CHANNELS − 1 of their slot: a group's four
 // coefficients are used up by its own fetches. A light below the horizon has E_l = 0.
-vec3 shade_btf(vec2 st, vec2 sx, vec2 sy, Blend view, Blend lights[N_LIGHTS],
-               vec3 irradiance[N_LIGHTS]) {
+vec3 shade_btf(vec2 st, Blend view, Blend lights[N_LIGHTS], vec3 irradiance[N_LIGHTS]) {
     vec3 mean_coef = vec3(0.0);
     for (int l = 0; l < N_LIGHTS; ++l) mean_coef += irradiance[l] * dot(lights[l].w, vec4(1.0));
     vec3 total = vec3(0.0);
@@ -175,8 +176,7 @@ vec3 shade_btf(vec2 st, vec2 sx, vec2 sy, Blend view, Blend lights[N_LIGHTS],
                 coef[q] = 4 * g + q == COMPONENTS ? mean_coef : vec3(red[q], green[q], blue[q]);
             for (int t = 0; t < CHANNELS; ++t) {
                 if (CHANNELS * g + t < PACKED) {
-                    vec4 texel = textureGrad(btf_images, vec3(st, slot * PACKED + CHANNELS * g + t),
-                                             sx, sy);
+                    vec4 texel = texture(btf_images, vec3(st, slot * PACKED + CHANNELS * g + t));
                     for (int q = 0; q < 4; ++q) {
                         int v = 4 * t + q;  // value within the group: image 4g + v / CHANNELS
                         if (4 * g + v / CHANNELS <= COMPONENTS) {
@@ -198,8 +198,7 @@ vec3 shade_btf(vec2 st, vec2 sx, vec2 sy, Blend view, Blend lights[N_LIGHTS],
 
 #if BTF_KIND == 2
 // Σ_l E_l Σ_m τ_lm Σ_k (Σ_j ω_j W_jk) E_k(x, y, l_m) (seed 001 §5).
-vec3 shade_btf(vec2 st, vec2 sx, vec2 sy, Blend view, Blend lights[N_LIGHTS],
-               vec3 irradiance[N_LIGHTS]) {
+vec3 shade_btf(vec2 st, Blend view, Blend lights[N_LIGHTS], vec3 irradiance[N_LIGHTS]) {
     float omega[COMPONENTS];  // the view slots' blended weight of each eigen image
     for (int k4 = 0; k4 < (COMPONENTS + 3) / 4; ++k4) {
         vec4 blended = vec4(0.0);
@@ -214,7 +213,7 @@ vec3 shade_btf(vec2 st, vec2 sx, vec2 sy, Blend view, Blend lights[N_LIGHTS],
             int light = lights[l].idx[m];
             vec3 light_rgb = vec3(0.0);
             for (int p = 0; p < PACKED; ++p) {
-                vec4 texel = textureGrad(btf_images, vec3(st, light * PACKED + p), sx, sy);
+                vec4 texel = texture(btf_images, vec3(st, light * PACKED + p));
                 for (int q = 0; q < 4; ++q) {
                     int v = 4 * p + q;
 #if CHANNELS == 1
@@ -286,8 +285,6 @@ void main() {
     mat3 to_local = transpose(mat3(t, b, n));
 
     vec2 st = v_uv * uv_scale;
-    vec2 sx = dFdx(st);
-    vec2 sy = dFdy(st);
     vec3 view_local = to_local * to_eye;
 
     vec3 irradiance[N_LIGHTS];
@@ -317,7 +314,7 @@ void main() {
     Blend view = blend_view(view_local);
     Blend lights[N_LIGHTS];
     for (int l = 0; l < N_LIGHTS; ++l) lights[l] = blend_light(light_local[l]);
-    colour += shade_btf(st, sx, sy, view, lights, irradiance);
+    colour += shade_btf(st, view, lights, irradiance);
 #endif
 #if PS == 1
     // Bump mapping (seed 004): the measured normal, in the tangent frame, bends the
