@@ -92,18 +92,19 @@ def upload_btf(ctx: moderngl.Context, btf) -> BtfTextures:
     (``eigenmaps``, ``weights``) BTF; see ``docs/material.md``."""
     n_lights = len(btf.light_dirs_deg)
     if isinstance(btf, GlobalSVD):
-        c, _, n, _, channels = btf.eigenmaps.shape
+        c, channels = btf.eigenmaps.shape[0], btf.eigenmaps.shape[-1]
         layers, packed = _packed(np.swapaxes(np.asarray(btf.eigenmaps), 0, 1))
         weights = _rows(ctx, "btf weights", _coefficients(np.asarray(btf.weights, np.float32)))
         images = _layers(ctx, "eigenmaps", layers)
         return BtfTextures("svd", c, n_lights, channels, packed, weights, images)
-    n_views, c, n, _, channels = btf.basis.shape
+    n_views, c, channels = btf.basis.shape[0], btf.basis.shape[1], btf.basis.shape[-1]
     # The mean last: four basis images then fill whole texels (3 for RGB, 1 for grey).
     slots = np.concatenate([np.asarray(btf.basis), np.asarray(btf.mean)[:, None]], axis=1)
     layers, packed = _packed(slots)
     p = np.asarray(btf.weights, np.float32).reshape(n_views * n_lights, c)
     weights = _rows(ctx, "btf weights", _coefficients(p))
-    return BtfTextures("pca", c, n_lights, channels, packed, weights, _layers(ctx, "mean and basis", layers))
+    images = _layers(ctx, "mean and basis", layers)
+    return BtfTextures("pca", c, n_lights, channels, packed, weights, images)
 
 
 @dataclass
