@@ -83,6 +83,26 @@ Blend blend_nearest(sampler2DArray cells, int count, int k, vec3 q) {
     return b;
 }
 
+// k = 1: the nearest table direction alone, weight one (no angle needed).
+Blend blend_nearest_one(sampler2DArray cells, int count, vec3 q) {
+    q = on_hemisphere(q);
+    ivec2 cell = hemi_cell(q, textureSize(cells, 0).x);
+    float best = -2.0;
+    float index = 0.0;
+    for (int i = 0; i < count; ++i) {
+        vec4 texel = texelFetch(cells, ivec3(cell, i), 0);
+        float c = dot(q, texel.xyz);
+        if (c > best) {
+            best = c;
+            index = texel.w;
+        }
+    }
+    Blend b;
+    b.idx = ivec4(int(index + 0.5), 0, 0, 0);
+    b.w = vec4(1.0, 0.0, 0.0, 0.0);
+    return b;
+}
+
 // The spherical triangle holding q, barycentric weights in its gnomonic
 // projection: rig.geometry.barycentric_weights. A cell's `count` candidates
 // take three layers each: the rows of the triangle's inverse (w_i = row_i · q),
@@ -122,6 +142,8 @@ uniform sampler2D btf_weights; // pca: row slot·n_table_lights + light; svd: ro
 Blend blend_view(vec3 q) {
 #if VIEW_METHOD == 1
     return blend_barycentric(view_cells, VIEW_CANDIDATES, q);
+#elif VIEW_K == 1
+    return blend_nearest_one(view_cells, VIEW_CANDIDATES, q);
 #else
     return blend_nearest(view_cells, VIEW_CANDIDATES, VIEW_K, q);
 #endif
@@ -130,6 +152,8 @@ Blend blend_view(vec3 q) {
 Blend blend_light(vec3 q) {
 #if LIGHT_METHOD == 1
     return blend_barycentric(light_cells, LIGHT_CANDIDATES, q);
+#elif LIGHT_K == 1
+    return blend_nearest_one(light_cells, LIGHT_CANDIDATES, q);
 #else
     return blend_nearest(light_cells, LIGHT_CANDIDATES, LIGHT_K, q);
 #endif
