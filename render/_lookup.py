@@ -15,7 +15,7 @@ Every cell lists the same number of candidates, the table's longest list
 (cells that need fewer take the next closest ones, which never win), so the
 shader's loop has a fixed length known when it is compiled: no padding to
 test, no early exit, which a software rasteriser runs fastest. The grid is the
-one of 64², 128², 256² with the shortest lists.
+one of 64² and 128² with the shorter lists (64² on a tie).
 
 Why the candidate lists are complete: if a cell lies within angle r of its
 centre c and d_k(c) is the k-th nearest table angle from c, then for any
@@ -40,7 +40,8 @@ __all__ = ["MAX_CANDIDATES", "DirectionLookup", "build_lookup", "hemi_octahedral
 
 #: Longest candidate list a lookup may have (the shader's loop length).
 MAX_CANDIDATES = 16
-# H1 nearest-4 lists: 9 candidates at 64², 9 at 128², 8 at 256² (27 view slots: 10, 9, 8).
+# Nearest-4 lists: H1 9 candidates at 64² and at 128² (27 view slots: 10, 9); 256² would save
+# one more at 16× the memory and build time.
 _RESOLUTIONS = (64, 128)
 _METHOD_CODE = {"nearest": 0, "nearest4": 0, "barycentric": 1}
 

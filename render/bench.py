@@ -4,10 +4,11 @@ components c and of blended view slots, as a ratio to a plain textured quad.
 A textured plane fills the frame under one point light (seed 000's setting);
 each per-view-PCA fragment blends 1 (nearest), 3 (barycentric) or 4 (nearest
 four) view slots of c + 1 float16 RGB images each (⌈3(c + 1)/4⌉ filtered
-fetches, four values to a texel), from the 4 nearest measured lights. The floor is the same plane with one filtered texture fetch per
-fragment, drawn in the same run, so the ratio compares like with like on
-whatever GL this is (llvmpipe on a CPU, or a GPU). Seed 001 reports 27–75
-frames per second on a 2005 GPU.
+fetches, four values to a texel), from the 4 nearest measured lights. The
+floor is the same plane with one filtered texture fetch per fragment, drawn
+in the same run, so the ratio compares like with like on whatever GL this is
+(llvmpipe on a CPU, or a GPU). Seed 001 reports 27–75 frames per second on a
+2005 GPU.
 """
 
 from __future__ import annotations
