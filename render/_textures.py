@@ -91,13 +91,18 @@ def upload_btf(ctx: moderngl.Context, btf) -> BtfTextures:
     """Textures of a per-view PCA (``mean``, ``basis``, ``weights``) or global SVD
     (``eigenmaps``, ``weights``) BTF; see ``docs/material.md``."""
     n_lights = len(btf.light_dirs_deg)
+    channels = (btf.eigenmaps if isinstance(btf, GlobalSVD) else btf.mean).shape[-1]
+    if channels not in (1, 3):
+        raise RenderError(
+            f"material btf: {channels} channels per texel; the renderer shows 1 (grey) or 3 (RGB)"
+        )
     if isinstance(btf, GlobalSVD):
-        c, channels = btf.eigenmaps.shape[0], btf.eigenmaps.shape[-1]
+        c = btf.eigenmaps.shape[0]
         layers, packed = _packed(np.swapaxes(np.asarray(btf.eigenmaps), 0, 1))
         weights = _rows(ctx, "btf weights", _coefficients(np.asarray(btf.weights, np.float32)))
         images = _layers(ctx, "eigenmaps", layers)
         return BtfTextures("svd", c, n_lights, channels, packed, weights, images)
-    n_views, c, channels = btf.basis.shape[0], btf.basis.shape[1], btf.basis.shape[-1]
+    n_views, c = btf.basis.shape[:2]
     # The mean last: four basis images then fill whole texels (3 for RGB, 1 for grey).
     slots = np.concatenate([np.asarray(btf.basis), np.asarray(btf.mean)[:, None]], axis=1)
     layers, packed = _packed(slots)
