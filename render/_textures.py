@@ -1,5 +1,5 @@
 """Material arrays → GL textures: the BTF as float16 texture arrays, the weights
-and direction lookups as float32/int32 textures, the photometric-stereo maps.
+and direction lookups as float32 textures, the photometric-stereo maps.
 
 Texel grids follow ``rig.geometry.texel_centers_mm`` (row 0 at +y); GL's first
 row is at texture coordinate t = 0, the sample's −y edge, so rows are flipped
@@ -14,10 +14,10 @@ import moderngl
 import numpy as np
 
 from render._errors import RenderError
-from render._lookup import CANDIDATES, DirectionLookup
+from render._lookup import DirectionLookup
 from rig.material import GlobalSVD
 
-__all__ = ["BtfTextures", "PsTextures", "lookup_textures", "upload_btf", "upload_ps"]
+__all__ = ["BtfTextures", "PsTextures", "lookup_texture", "upload_btf", "upload_ps"]
 
 
 def _layers(ctx: moderngl.Context, name: str, stack: np.ndarray) -> moderngl.TextureArray:
@@ -31,8 +31,6 @@ def _layers(ctx: moderngl.Context, name: str, stack: np.ndarray) -> moderngl.Tex
         )
     data = np.ascontiguousarray(stack[:, ::-1], dtype=np.float16)
     texture = ctx.texture_array((n, n, layers), channels, data, dtype="f2")
-    if channels == 1:
-        texture.swizzle = "RRR1"
     texture.repeat_x = texture.repeat_y = True
     texture.build_mipmaps()
     texture.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
@@ -60,37 +58,58 @@ def _coefficients(weights: np.ndarray) -> np.ndarray:
 
 @dataclass
 class BtfTextures:
-    """The BTF on the GPU: ``kind`` "pca" (``mean``, ``basis``) or "svd" (``eigen``)."""
+    """The BTF on the GPU. ``images``: per group (a view slot's basis images then its
+    mean, "pca"; a light's eigen images, "svd") their values, ``channels`` per texel each,
+    packed four to an RGBA texel into ``packed`` layers, so a fragment reads a slot
+    in ⌈channels·(c + 1)/4⌉ fetches, not c + 1."""
 
     kind: str
     components: int
     n_lights: int
+    channels: int
+    packed: int
     weights: moderngl.Texture
-    mean: moderngl.TextureArray | None = None
-    basis: moderngl.TextureArray | None = None
-    eigen: moderngl.TextureArray | None = None
+    images: moderngl.TextureArray
 
     def release(self) -> None:
-        for texture in (self.weights, self.mean, self.basis, self.eigen):
-            if texture is not None:
-                texture.release()
+        self.weights.release()
+        self.images.release()
+
+
+def _packed(groups: np.ndarray) -> tuple[np.ndarray, int]:
+    """(g, m, N, N, C) images → (g·P, N, N, 4) layers, value m·C + channel of group i
+    at layer i·P + ⌊value/4⌋, component value % 4 (zero padded); and P."""
+    g, m, n, _, channels = groups.shape
+    packed = -(-m * channels // 4)
+    values = np.zeros((g, n, n, 4 * packed), np.float16)
+    values[..., : m * channels] = np.moveaxis(groups, 1, 3).reshape(g, n, n, m * channels)
+    layers = values.reshape(g, n, n, packed, 4).transpose(0, 3, 1, 2, 4)
+    return layers.reshape(g * packed, n, n, 4), packed
 
 
 def upload_btf(ctx: moderngl.Context, btf) -> BtfTextures:
     """Textures of a per-view PCA (``mean``, ``basis``, ``weights``) or global SVD
     (``eigenmaps``, ``weights``) BTF; see ``docs/material.md``."""
     n_lights = len(btf.light_dirs_deg)
+    channels = (btf.eigenmaps if isinstance(btf, GlobalSVD) else btf.mean).shape[-1]
+    if channels not in (1, 3):
+        raise RenderError(
+            f"material btf: {channels} channels per texel; the renderer shows 1 (grey) or 3 (RGB)"
+        )
     if isinstance(btf, GlobalSVD):
-        c, _, n, _, channels = btf.eigenmaps.shape
-        eigen = _layers(ctx, "eigenmaps", np.reshape(btf.eigenmaps, (c * n_lights, n, n, channels)))
+        c = btf.eigenmaps.shape[0]
+        layers, packed = _packed(np.swapaxes(np.asarray(btf.eigenmaps), 0, 1))
         weights = _rows(ctx, "btf weights", _coefficients(np.asarray(btf.weights, np.float32)))
-        return BtfTextures("svd", c, n_lights, weights, eigen=eigen)
-    n_views, c, n, _, channels = btf.basis.shape
-    mean = _layers(ctx, "mean", np.asarray(btf.mean))
-    basis = _layers(ctx, "basis", np.reshape(btf.basis, (n_views * c, n, n, channels)))
+        images = _layers(ctx, "eigenmaps", layers)
+        return BtfTextures("svd", c, n_lights, channels, packed, weights, images)
+    n_views, c = btf.basis.shape[:2]
+    # The mean last: four basis images then fill whole texels (3 for RGB, 1 for grey).
+    slots = np.concatenate([np.asarray(btf.basis), np.asarray(btf.mean)[:, None]], axis=1)
+    layers, packed = _packed(slots)
     p = np.asarray(btf.weights, np.float32).reshape(n_views * n_lights, c)
     weights = _rows(ctx, "btf weights", _coefficients(p))
-    return BtfTextures("pca", c, n_lights, weights, mean=mean, basis=basis)
+    images = _layers(ctx, "mean and basis", layers)
+    return BtfTextures("pca", c, n_lights, channels, packed, weights, images)
 
 
 @dataclass
@@ -136,14 +155,11 @@ def upload_ps(ctx: moderngl.Context, view) -> PsTextures:
     return PsTextures(_map(ctx, albedo), _map(ctx, normals))
 
 
-def lookup_textures(
-    ctx: moderngl.Context, lookup: DirectionLookup
-) -> tuple[moderngl.TextureArray, moderngl.Texture]:
-    """The candidate grid (int32 array texture, 4 per texel) and the table texture."""
-    r = lookup.resolution
-    layers = lookup.candidates.reshape(r, r, CANDIDATES // 4, 4).transpose(2, 0, 1, 3)
-    candidates = ctx.texture_array(
-        (r, r, CANDIDATES // 4), 4, np.ascontiguousarray(layers, np.int32), dtype="i4"
-    )
-    candidates.filter = (moderngl.NEAREST, moderngl.NEAREST)
-    return candidates, _rows(ctx, f"{lookup.method} table", lookup.table[:, None, :])
+def lookup_texture(ctx: moderngl.Context, lookup: DirectionLookup) -> moderngl.TextureArray:
+    """The candidate grid: a float32 array texture, layer per candidate texel (see
+    ``DirectionLookup.cell_texels``), read by texelFetch."""
+    texels = lookup.cell_texels()
+    layers, r = texels.shape[:2]
+    texture = ctx.texture_array((r, r, layers), 4, texels, dtype="f4")
+    texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+    return texture

@@ -3,11 +3,12 @@ components c and of blended view slots, as a ratio to a plain textured quad.
 
 A textured plane fills the frame under one point light (seed 000's setting);
 each per-view-PCA fragment blends 1 (nearest), 3 (barycentric) or 4 (nearest
-four) view slots of c + 1 float16 textures each, from the 4 nearest measured
-lights. The floor is the same plane with one filtered texture fetch per
-fragment, drawn in the same run, so the ratio compares like with like on
-whatever GL this is (llvmpipe on a CPU, or a GPU). Seed 001 reports 27–75
-frames per second on a 2005 GPU.
+four) view slots of c + 1 float16 RGB images each (⌈3(c + 1)/4⌉ filtered
+fetches, four values to a texel), from the 4 nearest measured lights. The
+floor is the same plane with one filtered texture fetch per fragment, drawn
+in the same run, so the ratio compares like with like on whatever GL this is
+(llvmpipe on a CPU, or a GPU). Seed 001 reports 27–75 frames per second on a
+2005 GPU.
 """
 
 from __future__ import annotations
@@ -54,23 +55,27 @@ def _material(kind: str, components: int, size: int) -> Material:
     return Material(Path("bench"), 20.0, size, btf, np.ones(n_views, bool))
 
 
-def _fps(draw, frames: int) -> float:
-    """Frames per second of the fastest of ``frames`` timed frames (after a warm-up one):
-    the best frame is the least disturbed by other work on a shared machine."""
+def _timing(draw, frames: int) -> tuple[float, float]:
+    """Frames per second of the fastest of ``frames`` timed frames (after a warm-up one),
+    and the least CPU time of the process in one frame, in ms: the best frame is the
+    least disturbed by other work on a shared machine. On a software rasteriser the
+    CPU time is the frame's whole cost (its threads are this process's) and hardly
+    depends on other jobs; on a GPU it is only the driver's share."""
     ctx = gl_context()
     draw()  # compile, upload, warm the caches
     ctx.finish()
-    best = np.inf
+    best, best_cpu = np.inf, np.inf
     for _ in range(frames):
-        start = time.perf_counter()
+        start, start_cpu = time.perf_counter(), time.process_time()
         draw()
         ctx.finish()
         best = min(best, time.perf_counter() - start)
-    return 1.0 / best
+        best_cpu = min(best_cpu, time.process_time() - start_cpu)
+    return 1.0 / best, 1000.0 * best_cpu
 
 
 class _PlainQuad:
-    """The speed floor: a renderer's mesh and first mean texture, one fetch per fragment."""
+    """The speed floor: a renderer's mesh and first BTF texture layer, one fetch per fragment."""
 
     def __init__(self, renderer: Renderer, size: tuple[int, int]) -> None:
         ctx = self.ctx = renderer.ctx
@@ -79,8 +84,8 @@ class _PlainQuad:
         )
         self.vao = vertex_array(ctx, self.program, renderer.vbo, renderer.ibo)
         self.program["uv_scale"].value = renderer.uv_scale
-        self.program["mean_tex"].value = 0
-        self.texture = renderer.btf_textures.mean
+        self.program["btf_images"].value = 0
+        self.texture = renderer.btf_textures.images
         self.bounds = renderer.bounds_center, renderer.bounds_radius
         self.colour = ctx.renderbuffer(size, 4, dtype="f4")
         self.depth = ctx.depth_renderbuffer(size)
@@ -103,7 +108,8 @@ class _PlainQuad:
 
 def run_bench(*, quick: bool = False, size: tuple[int, int] = _SIZE) -> list[dict]:
     """Rows: ``kind``, ``components``, ``view_slots``, ``fps``, ``ratio_to_plain``
-    (fps over the plain quad's), ``plain_fps``, ``size``, ``gl_renderer``.
+    (fps over the plain quad's), ``plain_fps``, ``cpu_ms`` (CPU time per frame, see
+    ``_timing``), ``plain_cpu_ms``, ``size``, ``gl_renderer``.
 
     ``quick``: c ∈ {4, 16}, 1 and 4 view slots, 64² textures, best of 2 frames
     (else c ∈ {1, 4, 8, 16}, 1/3/4 slots and the SVD, 128² textures, best of 5).
@@ -121,19 +127,20 @@ def run_bench(*, quick: bool = False, size: tuple[int, int] = _SIZE) -> list[dic
     with Renderer(_material("pca", 1, texels), mesh, shadows=False) as floor:
         plain = _PlainQuad(floor, size)
         try:
-            plain_fps = _fps(lambda: plain.draw(camera), frames)
+            plain_fps, plain_cpu_ms = _timing(lambda: plain.draw(camera), frames)
         finally:
             plain.release()
     rows = []
     for kind, c, method in runs:
         with Renderer(_material(kind, c, texels), mesh, view_method=method,
                       shadows=False) as renderer:  # fmt: skip
-            fps = _fps(lambda r=renderer: r.draw(camera, lights), frames)
+            fps, cpu_ms = _timing(lambda r=renderer: r.draw(camera, lights), frames)
             gl_renderer = renderer.ctx.info["GL_RENDERER"]
         rows.append({
             "kind": kind, "components": c,
             "view_slots": _SLOTS[method] if kind == "pca" else 4, "fps": round(fps, 3),
             "ratio_to_plain": round(fps / plain_fps, 4), "plain_fps": round(plain_fps, 2),
+            "cpu_ms": round(cpu_ms, 1), "plain_cpu_ms": round(plain_cpu_ms, 1),
             "size": f"{size[0]}x{size[1]}", "gl_renderer": gl_renderer,
         })  # fmt: skip
     return rows

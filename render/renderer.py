@@ -17,9 +17,9 @@ import numpy as np
 
 from render._errors import RenderError
 from render._gl import gl_context, mesh_buffers, shader_source, vertex_array
-from render._lookup import CANDIDATES, build_lookup
+from render._lookup import build_lookup
 from render._shadows import ShadowMaps
-from render._textures import lookup_textures, upload_btf, upload_ps
+from render._textures import lookup_texture, upload_btf, upload_ps
 from render.camera import Camera
 from render.lights import MAX_LIGHTS, DirectionalLight, PointLight
 from rig.material import CompressedBTF, Material
@@ -103,12 +103,15 @@ class Renderer:
             "BTF_KIND": 0 if btf is None else (1 if isinstance(btf, CompressedBTF) else 2),
             "PS": int("ps" in self.layers),
             "SHADOWS": int(bool(shadows)),
-            "CANDIDATES": CANDIDATES,
         }
         self._programs: dict[int, tuple[moderngl.Program, moderngl.VertexArray]] = {}
         self._static: dict[str, object] = {}
         self.vbo, self.ibo = mesh_buffers(self.ctx, mesh)
-        self._owned += [self.vbo, self.ibo]
+        self._depth_program = self.ctx.program(
+            vertex_shader=shader_source("depth.vert"), fragment_shader=shader_source("depth.frag")
+        )
+        self._depth_vao = vertex_array(self.ctx, self._depth_program, self.vbo, self.ibo)
+        self._owned += [self.vbo, self.ibo, self._depth_program, self._depth_vao]
         self._units: list = []
         self.btf_textures = None
         self.ps_textures = None
@@ -195,19 +198,18 @@ class Renderer:
             ("light", btf.light_vectors, light_method, None),
         ):
             lookup = build_lookup(table, method, index=index)
-            candidates, texels = lookup_textures(self.ctx, lookup)
-            self._owned += [candidates, texels]
-            self._bind(f"{role}_cand", candidates)
-            self._bind(f"{role}_table", texels)
-            self._set(f"{role}_method", lookup.code)
-            self._set(f"{role}_k", lookup.k)
+            cells = lookup_texture(self.ctx, lookup)
+            self._owned.append(cells)
+            self._bind(f"{role}_cells", cells)
+            # Constants of the shader: its loops have fixed lengths and no branch on the method.
+            self._defines[f"{role.upper()}_METHOD"] = lookup.code
+            self._defines[f"{role.upper()}_K"] = lookup.k
+            self._defines[f"{role.upper()}_CANDIDATES"] = lookup.length
         self._set("n_table_lights", textures.n_lights)
-        self._set("components", textures.components)
+        self._defines.update(COMPONENTS=textures.components, CHANNELS=textures.channels,
+                             PACKED=textures.packed)  # fmt: skip
         self._bind("btf_weights", textures.weights)
-        for name, texture in (("mean_tex", textures.mean), ("basis_tex", textures.basis),
-                              ("eigen_tex", textures.eigen)):  # fmt: skip
-            if texture is not None:
-                self._bind(name, texture)
+        self._bind("btf_images", textures.images)
 
     def _framebuffer(self, size: tuple[int, int]) -> moderngl.Framebuffer:
         if size not in self._framebuffers:
@@ -272,7 +274,9 @@ class Renderer:
             self.shadows.bind(program, unit=len(self._units))
         near, far = camera.depth_range(self.bounds_center, self.bounds_radius)
         view_proj = camera.projection_matrix(near, far) @ camera.view_matrix()
-        program["view_proj"].write(view_proj.T.astype(np.float32).tobytes())
+        view_proj = view_proj.T.astype(np.float32).tobytes()
+        program["view_proj"].write(view_proj)
+        self._depth_program["view_proj"].write(view_proj)
         for name, value in (("orthographic", camera.fov_deg is None), ("eye", tuple(camera.eye)),
                             ("toward_camera", tuple(-camera.forward))):  # fmt: skip
             if name in program:
@@ -283,7 +287,14 @@ class Renderer:
         fbo.use()
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         self.ctx.enable_only(moderngl.DEPTH_TEST)
+        # Depth first, then shade only what stays in front (depth equal): where the
+        # mesh folds over itself each pixel runs the costly shader once, not per layer.
+        fbo.color_mask = False, False, False, False
+        self._depth_vao.render(moderngl.TRIANGLES)
+        fbo.color_mask = True, True, True, True
+        self.ctx.depth_func = "<="
         vao.render(moderngl.TRIANGLES)
+        self.ctx.depth_func = "<"
 
     def release(self) -> None:
         """Free the GPU objects (the shared context stays)."""

@@ -1,7 +1,8 @@
 #version 330
-// Depth only, from a light: the shadow map pass.
+// Depth only: the shadow map pass from a light, and the renderer's depth pre-pass.
 uniform mat4 view_proj;
 in vec3 in_position;
+invariant gl_Position;  // the same depth as surface.vert's
 
 void main() {
     gl_Position = view_proj * vec4(in_position, 1.0);

@@ -1,6 +1,6 @@
 #version 330
 // The speed floor: one filtered fetch of one texture layer, no shading.
-uniform sampler2DArray mean_tex;
+uniform sampler2DArray btf_images;
 uniform float uv_scale;
 in vec3 v_position;
 in vec3 v_normal;
@@ -9,5 +9,5 @@ in vec2 v_uv;
 out vec4 frag;
 
 void main() {
-    frag = vec4(texture(mean_tex, vec3(v_uv * uv_scale, 0.0)).rgb, 1.0);
+    frag = vec4(texture(btf_images, vec3(v_uv * uv_scale, 0.0)).rgb, 1.0);
 }

@@ -1,9 +1,17 @@
 // The measured material under point and directional lights (prepended by the
 // renderer: #version, and #defines BTF_KIND 0 none / 1 pca / 2 svd, PS 0/1,
-// SHADOWS 0/1, N_LIGHTS (this program's number of lights, ≥ 1), CANDIDATES).
+// SHADOWS 0/1, N_LIGHTS (this program's number of lights, ≥ 1); with a BTF
+// COMPONENTS (c) and, for the VIEW and LIGHT tables, _METHOD (0 nearest-k,
+// 1 barycentric), _K (neighbours blended) and _CANDIDATES (per lookup cell)).
 //
 // Every direction is taken to the fragment's tangent frame (x along +u, y along
 // +v, z the normal): the sample frame of the measurement, where θ, φ are defined.
+//
+// Loop lengths are compile-time constants and nothing branches on data: a
+// software rasteriser runs every side of a branch with masked lanes anyway,
+// and unrolls fixed loops into straight code. So every texture fetch is in
+// uniform control flow and may take its level of detail from the implicit
+// derivatives (cheaper than textureGrad with explicit ones).
 
 in vec3 v_position;
 in vec3 v_normal;
@@ -25,7 +33,7 @@ vec3 safe_normalize(vec3 v, vec3 fallback) {
     return len2 > 1e-24 ? v * inversesqrt(len2) : fallback;
 }
 
-// ---- direction lookups (render/_lookup.py builds the candidate tables) ----
+// ---- direction lookups (render/_lookup.py builds the candidate grids) ----
 
 ivec2 hemi_cell(vec3 d, int res) {
     vec3 a = abs(d);
@@ -34,141 +42,176 @@ ivec2 hemi_cell(vec3 d, int res) {
     return clamp(ivec2(floor((uv * 0.5 + 0.5) * float(res))), ivec2(0), ivec2(res - 1));
 }
 
-// The k nearest table directions of q (ties to the lower index) with Shepard
-// weights 1/angle², exactly one at a table direction: rig.geometry.nearest_directions.
-// Candidates are ranked by cosine (the same order as by angle), kept sorted in a
-// vec4 without local arrays, which software rasterisers handle slowly.
-Blend blend_nearest(isampler2DArray cand, sampler2D table, int k, ivec2 cell, vec3 q) {
-    vec4 best = vec4(-2.0);
-    ivec4 idx = ivec4(0);
-    for (int layer = 0; layer < CANDIDATES / 4; ++layer) {
-        ivec4 c4 = texelFetch(cand, ivec3(cell, layer), 0);
-        if (c4.x < 0) break;  // lists are −1 padded: nothing beyond
-        for (int m = 0; m < 4; ++m) {
-            int t = c4[m];
-            if (t < 0) break;
-            vec3 tv = texelFetch(table, ivec2(0, t), 0).xyz;
-            float c = dot(q, tv);
-            if (c > best.w) {
-                best.w = c;
-                idx.w = t;
-                if (best.w > best.z) { best.zw = best.wz; idx.zw = idx.wz; }
-                if (best.z > best.y) { best.yz = best.zy; idx.yz = idx.zy; }
-                if (best.y > best.x) { best.xy = best.yx; idx.xy = idx.yx; }
-            }
-        }
-    }
-    Blend b;
-    b.idx = idx;
-    b.w = vec4(0.0);
-    vec4 angle;
-    for (int m = 0; m < 4; ++m) {
-        vec3 tv = texelFetch(table, ivec2(0, idx[m]), 0).xyz;
-        angle[m] = atan(length(cross(q, tv)), dot(q, tv));
-    }
-    if (angle.x <= 1e-6) {
-        b.w.x = 1.0;
-        return b;
-    }
-    vec4 inverse_sq = 1.0 / (angle * angle);
-    for (int m = 0; m < 4; ++m) b.w[m] = m < k ? inverse_sq[m] : 0.0;
-    b.w /= dot(b.w, vec4(1.0));
-    return b;
+// q in the tangent frame; below the horizon it is laid onto it (θ = 90°).
+vec3 on_hemisphere(vec3 q) {
+    return safe_normalize(vec3(q.xy, max(q.z, 0.0)), vec3(0.0, 0.0, 1.0));
 }
 
-// The spherical triangle holding q, barycentric weights in its gnomonic
-// projection: rig.geometry.barycentric_weights.
-Blend blend_barycentric(isampler2DArray cand, sampler2D table, ivec2 cell, vec3 q) {
-    float best = -1e30;
-    vec3 weights = vec3(1.0, 0.0, 0.0);
-    int tri = -1;
-    for (int layer = 0; layer < CANDIDATES / 4; ++layer) {
-        ivec4 c4 = texelFetch(cand, ivec3(cell, layer), 0);
-        if (c4.x < 0) break;  // lists are −1 padded: nothing beyond
-        for (int m = 0; m < 4; ++m) {
-            int t = c4[m];
-            if (t < 0) break;
-            vec3 w = vec3(dot(texelFetch(table, ivec2(0, 4 * t), 0).xyz, q),
-                          dot(texelFetch(table, ivec2(0, 4 * t + 1), 0).xyz, q),
-                          dot(texelFetch(table, ivec2(0, 4 * t + 2), 0).xyz, q));
-            float low = min(w.x, min(w.y, w.z));
-            if (low > best) {
-                best = low;
-                weights = w;
-                tri = t;
-            }
+// The k nearest table directions of q (ties to the lower index) with Shepard
+// weights 1/angle², exactly one at a table direction: rig.geometry.nearest_directions.
+// A cell's `count` candidates (layer i: direction xyz, table index w), ascending,
+// are ranked by cosine (the same order as by angle), the best four kept sorted
+// in a vec4 without local arrays, which software rasterisers handle slowly.
+Blend blend_nearest(sampler2DArray cells, int count, int k, vec3 q) {
+    q = on_hemisphere(q);
+    ivec2 cell = hemi_cell(q, textureSize(cells, 0).x);
+    vec4 best = vec4(-2.0);
+    ivec4 at = ivec4(0);  // the best four's places in the cell's list
+    for (int i = 0; i < count; ++i) {
+        float c = dot(q, texelFetch(cells, ivec3(cell, i), 0).xyz);
+        if (c > best.w) {
+            best.w = c;
+            at.w = i;
+            if (best.w > best.z) { best.zw = best.wz; at.zw = at.wz; }
+            if (best.z > best.y) { best.yz = best.zy; at.yz = at.zy; }
+            if (best.y > best.x) { best.xy = best.yx; at.xy = at.yx; }
         }
     }
     Blend b;
     b.idx = ivec4(0);
-    b.w = vec4(0.0);
-    if (tri < 0) return b;
-    b.idx.xyz = ivec3(texelFetch(table, ivec2(0, 4 * tri + 3), 0).xyz + 0.5);
-    weights = max(weights, vec3(0.0));
-    float total = weights.x + weights.y + weights.z;
-    b.w.xyz = total > 0.0 ? weights / total : vec3(1.0, 0.0, 0.0);
+    vec4 inverse_sq = vec4(0.0);
+    float nearest_angle = 0.0;
+    for (int m = 0; m < k; ++m) {
+        vec4 texel = texelFetch(cells, ivec3(cell, at[m]), 0);
+        b.idx[m] = int(texel.w + 0.5);
+        float angle = atan(length(cross(q, texel.xyz)), dot(q, texel.xyz));
+        if (m == 0) nearest_angle = angle;
+        inverse_sq[m] = 1.0 / max(angle * angle, 1e-30);
+    }
+    b.w = nearest_angle <= 1e-6 ? vec4(1.0, 0.0, 0.0, 0.0)
+                                : inverse_sq / dot(inverse_sq, vec4(1.0));
     return b;
 }
 
-// q in the tangent frame; below the horizon it is laid onto it (θ = 90°).
-Blend blend_directions(isampler2DArray cand, sampler2D table, int method, int k, vec3 q) {
-    q = safe_normalize(vec3(q.xy, max(q.z, 0.0)), vec3(0.0, 0.0, 1.0));
-    ivec2 cell = hemi_cell(q, textureSize(cand, 0).x);
-    return method == 1 ? blend_barycentric(cand, table, cell, q)
-                       : blend_nearest(cand, table, k, cell, q);
+// k = 1: the nearest table direction alone, weight one (no angle needed).
+Blend blend_nearest_one(sampler2DArray cells, int count, vec3 q) {
+    q = on_hemisphere(q);
+    ivec2 cell = hemi_cell(q, textureSize(cells, 0).x);
+    float best = -2.0;
+    float index = 0.0;
+    for (int i = 0; i < count; ++i) {
+        vec4 texel = texelFetch(cells, ivec3(cell, i), 0);
+        float c = dot(q, texel.xyz);
+        if (c > best) {
+            best = c;
+            index = texel.w;
+        }
+    }
+    Blend b;
+    b.idx = ivec4(int(index + 0.5), 0, 0, 0);
+    b.w = vec4(1.0, 0.0, 0.0, 0.0);
+    return b;
+}
+
+// The spherical triangle holding q, barycentric weights in its gnomonic
+// projection: rig.geometry.barycentric_weights. A cell's `count` candidates
+// take three layers each: the rows of the triangle's inverse (w_i = row_i · q),
+// each with its corner's table index in w.
+Blend blend_barycentric(sampler2DArray cells, int count, vec3 q) {
+    q = on_hemisphere(q);
+    ivec2 cell = hemi_cell(q, textureSize(cells, 0).x);
+    float best = -1e30;
+    vec3 weights = vec3(1.0, 0.0, 0.0);
+    vec3 corners = vec3(0.0);
+    for (int i = 0; i < count; ++i) {
+        vec4 r0 = texelFetch(cells, ivec3(cell, 3 * i), 0);
+        vec4 r1 = texelFetch(cells, ivec3(cell, 3 * i + 1), 0);
+        vec4 r2 = texelFetch(cells, ivec3(cell, 3 * i + 2), 0);
+        vec3 w = vec3(dot(r0.xyz, q), dot(r1.xyz, q), dot(r2.xyz, q));
+        float low = min(w.x, min(w.y, w.z));
+        if (low > best) {
+            best = low;
+            weights = w;
+            corners = vec3(r0.w, r1.w, r2.w);
+        }
+    }
+    Blend b;
+    b.idx = ivec4(ivec3(corners + 0.5), 0);
+    weights = max(weights, vec3(0.0));
+    float total = weights.x + weights.y + weights.z;
+    b.w = vec4(total > 0.0 ? weights / total : vec3(1.0, 0.0, 0.0), 0.0);
+    return b;
 }
 
 #if BTF_KIND > 0
-uniform isampler2DArray view_cand;
-uniform sampler2D view_table;
-uniform int view_method;
-uniform int view_k;
-uniform isampler2DArray light_cand;
-uniform sampler2D light_table;
-uniform int light_method;
-uniform int light_k;
+uniform sampler2DArray view_cells;
+uniform sampler2DArray light_cells;
 uniform int n_table_lights;    // measured light directions
-uniform int components;        // c
 uniform sampler2D btf_weights; // pca: row slot·n_table_lights + light; svd: row slot; c/4 RGBA
+
+Blend blend_view(vec3 q) {
+#if VIEW_METHOD == 1
+    return blend_barycentric(view_cells, VIEW_CANDIDATES, q);
+#elif VIEW_K == 1
+    return blend_nearest_one(view_cells, VIEW_CANDIDATES, q);
+#else
+    return blend_nearest(view_cells, VIEW_CANDIDATES, VIEW_K, q);
+#endif
+}
+
+Blend blend_light(vec3 q) {
+#if LIGHT_METHOD == 1
+    return blend_barycentric(light_cells, LIGHT_CANDIDATES, q);
+#elif LIGHT_K == 1
+    return blend_nearest_one(light_cells, LIGHT_CANDIDATES, q);
+#else
+    return blend_nearest(light_cells, LIGHT_CANDIDATES, LIGHT_K, q);
+#endif
+}
+#endif
+
+#if BTF_KIND > 0
+// Per group (pca: a view slot, svd: a light) its images' values, CHANNELS per
+// texel each, packed four to a texel: value v of group g is component v % 4 of
+// layer g·PACKED + v / 4 (render/_textures.py).
+uniform sampler2DArray btf_images;
 #endif
 
 #if BTF_KIND == 1
-uniform sampler2DArray mean_tex;   // layer = slot
-uniform sampler2DArray basis_tex;  // layer = slot·c + k
-
 // Σ_l E_l Σ_j ω_j (mean_j Σ_m τ_lm + Σ_k γ_ljk B_jk), γ_ljk = Σ_m τ_lm p_{j, i_lm, k}
 // (seed 000 eq. (3), (5)): the light sums go into per-slot RGB coefficients
-// first, four components at a time, so each slot costs c + 1 texture fetches
-// however many lights there are.
-vec3 shade_btf(vec2 st, vec2 sx, vec2 sy, Blend view, Blend lights[N_LIGHTS],
-               vec3 irradiance[N_LIGHTS]) {
+// first, so each slot costs its ⌈CHANNELS·(c + 1)/4⌉ texture fetches however
+// many lights there are. Images k = 4g…4g + 3 (image c is the mean) fill
+// texels CHANNELS·g … CHANNELS·g + CHANNELS − 1 of their slot: a group's four
+// coefficients are used up by its own fetches. A light below the horizon has E_l = 0.
+vec3 shade_btf(vec2 st, Blend view, Blend lights[N_LIGHTS], vec3 irradiance[N_LIGHTS]) {
     vec3 mean_coef = vec3(0.0);
     for (int l = 0; l < N_LIGHTS; ++l) mean_coef += irradiance[l] * dot(lights[l].w, vec4(1.0));
     vec3 total = vec3(0.0);
-    for (int j = 0; j < 4; ++j) {
-        if (view.w[j] == 0.0) continue;
+    for (int j = 0; j < VIEW_K; ++j) {
         int slot = view.idx[j];
-        vec3 slot_rgb = mean_coef * textureGrad(mean_tex, vec3(st, slot), sx, sy).rgb;
-        for (int k4 = 0; k4 < (components + 3) / 4; ++k4) {
+        vec3 slot_rgb = vec3(0.0);
+        for (int g = 0; g <= COMPONENTS / 4; ++g) {
             vec4 red = vec4(0.0), green = vec4(0.0), blue = vec4(0.0);
-            for (int l = 0; l < N_LIGHTS; ++l) {
-                if (irradiance[l] == vec3(0.0)) continue;
-                for (int m = 0; m < 4; ++m) {
-                    float tau = lights[l].w[m];
-                    if (tau == 0.0) continue;
-                    vec3 e = irradiance[l] * tau;
-                    int row = slot * n_table_lights + lights[l].idx[m];
-                    vec4 p = texelFetch(btf_weights, ivec2(k4, row), 0);
-                    red += e.r * p;
-                    green += e.g * p;
-                    blue += e.b * p;
+            if (4 * g < COMPONENTS) {
+                for (int l = 0; l < N_LIGHTS; ++l) {
+                    for (int m = 0; m < LIGHT_K; ++m) {
+                        vec3 e = irradiance[l] * lights[l].w[m];
+                        int row = slot * n_table_lights + lights[l].idx[m];
+                        vec4 p = texelFetch(btf_weights, ivec2(g, row), 0);
+                        red += e.r * p;
+                        green += e.g * p;
+                        blue += e.b * p;
+                    }
                 }
             }
-            for (int q = 0; q < 4; ++q) {
-                int k = 4 * k4 + q;
-                if (k >= components) break;
-                vec3 basis = textureGrad(basis_tex, vec3(st, slot * components + k), sx, sy).rgb;
-                slot_rgb += vec3(red[q], green[q], blue[q]) * basis;
+            vec3 coef[4];  // RGB factor of images 4g…4g + 3
+            for (int q = 0; q < 4; ++q)
+                coef[q] = 4 * g + q == COMPONENTS ? mean_coef : vec3(red[q], green[q], blue[q]);
+            for (int t = 0; t < CHANNELS; ++t) {
+                if (CHANNELS * g + t < PACKED) {
+                    vec4 texel = texture(btf_images, vec3(st, slot * PACKED + CHANNELS * g + t));
+                    for (int q = 0; q < 4; ++q) {
+                        int v = 4 * t + q;  // value within the group: image 4g + v / CHANNELS
+                        if (4 * g + v / CHANNELS <= COMPONENTS) {
+#if CHANNELS == 1
+                            slot_rgb += coef[v] * texel[q];
+#else
+                            slot_rgb[v % 3] += coef[v / 3][v % 3] * texel[q];
+#endif
+                        }
+                    }
+                }
             }
         }
         total += view.w[j] * slot_rgb;
@@ -178,31 +221,33 @@ vec3 shade_btf(vec2 st, vec2 sx, vec2 sy, Blend view, Blend lights[N_LIGHTS],
 #endif
 
 #if BTF_KIND == 2
-uniform sampler2DArray eigen_tex;  // layer = k·n_table_lights + light
-
 // Σ_l E_l Σ_m τ_lm Σ_k (Σ_j ω_j W_jk) E_k(x, y, l_m) (seed 001 §5).
-vec3 shade_btf(vec2 st, vec2 sx, vec2 sy, Blend view, Blend lights[N_LIGHTS],
-               vec3 irradiance[N_LIGHTS]) {
+vec3 shade_btf(vec2 st, Blend view, Blend lights[N_LIGHTS], vec3 irradiance[N_LIGHTS]) {
+    float omega[COMPONENTS];  // the view slots' blended weight of each eigen image
+    for (int k4 = 0; k4 < (COMPONENTS + 3) / 4; ++k4) {
+        vec4 blended = vec4(0.0);
+        for (int j = 0; j < VIEW_K; ++j)
+            blended += view.w[j] * texelFetch(btf_weights, ivec2(k4, view.idx[j]), 0);
+        for (int q = 0; q < 4; ++q)
+            if (4 * k4 + q < COMPONENTS) omega[4 * k4 + q] = blended[q];
+    }
     vec3 total = vec3(0.0);
-    for (int k4 = 0; k4 < (components + 3) / 4; ++k4) {
-        vec4 omega = vec4(0.0);
-        for (int j = 0; j < 4; ++j)
-            if (view.w[j] != 0.0)
-                omega += view.w[j] * texelFetch(btf_weights, ivec2(k4, view.idx[j]), 0);
-        for (int l = 0; l < N_LIGHTS; ++l) {
-            if (irradiance[l] == vec3(0.0)) continue;
-            for (int m = 0; m < 4; ++m) {
-                float tau = lights[l].w[m];
-                if (tau == 0.0) continue;
-                vec3 texel = vec3(0.0);
+    for (int l = 0; l < N_LIGHTS; ++l) {
+        for (int m = 0; m < LIGHT_K; ++m) {
+            int light = lights[l].idx[m];
+            vec3 light_rgb = vec3(0.0);
+            for (int p = 0; p < PACKED; ++p) {
+                vec4 texel = texture(btf_images, vec3(st, light * PACKED + p));
                 for (int q = 0; q < 4; ++q) {
-                    int k = 4 * k4 + q;
-                    if (k >= components) break;
-                    float layer = float(k * n_table_lights + lights[l].idx[m]);
-                    texel += omega[q] * textureGrad(eigen_tex, vec3(st, layer), sx, sy).rgb;
+                    int v = 4 * p + q;
+#if CHANNELS == 1
+                    if (v < COMPONENTS) light_rgb += vec3(omega[v] * texel[q]);
+#else
+                    if (v < 3 * COMPONENTS) light_rgb[v % 3] += omega[v / 3] * texel[q];
+#endif
                 }
-                total += irradiance[l] * tau * texel;
             }
+            total += irradiance[l] * lights[l].w[m] * light_rgb;
         }
     }
     return total;
@@ -264,8 +309,6 @@ void main() {
     mat3 to_local = transpose(mat3(t, b, n));
 
     vec2 st = v_uv * uv_scale;
-    vec2 sx = dFdx(st);
-    vec2 sy = dFdy(st);
     vec3 view_local = to_local * to_eye;
 
     vec3 irradiance[N_LIGHTS];
@@ -292,16 +335,10 @@ void main() {
 
     vec3 colour = vec3(0.0);
 #if BTF_KIND > 0
-    Blend view = blend_directions(view_cand, view_table, view_method, view_k, view_local);
+    Blend view = blend_view(view_local);
     Blend lights[N_LIGHTS];
-    for (int l = 0; l < N_LIGHTS; ++l) {
-        lights[l].idx = ivec4(0);
-        lights[l].w = vec4(0.0);
-        if (irradiance[l] != vec3(0.0))
-            lights[l] = blend_directions(light_cand, light_table, light_method, light_k,
-                                         light_local[l]);
-    }
-    colour += shade_btf(st, sx, sy, view, lights, irradiance);
+    for (int l = 0; l < N_LIGHTS; ++l) lights[l] = blend_light(light_local[l]);
+    colour += shade_btf(st, view, lights, irradiance);
 #endif
 #if PS == 1
     // Bump mapping (seed 004): the measured normal, in the tangent frame, bends the

@@ -9,6 +9,8 @@ out vec3 v_position;
 out vec3 v_normal;
 out vec4 v_tangent;
 out vec2 v_uv;
+// The same depth as depth.vert's: the renderer's depth pre-pass must match exactly.
+invariant gl_Position;
 
 void main() {
     v_position = in_position;

@@ -1,5 +1,7 @@
 """The renderer's inputs: cameras, lights, layers — and bad ones named."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
@@ -103,6 +105,11 @@ def test_renderer_errors_name_the_option(pca_model):
     with pytest.raises(RenderError, match="valid view slot"):
         Renderer(material(pca_model, slot_valid=np.zeros(len(pca_model.view_dirs_deg), bool)),
                  mesh)  # fmt: skip
+    two_channels = dataclasses.replace(
+        pca_model, mean=pca_model.mean[..., :2], basis=pca_model.basis[..., :2]
+    )
+    with pytest.raises(RenderError, match=r"2 channels per texel; .* 1 .* or 3"):
+        Renderer(material(two_channels), mesh)
     too_many = [DirectionalLight((0, 0, 1))] * (MAX_LIGHTS + 1)
     with (
         Renderer(material(pca_model), mesh, shadows=False) as renderer,

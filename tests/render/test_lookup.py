@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from render import RenderError
-from render._lookup import CANDIDATES, build_lookup, hemi_octahedral_cell
+from render._lookup import MAX_CANDIDATES, build_lookup, hemi_octahedral_cell
 from rig.geometry import Sampling, barycentric_weights, nearest_directions
 
 
@@ -25,12 +25,11 @@ def chosen_by_grid(lookup, q: np.ndarray) -> np.ndarray:
     candidates = lookup.candidates[cells[:, 1], cells[:, 0]]
     picked = []
     for qi, cand in zip(q, candidates, strict=True):
-        cand = cand[cand >= 0]
         if lookup.method == "barycentric":
-            texels = lookup.table.reshape(-1, 4, 4)[cand].astype(np.float64)
-            weights = texels[:, :3, :3] @ qi
+            rows = lookup.table.reshape(-1, 3, 4)[cand].astype(np.float64)
+            weights = rows[:, :, :3] @ qi
             best = int(np.argmax(weights.min(axis=1)))
-            picked.append(texels[best, 3, :3].astype(int))
+            picked.append(rows[best, :, 3].astype(int))
         else:
             cosine = lookup.table[cand, :3].astype(np.float64) @ qi
             picked.append(cand[np.argsort(-cosine, kind="stable")[: lookup.k]])
@@ -49,7 +48,7 @@ TABLES = {
 def test_grid_candidates_contain_the_cpu_neighbours(table, method):
     vectors = TABLES[table]
     lookup = build_lookup(vectors, method)
-    assert (lookup.candidates >= 0).sum(axis=2).max() <= CANDIDATES
+    assert lookup.length <= MAX_CANDIDATES
     q = random_directions(3000)
     if method == "barycentric":
         expected = barycentric_weights(vectors, q).indices
@@ -66,9 +65,24 @@ def test_a_table_direction_is_among_its_own_candidates(method):
     cells = hemi_octahedral_cell(vectors, lookup.resolution)
     candidates = lookup.candidates[cells[:, 1], cells[:, 0]]
     if method == "barycentric":
-        owners = lookup.table.reshape(-1, 4, 4)[:, 3, :3].astype(int)
+        owners = lookup.table.reshape(-1, 3, 4)[:, :, 3].astype(int)
         candidates = [owners[c[c >= 0]].ravel() for c in candidates]
     assert all(i in c for i, c in enumerate(candidates))
+
+
+@pytest.mark.parametrize("method", ["nearest4", "barycentric"])
+def test_every_cell_lists_distinct_candidates_ascending_and_its_texels_hold_them(method):
+    """The shader reads L candidates from every cell with no end marker, in index order (ties
+    go to the lower index), candidate i's texel j from layer i·m + j."""
+    lookup = build_lookup(TABLES["H2 every third"], method)
+    cand = lookup.candidates
+    assert cand.min() >= 0 and np.all(np.diff(cand, axis=2) > 0)
+    per = 3 if method == "barycentric" else 1
+    texels = lookup.cell_texels()
+    assert texels.shape == (lookup.length * per, lookup.resolution, lookup.resolution, 4)
+    row, col = 17, lookup.resolution // 2
+    expected = lookup.table.reshape(-1, per, 4)[cand[row, col]].reshape(-1, 4)
+    np.testing.assert_array_equal(texels[:, row, col], expected)
 
 
 def test_index_keeps_the_slots_own_numbers():
