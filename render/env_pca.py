@@ -75,12 +75,10 @@ def illumination_basis(
     if not (isinstance(components, int) and 1 <= components <= rotations):
         raise RenderError(f"components = {components!r}: need an int in [1, rotations={rotations}]")
     started = time.perf_counter()
+    turns = environment.rotation_deg + np.arange(rotations) * 360.0 / rotations
     samples = [
-        environment_coefficients(
-            maps, environment.with_view(rotation_deg=environment.rotation_deg + a * 360 / rotations),
-            btf,
-        )
-        for a in range(rotations)
+        environment_coefficients(maps, environment.with_view(rotation_deg=float(turn)), btf)
+        for turn in turns
     ]
     shape = samples[0].shape
     stack = np.stack([u.reshape(-1) for u in samples])  # (A, D) float32

@@ -164,8 +164,10 @@ class EnvironmentRenderer:
         if key == self._applied:
             return
         started = time.perf_counter()
-        fresh = self.method == "visibility" or self._basis is None or (
-            self._basis[0] is not environment.radiance
+        fresh = (
+            self.method == "visibility"
+            or self._basis is None
+            or (self._basis[0] is not environment.radiance)
         )
         flat = self.coefficients(environment).reshape(-1, 3)
         rows = -(-len(flat) // _COEF_WIDTH)

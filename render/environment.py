@@ -165,7 +165,8 @@ def synthetic_environment(name: str, *, height: int = 32) -> EnvironmentMap:
     """A small HDR test environment made in code, ``height`` × 2·height pixels.
 
     ``"sky"``: a blue sky brighter towards the horizon, a sun 3° across of radiance
-    3000 (the sky's blue at the zenith is 0.3) at θ = 40°, φ = 120°, dim brown ground below the horizon.
+    3000 (the sky's blue at the zenith is 0.3) at θ = 40°, φ = 120°, dim brown
+    ground below the horizon.
     ``"window"``: a dark room (0.02) with a bright window (4.0, θ 50–80°, φ
     60–120°). ``"studio"``: a dark grey studio with a large key softbox, a fill
     softbox opposite and a top light.
