@@ -52,10 +52,10 @@ def light_radiance(maps, environment, n_lights: int, vertices=slice(None)) -> np
     per_pass = max(1, _TEXELS_PER_PASS // maps.texels)
     for first in range(0, len(frames), per_pass):
         part = slice(first, first + per_pass)
-        scene_dirs = np.einsum("ta,vab->vtb", maps.directions, frames[part])
+        scene_dirs = maps.directions @ frames[part]  # (v, T, 3)
         radiance = environment.lookup(scene_dirs).astype(np.float64)
         radiance *= (visible[part] * maps.solid_angles)[..., None]
-        out[part] = np.einsum("vtc,ti->vic", radiance, blend)
+        out[part] = np.swapaxes(np.swapaxes(radiance, 1, 2) @ blend, 1, 2)
     return out
 
 
@@ -80,7 +80,8 @@ def environment_coefficients(maps, environment, btf) -> np.ndarray:
         part = slice(first, first + per_pass)
         g = light_radiance(maps, environment, lights, part)
         out[part, :, 0] = g.sum(axis=1)[:, None, :]
-        out[part, :, 1:] = np.einsum("vic,jik->vjkc", g, weights)
+        gamma = np.tensordot(g, weights, axes=([1], [1]))  # (v, 3, n_views, c)
+        out[part, :, 1:] = np.transpose(gamma, (0, 2, 3, 1))
     return out
 
 

@@ -192,7 +192,7 @@ def visibility_maps(
     started = time.perf_counter()
     for first in range(0, len(positions), per_cast):
         part = slice(first, first + per_cast)
-        rays = np.einsum("ta,vab->vtb", directions, frames[part])  # (v, T, 3)
+        rays = directions @ frames[part]  # (v, T, 3)
         origins = positions[part] + offset * frames[part, 2]
         hit = scene.ray.intersects_any(
             np.repeat(origins, texels, axis=0), rays.reshape(-1, 3)

@@ -9,6 +9,7 @@ import numpy as np
 import typer
 
 from orchestrator.cli.common import EXIT_INVALID, console, err_console
+from orchestrator.cli.view_env import ENV_FORMS, parse_environment
 from orchestrator.cli.view_scene import (
     CAMERA_FORMS,
     LIGHT_FORMS,
@@ -111,8 +112,42 @@ def register(app: typer.Typer) -> None:
                 "shift-drag to turn the lights, wheel for exposure",
             ),
         ] = False,
+        env: Annotated[
+            str | None, typer.Option(help=f"light by an environment instead of lights: {ENV_FORMS}")
+        ] = None,
+        env_rotate: Annotated[
+            float, typer.Option(help="turn the environment about the vertical axis, degrees")
+        ] = 0.0,
+        env_method: Annotated[
+            str,
+            typer.Option(
+                help="visibility (a new pass over every visibility map per environment or turn) "
+                "or pca (the PCA of 30 turns: turning is fast)"
+            ),
+        ] = "visibility",
+        vis_res: Annotated[
+            int,
+            typer.Option(
+                min=2,
+                max=64,
+                help="hemicube resolution n of the visibility maps (even; 3n² rays per vertex)",
+            ),
+        ] = 8,
     ) -> None:
-        """Render a material on a mesh under point and directional lights."""
+        """Render a material on a mesh under point and directional lights or an environment."""
+        if env is not None and light:
+            raise typer.BadParameter(
+                "give either --light or --env: lights on top of an environment are not drawn",
+                param_hint="--env",
+            )
+        if env_method not in ("visibility", "pca"):
+            raise typer.BadParameter(
+                f"{env_method!r}: valid are visibility, pca", param_hint="--env-method"
+            )
+        if vis_res % 2:
+            raise typer.BadParameter(f"{vis_res} is odd; give an even n", param_hint="--vis-res")
+        environment = None if env is None else parse_environment(env, env_rotate)
+        lighting = environment, env_method, vis_res
         lights = [parse_light(s) for s in light or [_DEFAULT_LIGHT]]
         camera_spec = parse_camera(camera)
         image_size = parse_size(size)
@@ -123,7 +158,7 @@ def register(app: typer.Typer) -> None:
             require_display()  # before the material and the mesh are read
         _run(
             material, mesh, lights, camera_spec, fov_deg, image_size, tile_mm, exposure,
-            out, turntable, window,
+            out, turntable, window, lighting,
         )  # fmt: skip
 
 
@@ -139,8 +174,9 @@ def _run(
     out: Path | None,
     turntable: int | None,
     window: bool,
+    lighting: tuple,
 ) -> None:
-    from render import Renderer
+    from render import EnvironmentRenderer, Renderer, RenderError
     from render.meshes import MeshError, mesh_by_name
     from render.output import to_srgb8, write_exr, write_png
     from rig.material import MaterialError, read_material
@@ -153,7 +189,18 @@ def _run(
         raise typer.Exit(EXIT_INVALID) from err
     centre = mesh_centre(mesh)
     framed = camera_spec.camera(mesh, size, fov_deg)
-    with Renderer(material, mesh, tile_mm=tile_mm) as renderer:
+    environment, env_method, vis_res = lighting
+    if environment is None:
+        renderer = Renderer(material, mesh, tile_mm=tile_mm)
+    else:
+        try:
+            renderer = EnvironmentRenderer(
+                material, mesh, tile_mm=tile_mm, method=env_method, resolution=vis_res
+            )
+        except RenderError as err:  # a material the environment path cannot draw
+            err_console.print(f"[red]error:[/red] {err}")
+            raise typer.Exit(EXIT_INVALID) from err
+    with renderer:
 
         def draw(turn_deg: float, tilt_deg: float, light_turn_deg: float) -> np.ndarray:
             """The image with the camera turned and raised, the lights turned (degrees)."""
@@ -162,8 +209,12 @@ def _run(
                 if tilt_deg == 0
                 else camera_spec.camera(mesh, size, fov_deg, tilt_deg=tilt_deg)
             )
+            camera = turned_camera(view, centre, turn_deg)
+            if environment is not None:
+                turned = environment.rotation_deg + light_turn_deg
+                return renderer.render(camera, environment.with_view(rotation_deg=turned))
             placed = [spec.light(centre, light_turn_deg) for spec in lights]
-            return renderer.render(turned_camera(view, centre, turn_deg), placed)
+            return renderer.render(camera, placed)
 
         first = draw(0.0, 0.0, 0.0)
         exposure_ev = auto_exposure_ev(first) if exposure is None else exposure
@@ -178,8 +229,9 @@ def _run(
                 write_exr(out, first)
             else:
                 write_png(out, first, exposure_ev=exposure_ev)
+            lit_by = f"{len(lights)} light(s)" if environment is None else environment.name
             console.print(
-                f"wrote {out} ({size[0]}×{size[1]}, {mesh.name}, {len(lights)} light(s), "
+                f"wrote {out} ({size[0]}×{size[1]}, {mesh.name}, {lit_by}, "
                 f"exposure {exposure_ev:+.2f} EV)"
             )
             return
