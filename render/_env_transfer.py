@@ -55,7 +55,7 @@ def light_radiance(maps, environment, n_lights: int, vertices=slice(None)) -> np
         scene_dirs = maps.directions @ frames[part]  # (v, T, 3)
         radiance = environment.lookup(scene_dirs).astype(np.float64)
         radiance *= (visible[part] * maps.solid_angles)[..., None]
-        out[part] = np.swapaxes(np.swapaxes(radiance, 1, 2) @ blend, 1, 2)
+        out[part] = np.swapaxes(np.tensordot(radiance, blend, axes=([1], [0])), 1, 2)
     return out
 
 

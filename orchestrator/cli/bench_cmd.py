@@ -59,6 +59,7 @@ AREAS: dict[str, tuple[str, Callable]] = {
     "mdf": ("processing.mdf.bench", _plain),
     "calibration": ("orchestrator.calibration_bench", _plain),
     "render": ("render.bench", _plain),
+    "environment": ("render.env_bench", _plain),
 }
 
 app = typer.Typer(no_args_is_help=True, help="Benchmarks: accuracy against time, per area.")
