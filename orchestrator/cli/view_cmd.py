@@ -121,8 +121,9 @@ def register(app: typer.Typer) -> None:
         env_method: Annotated[
             str,
             typer.Option(
-                help="visibility (a new pass over every visibility map per environment or turn) "
-                "or pca (the PCA of 30 turns: turning is fast)"
+                help="visibility (a new pass over every visibility map per environment or turn), "
+                "pca (the PCA of 30 turns: turning is fast) or pem (median-cut lights with "
+                "shadow maps: any material)"
             ),
         ] = "visibility",
         vis_res: Annotated[
@@ -133,6 +134,9 @@ def register(app: typer.Typer) -> None:
                 help="hemicube resolution n of the visibility maps (even; 3n² rays per vertex)",
             ),
         ] = 8,
+        median_cut: Annotated[
+            int, typer.Option(min=1, max=1024, help="lights of --env-method pem (a power of 2)")
+        ] = 16,
     ) -> None:
         """Render a material on a mesh under point and directional lights or an environment."""
         if env is not None and light:
@@ -140,14 +144,16 @@ def register(app: typer.Typer) -> None:
                 "give either --light or --env: lights on top of an environment are not drawn",
                 param_hint="--env",
             )
-        if env_method not in ("visibility", "pca"):
+        if env_method not in ("visibility", "pca", "pem"):
             raise typer.BadParameter(
-                f"{env_method!r}: valid are visibility, pca", param_hint="--env-method"
+                f"{env_method!r}: valid are visibility, pca, pem", param_hint="--env-method"
             )
+        if median_cut & (median_cut - 1):
+            raise typer.BadParameter(f"{median_cut} is not a power of 2", param_hint="--median-cut")
         if vis_res % 2:
             raise typer.BadParameter(f"{vis_res} is odd; give an even n", param_hint="--vis-res")
         environment = None if env is None else parse_environment(env, env_rotate)
-        lighting = environment, env_method, vis_res
+        lighting = environment, env_method, vis_res, median_cut
         lights = [parse_light(s) for s in light or [_DEFAULT_LIGHT]]
         camera_spec = parse_camera(camera)
         image_size = parse_size(size)
@@ -177,6 +183,7 @@ def _run(
     lighting: tuple,
 ) -> None:
     from render import EnvironmentRenderer, Renderer, RenderError
+    from render.median_cut import render_median_cut
     from render.meshes import MeshError, mesh_by_name
     from render.output import to_srgb8, write_exr, write_png
     from rig.material import MaterialError, read_material
@@ -189,8 +196,8 @@ def _run(
         raise typer.Exit(EXIT_INVALID) from err
     centre = mesh_centre(mesh)
     framed = camera_spec.camera(mesh, size, fov_deg)
-    environment, env_method, vis_res = lighting
-    if environment is None:
+    environment, env_method, vis_res, median_cut = lighting
+    if environment is None or env_method == "pem":
         renderer = Renderer(material, mesh, tile_mm=tile_mm)
     else:
         try:
@@ -211,8 +218,12 @@ def _run(
             )
             camera = turned_camera(view, centre, turn_deg)
             if environment is not None:
-                turned = environment.rotation_deg + light_turn_deg
-                return renderer.render(camera, environment.with_view(rotation_deg=turned))
+                turned = environment.with_view(
+                    rotation_deg=environment.rotation_deg + light_turn_deg
+                )
+                if env_method == "pem":
+                    return render_median_cut(renderer, camera, turned, count=median_cut)
+                return renderer.render(camera, turned)
             placed = [spec.light(centre, light_turn_deg) for spec in lights]
             return renderer.render(camera, placed)
 

@@ -64,3 +64,14 @@ def test_bad_environment_options_exit_2_naming_them(store, tmp_path):
         assert result.exit_code == 2, (args, result.output)
         assert named in result.output, (args, result.output)
         assert "Traceback" not in result.output
+
+
+def test_pem_method_draws_median_cut_lights(store, tmp_path):
+    out = tmp_path / "pem.png"
+    result = _view(store, "--env", "sky", "--env-method", "pem", "--median-cut", "16",
+                   "--out", str(out))  # fmt: skip
+    assert result.exit_code == 0, result.output
+    assert _png(out).max() > 0
+    result = _view(store, "--env", "sky", "--env-method", "pem", "--median-cut", "12",
+                   "--out", str(out))  # fmt: skip
+    assert result.exit_code == 2 and "--median-cut" in result.output
