@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from processing.btf import interpolate
-from render import Camera, RenderError, Renderer
+from render import Camera, Renderer, RenderError
 from render.environment import EnvironmentMap, synthetic_environment
 from render.median_cut import environment_lights, median_cut, render_median_cut
 from rig.geometry import direction_angles, direction_vector
