@@ -12,6 +12,9 @@ the studio environment. Rows:
   U at a rotation between two samples against U computed there (and at a
   sampled rotation, the truncation alone), the PCA's
   precompute time and the time of one rotation.
+- ``median_cut``: per light count K, the error of the median-cut lights
+  (each ray-cast from the vertex, as the shadow maps approximate) against the
+  same brute force, and the frame time with shadow maps, K/8 passes.
 - ``vertices``: ray casting and U against the vertex count, and the memory
   that stays per vertex (visibility bits, frames, U).
 """
@@ -30,6 +33,7 @@ from render.env_pca import illumination_basis
 from render.env_renderer import EnvironmentRenderer
 from render.environment import synthetic_environment
 from render.lights import DirectionalLight
+from render.median_cut import median_cut, render_median_cut
 from render.meshes import cloth, sphere
 from render.renderer import Renderer
 from render.visibility import visibility_maps
@@ -50,10 +54,17 @@ def brute_force_texture(btf, mesh, vertex: int, frame, environment, view_deg) ->
     weights, as ``processing.btf.interpolate``) and at ``view_deg``.
     """
     directions, solid = environment.pixel_directions()
-    directions = directions.reshape(-1, 3)
     weighted = np.broadcast_to(solid[..., None] * environment.radiance, environment.radiance.shape)
-    weighted = weighted.reshape(-1, 3).astype(np.float64)
+    return _directional_sum(
+        btf, mesh, vertex, frame, directions.reshape(-1, 3), weighted.reshape(-1, 3), view_deg
+    )
+
+
+def _directional_sum(btf, mesh, vertex, frame, directions, irradiance, view_deg) -> np.ndarray:
+    """Σ over scene ``directions`` (m, 3) seen from the vertex of ``irradiance`` (m, 3) ×
+    the BTF there; see :func:`brute_force_texture`."""
     frame = np.asarray(frame, np.float64)
+    irradiance = np.asarray(irradiance, np.float64)
     local = directions @ frame.T
     up = np.flatnonzero(local[:, 2] > 0)
     positions = np.asarray(mesh.positions, np.float64)
@@ -61,11 +72,13 @@ def brute_force_texture(btf, mesh, vertex: int, frame, environment, view_deg) ->
     origin = positions[vertex] + 1e-4 * np.linalg.norm(np.ptp(positions, axis=0)) * frame[2]
     hit = scene.ray.intersects_any(np.repeat(origin[None], len(up), 0), directions[up])
     seen = up[~hit]
+    texture = np.zeros((*btf.mean.shape[1:3], 3))
+    if len(seen) == 0:
+        return texture
     lights = nearest_directions(btf.light_vectors, local[seen], k=4)
     g = np.zeros((len(btf.light_dirs_deg), 3))
-    np.add.at(g, lights.indices, lights.weights[..., None] * weighted[seen, None, :])
+    np.add.at(g, lights.indices, lights.weights[..., None] * irradiance[seen, None, :])
     view = nearest_directions(btf.view_vectors, direction_vector(*view_deg)[None], k=4)
-    texture = np.zeros((*btf.mean.shape[1:3], 3))
     for i in np.flatnonzero(np.any(g != 0, axis=1)):
         texture += g[i] * btf.blend(view.indices[0], view.weights[0], [i], [1.0])
     return texture
@@ -78,7 +91,7 @@ def _timed(call):
 
 
 def run_bench(*, quick: bool = False) -> list[dict]:
-    """Rows ``row`` = visibility | pca | vertices (see the module)."""
+    """Rows ``row`` = visibility | pca | median_cut | vertices (see the module)."""
     material = random_material("pca", 6, 32)  # 27 view slots × H1's 81 lights, c = 6
     btf: CompressedBTF = material.btf
     env = synthetic_environment("studio", height=32)
@@ -126,6 +139,25 @@ def run_bench(*, quick: bool = False) -> list[dict]:
             ),
             "energy": round(basis.energy, 5), "precompute_s": round(basis.seconds, 2),
             "rotation_s": round(turn_s, 4),
+        })  # fmt: skip
+    for count in (4, 16) if quick else (4, 16, 64):
+        directions, irradiance = median_cut(env, count)
+        error = max(
+            np.abs(
+                _directional_sum(btf, mesh, v, frames0[v], directions, irradiance, _VIEW_DEG) - ref
+            ).max()
+            / np.abs(ref).max()
+            for v, ref in references.items()
+        )
+        with Renderer(material, mesh) as renderer:
+            render_median_cut(renderer, camera, env, count=count)
+            _, frame_s = _timed(
+                lambda r=renderer, k=count: render_median_cut(r, camera, env, count=k)
+            )
+        rows.append({
+            "row": "median_cut", "count": count, "lights": len(directions),
+            "max_error": round(float(error), 4), "frame_s": round(frame_s, 3),
+            "frame_over_point_light": round(frame_s / point_s, 2),
         })  # fmt: skip
     big = (cloth(segments=24), mesh) if quick else (cloth(segments=24), mesh, sphere(segments=316))
     for shape in big:

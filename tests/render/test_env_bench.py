@@ -15,3 +15,5 @@ def test_environment_bench_rows():
     for row in rows:
         assert all(math.isfinite(v) for v in row.values() if isinstance(v, float))
     assert {r["vertices"] for r in rows if r["row"] == "vertices"} == {289, 625}
+    cut = [r for r in rows if r["row"] == "median_cut"]
+    assert [r["count"] for r in cut] == [4, 16] and cut[1]["max_error"] < cut[0]["max_error"]
