@@ -34,7 +34,7 @@ def check_pca(btf) -> CompressedBTF:
         raise RenderError(
             f"environment lighting needs a per-view PCA BTF (seed 000 eq. (10)); the material "
             f"holds {type(btf).__name__ if btf is not None else 'no BTF'}: compress it with "
-            "processing.btf.compress_btf"
+            "processing.btf.compress_btf, or light it by median-cut lights (render.median_cut)"
         )
     return btf
 
