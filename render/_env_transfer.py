@@ -25,8 +25,11 @@ from rig.material import CompressedBTF
 
 __all__ = ["environment_coefficients", "light_radiance", "texture_at_vertex"]
 
-# Texel rows gathered at once (each row 3 float64 several times over): ~100 MB.
+# Work per pass, whatever the vertex count: texel rows gathered at once (each 3
+# float64 several times over, ~100 MB) and vertices whose g and γ* are held (8192
+# vertices × 81 lights or 27 slots × 8 components × 3 float64: tens of MB).
 _TEXELS_PER_PASS = 1 << 21
+_VERTICES_PER_PASS = 1 << 13
 
 
 def check_pca(btf) -> CompressedBTF:
@@ -75,7 +78,7 @@ def environment_coefficients(maps, environment, btf) -> np.ndarray:
     n_views, c = len(btf.view_dirs_deg), btf.components
     weights = np.asarray(btf.weights, np.float64)  # (n_views, n_lights, c)
     out = np.empty((vertices, n_views, c + 1, 3), np.float32)
-    per_pass = max(1, _TEXELS_PER_PASS // maps.texels)
+    per_pass = max(1, min(_TEXELS_PER_PASS // maps.texels, _VERTICES_PER_PASS))
     for first in range(0, vertices, per_pass):
         part = slice(first, first + per_pass)
         g = light_radiance(maps, environment, lights, part)

@@ -10,6 +10,8 @@ n = 16 on a 16 × 32 studio (measured: 1.2 %, and 31 % at n = 2), and n = 16
 must beat n = 2.
 """
 
+import tracemalloc
+
 import numpy as np
 import pytest
 import trimesh
@@ -17,6 +19,7 @@ import trimesh
 from processing.btf import direction_weights, interpolate
 from render import Camera, RenderError
 from render._env_transfer import environment_coefficients, texture_at_vertex
+from render.bench import _material as random_material
 from render.env_bench import brute_force_texture
 from render.env_pca import illumination_basis
 from render.env_renderer import EnvironmentRenderer
@@ -146,3 +149,19 @@ def test_bench_brute_force_is_the_interpolate_sum(pca_model, small_cloth):
     expected = brute_force(pca_model, small_cloth, frame, 84, STUDIO)
     got = brute_force_texture(pca_model, small_cloth, 84, frame, STUDIO, VIEW_DEG)
     np.testing.assert_allclose(got, expected, rtol=0, atol=1e-5 * np.abs(expected).max())
+
+
+def test_200k_vertices_stay_finite_in_bounded_memory():
+    """U itself (200 659 vertices × 27 slots × 3 coefficients × RGB float32 = 186 MB) plus
+    the passes' work, which does not grow with the vertex count: under 100 MB more."""
+    btf = random_material("pca", 2, 8).btf
+    mesh = sphere(segments=316)
+    maps = visibility_maps(mesh, btf.light_vectors, resolution=2)
+    tracemalloc.start()
+    try:
+        u = environment_coefficients(maps, synthetic_environment("sky", height=16), btf)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert len(u) == 200_659 and np.all(np.isfinite(u)) and u.max() > 0
+    assert peak - u.nbytes < 100 * 2**20
