@@ -12,8 +12,6 @@ The BTF textures are the point-light renderer's (``render._textures``).
 
 from __future__ import annotations
 
-import time
-
 import moderngl
 import numpy as np
 
@@ -143,8 +141,6 @@ class EnvironmentRenderer:
         self._applied: tuple | None = None
         self._basis = None
         self._fbo: dict[tuple[int, int], moderngl.Framebuffer] = {}
-        #: seconds of the last change of U (new environment, rotation), and what made it
-        self.last_update: tuple[str, float] = ("none", 0.0)
 
     def coefficients(self, environment: EnvironmentMap) -> np.ndarray:
         """U for ``environment`` by this renderer's method (exposure not applied)."""
@@ -160,15 +156,14 @@ class EnvironmentRenderer:
         return self._basis[1].coefficients(environment.rotation_deg)
 
     def _apply(self, environment: EnvironmentMap) -> None:
-        key = (id(environment.radiance), environment.rotation_deg)
-        if key == self._applied:
+        """Upload U unless this map at this rotation is what the texture holds already."""
+        applied = self._applied
+        if (
+            applied is not None
+            and applied[0] is environment.radiance
+            and (applied[1] == environment.rotation_deg)
+        ):
             return
-        started = time.perf_counter()
-        fresh = (
-            self.method == "visibility"
-            or self._basis is None
-            or (self._basis[0] is not environment.radiance)
-        )
         flat = self.coefficients(environment).reshape(-1, 3)
         rows = -(-len(flat) // _COEF_WIDTH)
         if rows > int(self.ctx.info["GL_MAX_TEXTURE_SIZE"]):
@@ -184,9 +179,7 @@ class EnvironmentRenderer:
             self._coef_texture = self.ctx.texture((_COEF_WIDTH, rows), 3, dtype="f4")
             self._coef_texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self._coef_texture.write(padded)
-        self._applied = key
-        what = "environment" if fresh else "rotation"
-        self.last_update = (what, time.perf_counter() - started)
+        self._applied = (environment.radiance, environment.rotation_deg)
 
     def render(self, camera: Camera, environment: EnvironmentMap) -> np.ndarray:
         """(H, W, 3) float32 linear image: radiance in the material's units times the
