@@ -9,15 +9,16 @@ import numpy as np
 import typer
 
 from orchestrator.cli.common import EXIT_INVALID, console, err_console
-from orchestrator.cli.view_env import ENV_FORMS, parse_environment
 from orchestrator.cli.view_scene import (
     CAMERA_FORMS,
+    ENV_FORMS,
     LIGHT_FORMS,
     CameraSpec,
     LightSpec,
     auto_exposure_ev,
     mesh_centre,
     parse_camera,
+    parse_environment,
     parse_light,
     parse_size,
     turned_camera,
