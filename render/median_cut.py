@@ -86,10 +86,11 @@ def environment_lights(environment, count: int) -> list[DirectionalLight]:
     return lights
 
 
-def render_median_cut(renderer, camera, environment, *, count: int = 16) -> np.ndarray:
+def render_median_cut(renderer, camera, environment, *, count: int = 16, lights=()) -> np.ndarray:
     """(H, W, 3) float32: ``renderer`` (a :class:`render.Renderer`) under the median-cut
-    lights of ``environment``, :data:`MAX_LIGHTS` lights per pass, the passes summed."""
-    lights = environment_lights(environment, count)
+    lights of ``environment`` and any further ``lights``, :data:`MAX_LIGHTS` lights per
+    pass, the passes summed."""
+    lights = [*lights, *environment_lights(environment, count)]
     image = renderer.render(camera, lights[:MAX_LIGHTS])
     for first in range(MAX_LIGHTS, len(lights), MAX_LIGHTS):
         image += renderer.render(camera, lights[first : first + MAX_LIGHTS])

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from contextlib import ExitStack
 from pathlib import Path
 from typing import Annotated
 
@@ -140,11 +141,6 @@ def register(app: typer.Typer) -> None:
         ] = 16,
     ) -> None:
         """Render a material on a mesh under point and directional lights or an environment."""
-        if env is not None and light:
-            raise typer.BadParameter(
-                "give either --light or --env: lights on top of an environment are not drawn",
-                param_hint="--env",
-            )
         if env_method not in ("visibility", "pca", "pem"):
             raise typer.BadParameter(
                 f"{env_method!r}: valid are visibility, pca, pem", param_hint="--env-method"
@@ -155,7 +151,8 @@ def register(app: typer.Typer) -> None:
             raise typer.BadParameter(f"{vis_res} is odd; give an even n", param_hint="--vis-res")
         environment = None if env is None else parse_environment(env, env_rotate)
         lighting = environment, env_method, vis_res, median_cut
-        lights = [parse_light(s) for s in light or [_DEFAULT_LIGHT]]
+        # Under an environment, lights are only those given (added to its light).
+        lights = [parse_light(s) for s in light or ([] if env else [_DEFAULT_LIGHT])]
         camera_spec = parse_camera(camera)
         image_size = parse_size(size)
         _check_out(out, turntable, window)
@@ -198,17 +195,24 @@ def _run(
     centre = mesh_centre(mesh)
     framed = camera_spec.camera(mesh, size, fov_deg)
     environment, env_method, vis_res, median_cut = lighting
-    if environment is None or env_method == "pem":
-        renderer = Renderer(material, mesh, tile_mm=tile_mm)
-    else:
-        try:
-            renderer = EnvironmentRenderer(
+    through_maps = environment is not None and env_method != "pem"
+    try:
+        lit = (
+            EnvironmentRenderer(
                 material, mesh, tile_mm=tile_mm, method=env_method, resolution=vis_res
             )
-        except RenderError as err:  # a material the environment path cannot draw
-            err_console.print(f"[red]error:[/red] {err}")
-            raise typer.Exit(EXIT_INVALID) from err
-    with renderer:
+            if through_maps
+            else None
+        )
+    except RenderError as err:  # a material the environment path cannot draw
+        err_console.print(f"[red]error:[/red] {err}")
+        raise typer.Exit(EXIT_INVALID) from err
+    with ExitStack() as stack:
+        if lit is not None:
+            stack.enter_context(lit)
+        renderer = None
+        if lights or not through_maps:
+            renderer = stack.enter_context(Renderer(material, mesh, tile_mm=tile_mm))
 
         def draw(turn_deg: float, tilt_deg: float, light_turn_deg: float) -> np.ndarray:
             """The image with the camera turned and raised, the lights turned (degrees)."""
@@ -218,15 +222,15 @@ def _run(
                 else camera_spec.camera(mesh, size, fov_deg, tilt_deg=tilt_deg)
             )
             camera = turned_camera(view, centre, turn_deg)
-            if environment is not None:
-                turned = environment.with_view(
-                    rotation_deg=environment.rotation_deg + light_turn_deg
-                )
-                if env_method == "pem":
-                    return render_median_cut(renderer, camera, turned, count=median_cut)
-                return renderer.render(camera, turned)
             placed = [spec.light(centre, light_turn_deg) for spec in lights]
-            return renderer.render(camera, placed)
+            if environment is None:
+                return renderer.render(camera, placed)
+            # Light adds up: the environment's image plus the lights' image.
+            turned = environment.with_view(rotation_deg=environment.rotation_deg + light_turn_deg)
+            if not through_maps:
+                return render_median_cut(renderer, camera, turned, count=median_cut, lights=placed)
+            image = lit.render(camera, turned)
+            return image + renderer.render(camera, placed) if placed else image
 
         first = draw(0.0, 0.0, 0.0)
         exposure_ev = auto_exposure_ev(first) if exposure is None else exposure
@@ -241,7 +245,10 @@ def _run(
                 write_exr(out, first)
             else:
                 write_png(out, first, exposure_ev=exposure_ev)
-            lit_by = f"{len(lights)} light(s)" if environment is None else environment.name
+            lit_by = ", ".join(
+                ([environment.name] if environment is not None else [])
+                + ([f"{len(lights)} light(s)"] if lights else [])
+            )
             console.print(
                 f"wrote {out} ({size[0]}×{size[1]}, {mesh.name}, {lit_by}, "
                 f"exposure {exposure_ev:+.2f} EV)"

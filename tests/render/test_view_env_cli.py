@@ -2,6 +2,8 @@
 
 import cv2
 import numpy as np
+import OpenEXR
+import pytest
 from PIL import Image
 from typer.testing import CliRunner
 
@@ -56,7 +58,6 @@ def test_bad_environment_options_exit_2_naming_them(store, tmp_path):
     for args, named in (
         (["--env", "beach"], "--env"),
         (["--env", str(tmp_path / "square.exr")], "square.exr"),
-        (["--env", "sky", "--light", "dir:40,0"], "--light or --env"),
         (["--env", "sky", "--env-method", "median"], "--env-method"),
         (["--env", "sky", "--vis-res", "5"], "--vis-res"),
     ):
@@ -75,3 +76,28 @@ def test_pem_method_draws_median_cut_lights(store, tmp_path):
     result = _view(store, "--env", "sky", "--env-method", "pem", "--median-cut", "12",
                    "--out", str(out))  # fmt: skip
     assert result.exit_code == 2 and "--median-cut" in result.output
+
+
+def _exr(path) -> np.ndarray:
+    with OpenEXR.File(str(path)) as exr:
+        return np.asarray(exr.channels()["RGB"].pixels, np.float64)
+
+
+@pytest.mark.parametrize("method", ["visibility", "pem"])
+def test_lights_add_to_the_environment(store, tmp_path, method):
+    """Light adds up: environment + a lamp is the environment's image plus the lamp's."""
+    common = ["--camera", "orbit:0,0,100", "--env-method", method]
+    images = {}
+    for name, args in (
+        ("both", ["--env", "window", "--light", "dir:30,0:0.5"]),
+        ("env", ["--env", "window"]),
+        ("lamp", ["--light", "dir:30,0:0.5"]),
+    ):
+        out = tmp_path / f"{name}.exr"
+        result = _view(store, *common, *args, "--out", str(out), mesh="plane")
+        assert result.exit_code == 0, result.output
+        images[name] = _exr(out)
+    assert images["env"].max() > 0 and images["lamp"].max() > 0
+    np.testing.assert_allclose(
+        images["both"], images["env"] + images["lamp"], rtol=1e-5, atol=1e-6 * images["both"].max()
+    )
