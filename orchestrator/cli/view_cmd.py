@@ -115,7 +115,8 @@ def register(app: typer.Typer) -> None:
             ),
         ] = False,
         env: Annotated[
-            str | None, typer.Option(help=f"light by an environment instead of lights: {ENV_FORMS}")
+            str | None,
+            typer.Option(help=f"light by an environment (--light adds lamps on top): {ENV_FORMS}"),
         ] = None,
         env_rotate: Annotated[
             float, typer.Option(help="turn the environment about the vertical axis, degrees")
