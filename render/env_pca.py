@@ -19,7 +19,7 @@ import numpy as np
 from render._env_transfer import environment_coefficients
 from render._errors import RenderError
 
-__all__ = ["IlluminationBasis", "illumination_basis"]
+__all__ = ["IlluminationBasis", "check_basis_size", "illumination_basis"]
 
 
 @dataclass(frozen=True)
@@ -62,6 +62,14 @@ class IlluminationBasis:
         return (o.astype(np.float32) @ self.eigen_sets).reshape(self.shape)
 
 
+def check_basis_size(rotations, components) -> None:
+    """A RenderError unless 2 ≤ ``rotations`` and 1 ≤ ``components`` ≤ ``rotations`` (ints)."""
+    if not (isinstance(rotations, int) and rotations >= 2):
+        raise RenderError(f"rotations = {rotations!r}: need an int ≥ 2")
+    if not (isinstance(components, int) and 1 <= components <= rotations):
+        raise RenderError(f"components = {components!r}: need an int in [1, rotations={rotations}]")
+
+
 def illumination_basis(
     maps, environment, btf, *, rotations: int = 30, components: int = 5
 ) -> IlluminationBasis:
@@ -70,10 +78,7 @@ def illumination_basis(
     Seed 000 uses A = 30 rotations of 12° and e = 5. The environment's own
     rotation is the origin the samples turn from.
     """
-    if not (isinstance(rotations, int) and rotations >= 2):
-        raise RenderError(f"rotations = {rotations!r}: need an int ≥ 2")
-    if not (isinstance(components, int) and 1 <= components <= rotations):
-        raise RenderError(f"components = {components!r}: need an int in [1, rotations={rotations}]")
+    check_basis_size(rotations, components)
     started = time.perf_counter()
     turns = environment.rotation_deg + np.arange(rotations) * 360.0 / rotations
     samples = [

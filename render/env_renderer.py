@@ -20,7 +20,7 @@ from render._errors import RenderError
 from render._gl import gl_context, shader_source
 from render._textures import upload_btf
 from render.camera import Camera
-from render.env_pca import illumination_basis
+from render.env_pca import check_basis_size, illumination_basis
 from render.environment import EnvironmentMap
 from render.visibility import visibility_maps
 from rig.geometry import spherical_triangulation
@@ -87,6 +87,8 @@ class EnvironmentRenderer:
         self.btf = check_pca(material.btf)
         if method not in ENV_METHODS:
             raise RenderError(f"method = {method!r}: valid are {ENV_METHODS}")
+        if method == "pca":
+            check_basis_size(rotations, components)
         if view_method not in _VIEW_METHODS:
             raise RenderError(f"view_method = {view_method!r}: valid are {_VIEW_METHODS}")
         tile = material.sample_mm if tile_mm is None else tile_mm

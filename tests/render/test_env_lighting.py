@@ -136,9 +136,13 @@ def test_hard_cases_stay_finite(pca_model):
     assert np.all(np.isfinite(basis.coefficients(45.0))) and not basis.coefficients(45.0).any()
 
 
-def test_svd_material_is_refused_with_a_reason(svd_model):
+def test_bad_renderer_options_are_refused_with_a_reason(svd_model, pca_model):
     with pytest.raises(RenderError, match="per-view PCA"):
         EnvironmentRenderer(material(svd_model), sphere(segments=8))
+    with pytest.raises(RenderError, match="components = 40"):
+        EnvironmentRenderer(material(pca_model), sphere(segments=8), method="pca", components=40)
+    with pytest.raises(RenderError, match="method = 'mip'"):
+        EnvironmentRenderer(material(pca_model), sphere(segments=8), method="mip")
 
 
 def test_bench_brute_force_is_the_interpolate_sum(pca_model, small_cloth):
