@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from contextlib import ExitStack
 from pathlib import Path
 from typing import Annotated
 
@@ -11,12 +12,14 @@ import typer
 from orchestrator.cli.common import EXIT_INVALID, console, err_console
 from orchestrator.cli.view_scene import (
     CAMERA_FORMS,
+    ENV_FORMS,
     LIGHT_FORMS,
     CameraSpec,
     LightSpec,
     auto_exposure_ev,
     mesh_centre,
     parse_camera,
+    parse_environment,
     parse_light,
     parse_size,
     turned_camera,
@@ -111,9 +114,46 @@ def register(app: typer.Typer) -> None:
                 "shift-drag to turn the lights, wheel for exposure",
             ),
         ] = False,
+        env: Annotated[
+            str | None,
+            typer.Option(help=f"light by an environment (--light adds lamps on top): {ENV_FORMS}"),
+        ] = None,
+        env_rotate: Annotated[
+            float, typer.Option(help="turn the environment about the vertical axis, degrees")
+        ] = 0.0,
+        env_method: Annotated[
+            str,
+            typer.Option(
+                help="visibility (a new pass over every visibility map per environment or turn), "
+                "pca (the PCA of 30 turns: turning is fast) or pem (median-cut lights with "
+                "shadow maps: any material)"
+            ),
+        ] = "visibility",
+        vis_res: Annotated[
+            int,
+            typer.Option(
+                min=2,
+                max=64,
+                help="hemicube resolution n of the visibility maps (even; 3n² rays per vertex)",
+            ),
+        ] = 8,
+        median_cut: Annotated[
+            int, typer.Option(min=1, max=1024, help="lights of --env-method pem (a power of 2)")
+        ] = 16,
     ) -> None:
-        """Render a material on a mesh under point and directional lights."""
-        lights = [parse_light(s) for s in light or [_DEFAULT_LIGHT]]
+        """Render a material on a mesh under point and directional lights or an environment."""
+        if env_method not in ("visibility", "pca", "pem"):
+            raise typer.BadParameter(
+                f"{env_method!r}: valid are visibility, pca, pem", param_hint="--env-method"
+            )
+        if median_cut & (median_cut - 1):
+            raise typer.BadParameter(f"{median_cut} is not a power of 2", param_hint="--median-cut")
+        if vis_res % 2:
+            raise typer.BadParameter(f"{vis_res} is odd; give an even n", param_hint="--vis-res")
+        environment = None if env is None else parse_environment(env, env_rotate)
+        lighting = environment, env_method, vis_res, median_cut
+        # Under an environment, lights are only those given (added to its light).
+        lights = [parse_light(s) for s in light or ([] if env else [_DEFAULT_LIGHT])]
         camera_spec = parse_camera(camera)
         image_size = parse_size(size)
         _check_out(out, turntable, window)
@@ -123,7 +163,7 @@ def register(app: typer.Typer) -> None:
             require_display()  # before the material and the mesh are read
         _run(
             material, mesh, lights, camera_spec, fov_deg, image_size, tile_mm, exposure,
-            out, turntable, window,
+            out, turntable, window, lighting,
         )  # fmt: skip
 
 
@@ -139,8 +179,10 @@ def _run(
     out: Path | None,
     turntable: int | None,
     window: bool,
+    lighting: tuple,
 ) -> None:
-    from render import Renderer
+    from render import EnvironmentRenderer, Renderer, RenderError
+    from render.median_cut import render_median_cut
     from render.meshes import MeshError, mesh_by_name
     from render.output import to_srgb8, write_exr, write_png
     from rig.material import MaterialError, read_material
@@ -153,7 +195,25 @@ def _run(
         raise typer.Exit(EXIT_INVALID) from err
     centre = mesh_centre(mesh)
     framed = camera_spec.camera(mesh, size, fov_deg)
-    with Renderer(material, mesh, tile_mm=tile_mm) as renderer:
+    environment, env_method, vis_res, median_cut = lighting
+    through_maps = environment is not None and env_method != "pem"
+    try:
+        lit = (
+            EnvironmentRenderer(
+                material, mesh, tile_mm=tile_mm, method=env_method, resolution=vis_res
+            )
+            if through_maps
+            else None
+        )
+    except RenderError as err:  # a material the environment path cannot draw
+        err_console.print(f"[red]error:[/red] {err}")
+        raise typer.Exit(EXIT_INVALID) from err
+    with ExitStack() as stack:
+        if lit is not None:
+            stack.enter_context(lit)
+        renderer = None
+        if lights or not through_maps:
+            renderer = stack.enter_context(Renderer(material, mesh, tile_mm=tile_mm))
 
         def draw(turn_deg: float, tilt_deg: float, light_turn_deg: float) -> np.ndarray:
             """The image with the camera turned and raised, the lights turned (degrees)."""
@@ -162,8 +222,16 @@ def _run(
                 if tilt_deg == 0
                 else camera_spec.camera(mesh, size, fov_deg, tilt_deg=tilt_deg)
             )
+            camera = turned_camera(view, centre, turn_deg)
             placed = [spec.light(centre, light_turn_deg) for spec in lights]
-            return renderer.render(turned_camera(view, centre, turn_deg), placed)
+            if environment is None:
+                return renderer.render(camera, placed)
+            # Light adds up: the environment's image plus the lights' image.
+            turned = environment.with_view(rotation_deg=environment.rotation_deg + light_turn_deg)
+            if not through_maps:
+                return render_median_cut(renderer, camera, turned, count=median_cut, lights=placed)
+            image = lit.render(camera, turned)
+            return image + renderer.render(camera, placed) if placed else image
 
         first = draw(0.0, 0.0, 0.0)
         exposure_ev = auto_exposure_ev(first) if exposure is None else exposure
@@ -178,8 +246,12 @@ def _run(
                 write_exr(out, first)
             else:
                 write_png(out, first, exposure_ev=exposure_ev)
+            lit_by = ", ".join(
+                ([environment.name] if environment is not None else [])
+                + ([f"{len(lights)} light(s)"] if lights else [])
+            )
             console.print(
-                f"wrote {out} ({size[0]}×{size[1]}, {mesh.name}, {len(lights)} light(s), "
+                f"wrote {out} ({size[0]}×{size[1]}, {mesh.name}, {lit_by}, "
                 f"exposure {exposure_ev:+.2f} EV)"
             )
             return

@@ -1,4 +1,5 @@
-"""What `rig view` shows: lights and camera from short specs, framing, exposure.
+"""What `rig view` shows: lights, an environment and the camera from short specs, framing,
+exposure.
 
 The specs are checked when parsed, before anything is read or drawn; a bad
 one raises ``typer.BadParameter`` naming the option and its valid forms (exit 2).
@@ -14,12 +15,14 @@ import typer
 
 __all__ = [
     "CAMERA_FORMS",
+    "ENV_FORMS",
     "LIGHT_FORMS",
     "CameraSpec",
     "LightSpec",
     "auto_exposure_ev",
     "mesh_centre",
     "parse_camera",
+    "parse_environment",
     "parse_light",
     "parse_size",
     "turned_camera",
@@ -32,6 +35,10 @@ LIGHT_FORMS = (
 CAMERA_FORMS = (
     "orbit:THETA,PHI[,DISTANCE] (from direction θ, φ in degrees, DISTANCE mm; default: the "
     "mesh fills the view) or eye:X,Y,Z (mm, looking at the mesh's centre)"
+)
+ENV_FORMS = (
+    "a latitude–longitude .hdr or .exr file (width twice the height, +z up), or a built-in "
+    "test environment: sky (with a sun), window, studio"
 )
 _MARGIN = 1.1  # the framed outline spans 1 / 1.1 of the image on its tighter side
 
@@ -234,3 +241,18 @@ def auto_exposure_ev(image: np.ndarray) -> float:
     if lit.size == 0:
         return 0.0
     return float(np.log2(0.9 / np.percentile(lit, 99)))
+
+
+def parse_environment(spec: str, rotate_deg: float):
+    """The :class:`render.EnvironmentMap` ``spec`` names (a file or a built-in), turned by
+    ``rotate_deg`` about +z; a file that cannot be read or is not latitude–longitude is a
+    ``typer.BadParameter`` naming it."""
+    from render import RenderError, read_environment, synthetic_environment
+    from render.environment import SYNTHETIC_ENVIRONMENTS
+
+    try:
+        if spec in SYNTHETIC_ENVIRONMENTS:
+            return synthetic_environment(spec, height=64).with_view(rotation_deg=rotate_deg)
+        return read_environment(spec, rotation_deg=rotate_deg)
+    except RenderError as err:
+        raise typer.BadParameter(f"{err}; valid: {ENV_FORMS}", param_hint="--env") from err

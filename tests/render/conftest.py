@@ -8,13 +8,14 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+import zarr
 
 from processing.btf import compress_btf, compress_global_svd
 from processing.btf.synthetic import SyntheticBTF
 from render.meshes import Mesh
 from render.texel_view import texel_quad
 from rig.geometry import Sampling
-from rig.material import Material, PsView
+from rig.material import Material, PsView, write_btf
 
 SAMPLE_MM = 20.0
 N = 16
@@ -38,6 +39,18 @@ def svd_model(synthetic_btf):
     return compress_global_svd(
         synthetic_btf, view_dirs_deg=VIEWS, light_dirs_deg=LIGHTS, components=6
     )
+
+
+@pytest.fixture(scope="session")
+def store(tmp_path_factory, pca_model):
+    """A standalone material store holding a 16 × 16 per-view PCA BTF."""
+    path = tmp_path_factory.mktemp("view") / "m.zarr"
+    root = zarr.open_group(path, mode="w", zarr_format=3)
+    root.attrs.update(
+        format="btfrig.material", version=1, sample_mm=SAMPLE_MM, size=16, provenance={}
+    )
+    write_btf(root.create_group("btf"), pca_model, units="relative radiance")
+    return path
 
 
 def material(btf=None, *, slot_valid=None, ps=None) -> Material:

@@ -10,7 +10,6 @@ import numpy as np
 import OpenEXR
 import pytest
 import trimesh
-import zarr
 from numpy.testing import assert_allclose
 from PIL import Image
 from typer.testing import CliRunner
@@ -18,22 +17,8 @@ from typer.testing import CliRunner
 from orchestrator.cli import app
 from orchestrator.cli.view_scene import mesh_centre, parse_camera, parse_light
 from render.meshes import mesh_by_name
-from rig.material import write_btf
-from tests.render.conftest import SAMPLE_MM
 
 runner = CliRunner()
-
-
-@pytest.fixture(scope="module")
-def store(tmp_path_factory, pca_model):
-    """A standalone material store holding a 16 × 16 per-view PCA BTF."""
-    path = tmp_path_factory.mktemp("view") / "m.zarr"
-    root = zarr.open_group(path, mode="w", zarr_format=3)
-    root.attrs.update(
-        format="btfrig.material", version=1, sample_mm=SAMPLE_MM, size=16, provenance={}
-    )
-    write_btf(root.create_group("btf"), pca_model, units="relative radiance")
-    return path
 
 
 def _view(store, *args):
