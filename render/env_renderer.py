@@ -120,14 +120,15 @@ class EnvironmentRenderer:
         self.program = self.ctx.program(
             vertex_shader=shader_source("env_surface.vert"),
             fragment_shader=f"#version 330\n#define COEF_WIDTH {_COEF_WIDTH}\n"
+            f"#define CHANNELS {self.textures.channels}\n#define PACKED {self.textures.packed}\n"
             + shader_source("env_surface.frag"),
         )
         self.vao = self.ctx.vertex_array(self.program, [(
             self.vbo, "3f 3f 2f 4f 3f 3i",
             "in_position", "in_normal", "in_uv", "in_tangent", "in_corner", "in_ids",
         )])  # fmt: skip
-        self._units = [self.textures.mean, self.textures.basis, view_table]
-        for unit, name in enumerate(("mean_tex", "basis_tex", "view_table")):
+        self._units = [self.textures.images, view_table]
+        for unit, name in enumerate(("btf_images", "view_table")):
             self.program[name].value = unit
         uniforms = {
             "env_coef": len(self._units), "n_slots": len(self.btf.view_dirs_deg),

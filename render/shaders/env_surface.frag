@@ -1,5 +1,6 @@
 // A per-view PCA BTF under an environment (seed 000 §5.3, eq. (10)–(11)), prepended
-// by the renderer: #version and #define COEF_WIDTH (texels per row of env_coef).
+// by the renderer: #version and #defines COEF_WIDTH (texels per row of env_coef),
+// CHANNELS (1 grey, 3 RGB) and PACKED (texture layers per view slot).
 //
 // T_j = f · (u_0j m_j + Σ_k u_kj B_kj) per view slot j, the coefficients u (RGB)
 // blended from the triangle's three vertices; view slots blended per fragment by
@@ -23,8 +24,10 @@ uniform float exposure;          // f
 uniform sampler2D env_coef;      // RGB: texel ((vertex·n_slots + slot)·(c + 1) + k)
 uniform int n_slots;             // view slots of the material
 uniform int components;          // c
-uniform sampler2DArray mean_tex;   // layer = slot
-uniform sampler2DArray basis_tex;  // layer = slot·c + k
+// The point-light renderer's packed BTF (render/_textures.py): a slot's images,
+// basis 0…c − 1 then the mean, CHANNELS values each, four values to a texel;
+// value v of slot j is component v % 4 of layer j·PACKED + v / 4.
+uniform sampler2DArray btf_images;
 uniform sampler2D view_table;    // nearest-k: (x, y, z, slot); barycentric: 4 rows per triangle
 uniform int view_rows;           // table entries (directions or triangles)
 uniform int view_method;         // 0 nearest-k, 1 barycentric
@@ -115,10 +118,23 @@ void main() {
     for (int j = 0; j < 4; ++j) {
         if (w[j] == 0.0) continue;
         int slot = slots[j];
-        vec3 slot_rgb = blended(slot, 0) * textureGrad(mean_tex, vec3(st, slot), sx, sy).rgb;
-        for (int k = 0; k < components; ++k)
-            slot_rgb += blended(slot, k + 1)
-                      * textureGrad(basis_tex, vec3(st, slot * components + k), sx, sy).rgb;
+        vec3 slot_rgb = vec3(0.0);
+        vec3 coef = vec3(0.0);  // of the image value v belongs to
+        for (int p = 0; p < PACKED; ++p) {
+            vec4 texel = textureGrad(btf_images, vec3(st, slot * PACKED + p), sx, sy);
+            for (int q = 0; q < 4; ++q) {
+                // Value v is of image v / CHANNELS: basis k < c weighs by U's k + 1, the mean by U's 0.
+                int v = 4 * p + q;
+                int image = v / CHANNELS;
+                if (image > components) break;
+                if (v % CHANNELS == 0) coef = blended(slot, image == components ? 0 : image + 1);
+#if CHANNELS == 1
+                slot_rgb += coef * texel[q];
+#else
+                slot_rgb[v % 3] += coef[v % 3] * texel[q];
+#endif
+            }
+        }
         total += w[j] * slot_rgb;
     }
     frag = vec4(exposure * total, 1.0);
