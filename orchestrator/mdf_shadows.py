@@ -1,0 +1,189 @@
+"""Shadow boundaries on a BTF + MDF plane against the ray-cast truth (seed 001 §4.2, Fig. 8).
+
+A ball floats over a plane whose sample is the simulator's Gaussian bumps
+(``sim.samples``, height field h ≤ 0 under the reference plane z = 0), tiled
+at ``tile_mm`` per repeat, so the relief is the sample's scaled by s =
+``tile_mm`` / ``sample_mm`` (the texture scale of seed 001). A directional
+light casts the ball's shadow onto it, an orthographic camera looks on.
+
+- **Truth**: the true relief as a triangle mesh, each pixel's ray cast
+  (trimesh) to its first hit, that point lit unless the ray towards the light
+  meets the ball. Only the ball's shadow counts: the relief's shadows on
+  itself are the BTF's business (its normtextures hold them), as in the seed.
+- **Renderer**: the same scene as the flat plane + the ball, the material a
+  constant BTF (T ≡ 1, so a pixel's value is the light's lit fraction there)
+  with the relief's MDF, ray cast from the same height field at every view
+  slot. Without the MDF the shadow map is tested at the reference plane; with
+  it at the mesostructure point p − s·D(x, y, v)·v.
+
+The score is the fraction of the plane's pixels (the truth sees relief there,
+not the ball) whose lit/shadow state agrees, over the whole plane and within
+a band around the true shadow boundary.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+import trimesh
+from scipy import ndimage
+
+from render import Camera, DirectionalLight, Renderer
+from processing.mdf import Reason
+from render.meshes import Mesh, plane, sphere
+from rig.geometry import Sampling, direction_vector, texel_centers_mm
+from rig.material import UNSEEN, CompressedBTF, Material, Mdf
+from sim.samples import generator
+from sim.samples.heightfields import BumpsParams
+
+__all__ = ["ShadowScene", "TruthShadow", "mdf_by_ray_casting", "relief_mesh", "scene_mesh", "truth_shadow"]
+
+#: rays start this far above the reference plane (mm), so the plane itself is never hit
+_ABOVE_MM = 1e-4
+
+
+@dataclass(frozen=True)
+class ShadowScene:
+    """The check's scene: sizes in mm, directions (θ, φ) in degrees, world frame."""
+
+    sample_mm: float = 20.0
+    texels: int = 64
+    amplitude_mm: float = 1.5
+    spacing_mm: float = 5.0
+    sigma_mm: float = 1.2
+    tile_mm: float = 40.0
+    plane_mm: float = 80.0
+    ball_mm: float = 12.0
+    ball_height_mm: float = 18.0
+    light_deg: tuple[float, float] = (45.0, 0.0)
+    camera_deg: tuple[float, float] = (35.0, 180.0)
+    size: int = 256
+    relief_step_mm: float = 0.1
+
+    @property
+    def scale(self) -> float:
+        """s: scene mm per sample mm."""
+        return self.tile_mm / self.sample_mm
+
+    def height(self):
+        """h(x, y) of the sample, sample mm, z ≤ 0 (``sim.samples`` bumps)."""
+        params = BumpsParams(
+            amplitude_mm=self.amplitude_mm, spacing_mm=self.spacing_mm, sigma_mm=self.sigma_mm
+        )
+        build = generator("bumps").build
+        return build(params, sample_mm=self.sample_mm, depth_mm=2 * self.amplitude_mm).height
+
+    def camera(self) -> Camera:
+        eye = direction_vector(*self.camera_deg) * 3 * self.plane_mm
+        return Camera.orthographic(eye, (0, 0, 0), height=self.plane_mm * 1.05,
+                                   size=(self.size, self.size))  # fmt: skip
+
+    def light(self) -> DirectionalLight:
+        return DirectionalLight(tuple(direction_vector(*self.light_deg)))
+
+
+def relief_mesh(height, *, sample_mm: float, scale: float, extent_mm: float, step_mm: float):
+    """The relief a plane tiled with the sample shows: z = s·h(sample point), as a mesh.
+
+    The plane's texture coordinate (uv / tile_mm, as the renderer maps it, with
+    uv = x + extent/2) picks the sample point: the texel grid of
+    ``rig.geometry.texel_centers_mm`` centred on the sample, its −x, −y corner at
+    texture coordinate 0. ``extent_mm``: the side of the square covered, centred
+    on the origin. Returns a ``trimesh.Trimesh`` (scene mm).
+    """
+    tile = scale * sample_mm
+    edge = np.arange(0.0, extent_mm + step_mm / 2, step_mm)
+    u, v = np.meshgrid(edge, edge)
+    sx = (np.mod(u / tile, 1.0) - 0.5) * sample_mm
+    sy = (np.mod(v / tile, 1.0) - 0.5) * sample_mm
+    z = scale * height(sx.ravel(), sy.ravel())
+    vertices = np.column_stack([u.ravel() - extent_mm / 2, v.ravel() - extent_mm / 2, z])
+    n = len(edge)
+    i = np.arange(n * n).reshape(n, n)
+    a, b, c, d = i[:-1, :-1].ravel(), i[:-1, 1:].ravel(), i[1:, 1:].ravel(), i[1:, :-1].ravel()
+    faces = np.concatenate([np.stack([a, b, c], 1), np.stack([a, c, d], 1)])
+    return trimesh.Trimesh(vertices, faces, process=False, validate=False)
+
+
+def mdf_by_ray_casting(height, view_dirs_deg, *, sample_mm: float, n: int, step_mm: float) -> Mdf:
+    """The MDF of a periodic height field: D_v(x, y) on the n × n texel grid.
+
+    D_v is the distance from (x, y, 0) along −v to the relief (seed 001 §3),
+    cast (trimesh) against the sample tiled 3 × 3 so slanted rays that leave
+    the sample's square still find its neighbour's relief. −1 where a ray
+    finds nothing.
+    """
+    tiles = relief_mesh(height, sample_mm=sample_mm, scale=1.0, extent_mm=3 * sample_mm,
+                        step_mm=step_mm)  # fmt: skip
+    xy = texel_centers_mm(sample_mm, n).reshape(-1, 2)
+    origins = np.column_stack([xy, np.full(len(xy), _ABOVE_MM)])
+    distance = np.full((len(view_dirs_deg), n * n), UNSEEN, np.float32)
+    for slot, (theta, phi) in enumerate(np.asarray(view_dirs_deg, np.float64)):
+        v = direction_vector(theta, phi)
+        dirs = np.broadcast_to(-v, origins.shape)
+        points, rays, _ = tiles.ray.intersects_location(origins, dirs, multiple_hits=False)
+        t = np.einsum("ij,ij->i", points - origins[rays], dirs[rays])
+        distance[slot, rays] = np.maximum(t - _ABOVE_MM, 0.0)
+    shape = (len(view_dirs_deg), n, n)
+    distance = distance.reshape(shape)
+    seen = distance >= 0
+    return Mdf(
+        distance_mm=distance, view_dirs_deg=np.asarray(view_dirs_deg, np.float32),
+        reason=np.where(seen, Reason.OK, Reason.UNLIT).astype(np.uint8),
+        count=seen.astype(np.uint8),
+        attrs={"source": "ray cast from the sample's height field"},
+    )  # fmt: skip
+
+
+def _ball(scene: ShadowScene) -> tuple[Mesh, np.ndarray]:
+    """The ball's mesh and its positions lifted to its place."""
+    ball = sphere(radius_mm=scene.ball_mm, segments=48)
+    return ball, ball.positions + np.float32([0.0, 0.0, scene.ball_height_mm])
+
+
+def scene_mesh(scene: ShadowScene) -> Mesh:
+    """The flat plane (z = 0, the reference surface) and the ball above it, one mesh."""
+    ground = plane(size_mm=scene.plane_mm, segments=8)
+    ball, lifted = _ball(scene)
+    return Mesh(
+        positions=np.vstack([ground.positions, lifted]),
+        normals=np.vstack([ground.normals, ball.normals]),
+        uvs=np.vstack([ground.uvs, ball.uvs]),
+        tangents=np.vstack([ground.tangents, ball.tangents]),
+        faces=np.vstack([ground.faces, ball.faces + len(ground.positions)]),
+        name="plane and ball",
+    )
+
+
+@dataclass(frozen=True)
+class TruthShadow:
+    """What each pixel of the check's camera truly sees: ``relief`` (H, W) bool, the
+    relief is the first thing hit (not the ball, not nothing); ``lit`` (H, W) bool, that
+    point sees the light past the ball."""
+
+    relief: np.ndarray
+    lit: np.ndarray
+
+
+def truth_shadow(scene: ShadowScene) -> TruthShadow:
+    """Cast the camera's pixel rays at the true relief and the ball, then towards the light."""
+    relief = relief_mesh(scene.height(), sample_mm=scene.sample_mm, scale=scene.scale,
+                         extent_mm=scene.plane_mm, step_mm=scene.relief_step_mm)  # fmt: skip
+    ball_mesh, lifted = _ball(scene)
+    ball = trimesh.Trimesh(lifted, ball_mesh.faces, process=False)
+    both = trimesh.util.concatenate([relief, ball])
+    origins, dirs = scene.camera().pixel_rays()
+    origins, dirs = origins.reshape(-1, 3), dirs.reshape(-1, 3)
+    faces = both.ray.intersects_first(origins, dirs)
+    on_relief = (faces >= 0) & (faces < len(relief.faces))
+    hit_rays = np.flatnonzero(on_relief)
+    points, rays, _ = relief.ray.intersects_location(
+        origins[hit_rays], dirs[hit_rays], multiple_hits=False
+    )
+    lit = np.zeros(len(origins), bool)
+    to_light = np.broadcast_to(direction_vector(*scene.light_deg), points.shape)
+    lit[hit_rays[rays]] = ~ball.ray.intersects_any(points, to_light)
+    shape = (scene.size, scene.size)
+    return TruthShadow(relief=on_relief.reshape(shape), lit=lit.reshape(shape))
