@@ -167,6 +167,7 @@ class Renderer:
         if n_lights not in self._programs:
             defines = {**self._defines, "N_LIGHTS": n_lights}
             header = "#version 330\n" + "".join(f"#define {k} {v}\n" for k, v in defines.items())
+            header += shader_source("directions.glsl")
             try:
                 program = self.ctx.program(
                     vertex_shader=shader_source("surface.vert"),
