@@ -30,15 +30,22 @@ import numpy as np
 import trimesh
 from scipy import ndimage
 
-from render import Camera, DirectionalLight, Renderer
 from processing.mdf import Reason
+from render import Camera, DirectionalLight, Renderer
 from render.meshes import Mesh, plane, sphere
 from rig.geometry import Sampling, direction_vector, texel_centers_mm
 from rig.material import UNSEEN, CompressedBTF, Material, Mdf
 from sim.samples import generator
 from sim.samples.heightfields import BumpsParams
 
-__all__ = ["ShadowScene", "TruthShadow", "mdf_by_ray_casting", "relief_mesh", "scene_mesh", "truth_shadow"]
+__all__ = [
+    "ShadowScene",
+    "TruthShadow",
+    "mdf_by_ray_casting",
+    "relief_mesh",
+    "scene_mesh",
+    "truth_shadow",
+]
 
 #: rays start this far above the reference plane (mm), so the plane itself is never hit
 _ABOVE_MM = 1e-4
@@ -61,6 +68,8 @@ class ShadowScene:
     camera_deg: tuple[float, float] = (35.0, 180.0)
     size: int = 256
     relief_step_mm: float = 0.1
+    #: half-width of the band around the true shadow boundary that is scored apart, pixels
+    band_px: int = 10
 
     @property
     def scale(self) -> float:
@@ -187,3 +196,67 @@ def truth_shadow(scene: ShadowScene) -> TruthShadow:
     lit[hit_rays[rays]] = ~ball.ray.intersects_any(points, to_light)
     shape = (scene.size, scene.size)
     return TruthShadow(relief=on_relief.reshape(shape), lit=lit.reshape(shape))
+
+
+def shadow_material(scene: ShadowScene, view_dirs_deg) -> Material:
+    """A constant BTF (T ≡ 1 at every view and light, grey) with the relief's MDF."""
+    n, views = scene.texels, np.asarray(view_dirs_deg, np.float64)
+    lights = Sampling.named("H1").directions
+    n_views, n_lights = len(views), len(lights)
+    btf = CompressedBTF(
+        views, lights, np.ones((n_views, n, n, 1), np.float16),
+        np.zeros((n_views, 1, n, n, 1), np.float16), np.zeros((n_views, n_lights, 1), np.float32),
+        np.ones((n_views, n_lights), np.float32), np.ones(n_views, np.int32),
+    )  # fmt: skip
+    mdf = mdf_by_ray_casting(scene.height(), views, sample_mm=scene.sample_mm, n=n,
+                             step_mm=scene.relief_step_mm / 2)  # fmt: skip
+    return Material(Path("mdf shadow check"), scene.sample_mm, n, btf, np.ones(n_views, bool),
+                    mdf=mdf)  # fmt: skip
+
+
+def rendered_lit(
+    scene: ShadowScene, material: Material, *, mdf: bool, shadows: bool = True
+) -> np.ndarray:
+    """(H, W) float32: the light's lit fraction per pixel, as the renderer shades it
+    (the constant BTF under a unit light, no ambient term); 0 where nothing is seen."""
+    with Renderer(material, scene_mesh(scene), tile_mm=scene.tile_mm, mdf=mdf,
+                  shadows=shadows, ambient=0.0) as renderer:  # fmt: skip
+        return renderer.render(scene.camera(), [scene.light()])[..., 0]
+
+
+def _boundary_band(truth: TruthShadow, scored: np.ndarray, band_px: int) -> np.ndarray:
+    """Scored pixels with both a lit and a shadowed relief pixel within ``band_px``."""
+    lit, shadow = truth.relief & truth.lit, truth.relief & ~truth.lit
+    near_lit = ndimage.distance_transform_edt(~lit) <= band_px
+    near_shadow = ndimage.distance_transform_edt(~shadow) <= band_px
+    return scored & near_lit & near_shadow
+
+
+def run_check(scene: ShadowScene | None = None, *, views=None) -> dict:
+    """Lit/shadow agreement with the truth, without and with the MDF.
+
+    Scored are the pixels where the truth sees the relief and the renderer the
+    plane (the flat plane's outline is not the relief's: silhouettes are
+    another matter). Returns ``rows`` (``mdf`` off/on, ``agreement`` over the
+    scored pixels, ``band_agreement`` within ``band_px`` of the true boundary,
+    the pixel counts) and the images (``truth``, ``lit_off``, ``lit_on``).
+    ``views``: the MDF's view slots, every third direction of H2 (27) by default.
+    """
+    scene = ShadowScene() if scene is None else scene
+    views = Sampling.named("H2").directions[::3] if views is None else views
+    truth = truth_shadow(scene)
+    material = shadow_material(scene, views)
+    scored = truth.relief & (rendered_lit(scene, material, mdf=False, shadows=False) > 0.5)
+    band = _boundary_band(truth, scored, scene.band_px)
+    rows, images = [], {"truth": truth}
+    for mdf in (False, True):
+        lit = rendered_lit(scene, material, mdf=mdf)
+        agree = (lit > 0.5) == truth.lit
+        images[f"lit_{'on' if mdf else 'off'}"] = lit
+        rows.append({
+            "mdf": "on" if mdf else "off",
+            "agreement": round(float(agree[scored].mean()), 4),
+            "band_agreement": round(float(agree[band].mean()), 4),
+            "pixels": int(scored.sum()), "band_pixels": int(band.sum()),
+        })  # fmt: skip
+    return {"rows": rows, **images}

@@ -25,13 +25,14 @@ and, per view slot, to one image: made once at load time
 
 from __future__ import annotations
 
+import moderngl
 import numpy as np
 
 from render._errors import RenderError
 from render.visibility import hemicube, light_table
 from rig.material import CompressedBTF, GlobalSVD
 
-__all__ = ["ambient_term", "light_solid_angles"]
+__all__ = ["ambient_term", "light_solid_angles", "upload_ambient"]
 
 #: hemicube n of the quadrature: 3n² directions, their light weights found once per material
 _RESOLUTION = 64
@@ -89,3 +90,18 @@ def ambient_term(
     w = light_solid_angles(btf.light_vectors, light_method=light_method, resolution=resolution)
     lights = np.arange(len(w))
     return np.stack([btf.blend([j], [1.0], lights, w) for j in range(len(btf.view_dirs_deg))])
+
+
+def upload_ambient(ctx: moderngl.Context, btf, *, light_method: str) -> moderngl.TextureArray:
+    """:func:`ambient_term` as a float32 texture array, a layer per view slot (rows
+    flipped, repeating, mipmapped like the BTF's images; grey read as grey RGB)."""
+    ambient = ambient_term(btf, light_method=light_method)
+    n_views, n, _, channels = ambient.shape
+    data = np.ascontiguousarray(ambient[:, ::-1], np.float32)
+    texture = ctx.texture_array((n, n, n_views), channels, data, dtype="f4")
+    if channels == 1:
+        texture.swizzle = "RRR1"
+    texture.repeat_x = texture.repeat_y = True
+    texture.build_mipmaps()
+    texture.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+    return texture

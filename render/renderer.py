@@ -20,8 +20,10 @@ from render._gl import gl_context, mesh_buffers, shader_source, vertex_array
 from render._lookup import build_lookup
 from render._shadows import ShadowMaps
 from render._textures import lookup_texture, upload_btf, upload_ps
+from render.ambient import upload_ambient
 from render.camera import Camera
 from render.lights import MAX_LIGHTS, DirectionalLight, PointLight
+from render.mdf import GRAZING_DEG, mdf_table, upload_mdf
 from rig.material import CompressedBTF, Material
 
 __all__ = ["MAX_LIGHTS", "Renderer"]
@@ -57,6 +59,16 @@ class Renderer:
         Macro shadows of the mesh (shadow maps, 5×5 PCF).
     shadow_size : int
         Texels per side of each light's shadow map.
+    mdf : bool
+        Use the material's MDF (seed 001 §4): shadows are tested where the
+        view ray meets the mesostructure, p − s·D(x, y, v)·v (s = tile_mm /
+        sample_mm), against shadow maps holding the mesostructure's base, and
+        shadowed points are shaded by the ambient term.
+    ambient : float
+        With ``mdf``: the fraction a ∈ [0, 1] of each light's irradiance that
+        reaches the points it shadows as uniform skylight (radiance a·E/π),
+        shading them by the ambient term L_a, the BTF integrated over all light
+        directions (``render.ambient``); 0: shadows are black.
 
     Notes
     -----
@@ -78,6 +90,8 @@ class Renderer:
         shininess: float = 40.0,
         shadows: bool = True,
         shadow_size: int = 1024,
+        mdf: bool = False,
+        ambient: float = 0.2,
     ) -> None:
         self.layers = self._check_layers(material, layers)
         tile = material.sample_mm if tile_mm is None else tile_mm
@@ -103,6 +117,8 @@ class Renderer:
             "BTF_KIND": 0 if btf is None else (1 if isinstance(btf, CompressedBTF) else 2),
             "PS": int("ps" in self.layers),
             "SHADOWS": int(bool(shadows)),
+            "MDF_SHADOWS": int(bool(mdf and shadows)),
+            "AMBIENT": int(bool(mdf and btf is not None and ambient > 0)),
         }
         self._programs: dict[int, tuple[moderngl.Program, moderngl.VertexArray]] = {}
         self._static: dict[str, object] = {}
@@ -125,9 +141,11 @@ class Renderer:
             self._bind("ps_normals", self.ps_textures.normals)
             self._set("specular", float(specular))
             self._set("shininess", float(shininess))
+        base_depth = self._bind_mdf(material, mdf, view_method, light_method, ambient, tile)
         self.shadows = (
-            ShadowMaps(self.ctx, self.vbo, self.ibo, size=shadow_size) if shadows else None
-        )
+            ShadowMaps(self.ctx, self.vbo, self.ibo, size=shadow_size, base_depth=base_depth)
+            if shadows else None
+        )  # fmt: skip
         self._framebuffers: dict[tuple[int, int], moderngl.Framebuffer] = {}
         self._program(1)  # a shader this GL cannot compile fails here, not at the first frame
 
@@ -168,6 +186,8 @@ class Renderer:
             defines = {**self._defines, "N_LIGHTS": n_lights}
             header = "#version 330\n" + "".join(f"#define {k} {v}\n" for k, v in defines.items())
             header += shader_source("directions.glsl")
+            if self.mdf_texture is not None:
+                header += shader_source("mdf.glsl") + shader_source("mdf_shadow.glsl")
             try:
                 program = self.ctx.program(
                     vertex_shader=shader_source("surface.vert"),
@@ -211,6 +231,33 @@ class Renderer:
                              PACKED=textures.packed)  # fmt: skip
         self._bind("btf_weights", textures.weights)
         self._bind("btf_images", textures.images)
+
+    def _bind_mdf(self, material, mdf, view_method, light_method, ambient, tile) -> float:
+        """The MDF's textures and the ambient term's; the mesostructure's depth s·d_max
+        (scene units, 0 without the MDF) for the shadow maps."""
+        self.mdf_texture = self.ambient_texture = None
+        if not mdf:
+            return 0.0
+        if material.mdf is None:
+            raise RenderError(
+                f"material {str(material.source)!r} holds no MDF; render without it (--no-mdf) "
+                "or process the session's laser scans first (rig process --stages mdf)"
+            )
+        if not (np.isfinite(ambient) and 0 <= ambient <= 1):
+            raise RenderError(f"ambient = {ambient}: valid is a fraction 0 … 1 of each light")
+        self.mdf_texture = upload_mdf(self.ctx, mdf_table(material.mdf), view_method=view_method)
+        self._bind("mdf_distance", self.mdf_texture.distance)
+        self._bind("mdf_view_cells", self.mdf_texture.view_cells)
+        self._defines.update(self.mdf_texture.defines())
+        scale = float(tile) / material.sample_mm
+        self._set("mdf_scale", scale)
+        self._set("mdf_depth", self.mdf_texture.table.depth_mm)
+        self._set("max_slant", 1.0 / np.cos(np.deg2rad(GRAZING_DEG)))
+        if self._defines["AMBIENT"]:
+            self.ambient_texture = upload_ambient(self.ctx, material.btf, light_method=light_method)
+            self._bind("ambient_images", self.ambient_texture)
+            self._set("ambient", float(ambient))
+        return scale * self.mdf_texture.table.depth_mm
 
     def _framebuffer(self, size: tuple[int, int]) -> moderngl.Framebuffer:
         if size not in self._framebuffers:
@@ -304,10 +351,12 @@ class Renderer:
                 attachment.release()
             fbo.release()
         self._framebuffers.clear()
-        for part in (self.shadows, self.btf_textures, self.ps_textures):
+        for part in (self.shadows, self.btf_textures, self.ps_textures, self.mdf_texture,
+                     self.ambient_texture):  # fmt: skip
             if part is not None:
                 part.release()
         self.shadows = self.btf_textures = self.ps_textures = None
+        self.mdf_texture = self.ambient_texture = None
         for program, vao in self._programs.values():
             vao.release()
             program.release()

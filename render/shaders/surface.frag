@@ -1,6 +1,7 @@
 // The measured material under point and directional lights (prepended by the
 // renderer: #version, and #defines BTF_KIND 0 none / 1 pca / 2 svd, PS 0/1,
-// SHADOWS 0/1, N_LIGHTS (this program's number of lights, ≥ 1); with a BTF
+// SHADOWS 0/1, MDF_SHADOWS 0/1, AMBIENT 0/1 (mdf_shadow.glsl), N_LIGHTS (this
+// program's number of lights, ≥ 1); with a BTF
 // COMPONENTS (c) and, for the VIEW and LIGHT tables, _METHOD (0 nearest-k,
 // 1 barycentric), _K (neighbours blended) and _CANDIDATES (per lookup cell)).
 //
@@ -208,6 +209,14 @@ void main() {
 
     vec3 irradiance[N_LIGHTS];
     vec3 light_local[N_LIGHTS];
+#if MDF_SHADOWS == 1
+    vec3 shadow_point = mesostructure_point(v_position, to_eye, st, view_local);
+#else
+    vec3 shadow_point = v_position;
+#endif
+#if AMBIENT == 1
+    vec3 shadowed = vec3(0.0);  // Σ of the lights' irradiance that their shadows hold back
+#endif
     for (int l = 0; l < N_LIGHTS; ++l) {
         irradiance[l] = vec3(0.0);
         vec3 to_light;
@@ -221,9 +230,15 @@ void main() {
             to_light = safe_normalize(light_place[l].xyz, vec3(0.0, 0.0, 1.0));
         }
         light_local[l] = to_local * to_light;
+#if AMBIENT == 1
+        shadowed += e;  // the lit part is taken back below
+#endif
         if (light_local[l].z <= 0.0) continue;  // below the horizon: no light, never NaN
 #if SHADOWS == 1
-        e *= lit_fraction(l, v_position, n, to_light);
+        e *= lit_fraction(l, shadow_point, n, to_light);
+#endif
+#if AMBIENT == 1
+        shadowed -= e;
 #endif
         irradiance[l] = e;
     }
@@ -234,6 +249,11 @@ void main() {
     Blend lights[N_LIGHTS];
     for (int l = 0; l < N_LIGHTS; ++l) lights[l] = blend_light(light_local[l]);
     colour += shade_btf(st, view, lights, irradiance);
+#endif
+#if AMBIENT == 1
+    // In shadow the ambient term (seed 001 §4.2): skylight of a · E, a uniform sky of
+    // radiance a · E / π, for what each shadow holds back.
+    colour += (ambient / 3.14159265) * shadowed * ambient_term(st, view);
 #endif
 #if PS == 1
     // Bump mapping (seed 004): the measured normal, in the tangent frame, bends the
