@@ -23,6 +23,7 @@ a band around the true shadow boundary.
 
 from __future__ import annotations
 
+import dataclasses
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -32,7 +33,7 @@ from scipy import ndimage
 
 from processing.mdf import Reason
 from render import Camera, DirectionalLight, Renderer
-from render.meshes import Mesh, plane, sphere
+from render.meshes import Mesh, merged, plane, sphere
 from rig.geometry import Sampling, direction_vector, texel_centers_mm
 from rig.material import UNSEEN, CompressedBTF, Material, Mdf
 from sim.samples import generator
@@ -146,24 +147,15 @@ def mdf_by_ray_casting(height, view_dirs_deg, *, sample_mm: float, n: int, step_
     )  # fmt: skip
 
 
-def _ball(scene: ShadowScene) -> tuple[Mesh, np.ndarray]:
-    """The ball's mesh and its positions lifted to its place."""
+def _ball(scene: ShadowScene) -> Mesh:
     ball = sphere(radius_mm=scene.ball_mm, segments=48)
-    return ball, ball.positions + np.float32([0.0, 0.0, scene.ball_height_mm])
+    lift = np.float32([0.0, 0.0, scene.ball_height_mm])
+    return dataclasses.replace(ball, positions=ball.positions + lift)
 
 
 def scene_mesh(scene: ShadowScene) -> Mesh:
     """The flat plane (z = 0, the reference surface) and the ball above it, one mesh."""
-    ground = plane(size_mm=scene.plane_mm, segments=8)
-    ball, lifted = _ball(scene)
-    return Mesh(
-        positions=np.vstack([ground.positions, lifted]),
-        normals=np.vstack([ground.normals, ball.normals]),
-        uvs=np.vstack([ground.uvs, ball.uvs]),
-        tangents=np.vstack([ground.tangents, ball.tangents]),
-        faces=np.vstack([ground.faces, ball.faces + len(ground.positions)]),
-        name="plane and ball",
-    )
+    return merged([plane(size_mm=scene.plane_mm, segments=8), _ball(scene)], name="plane and ball")
 
 
 @dataclass(frozen=True)
@@ -180,8 +172,8 @@ def truth_shadow(scene: ShadowScene) -> TruthShadow:
     """Cast the camera's pixel rays at the true relief and the ball, then towards the light."""
     relief = relief_mesh(scene.height(), sample_mm=scene.sample_mm, scale=scene.scale,
                          extent_mm=scene.plane_mm, step_mm=scene.relief_step_mm)  # fmt: skip
-    ball_mesh, lifted = _ball(scene)
-    ball = trimesh.Trimesh(lifted, ball_mesh.faces, process=False)
+    ball_mesh = _ball(scene)
+    ball = trimesh.Trimesh(ball_mesh.positions, ball_mesh.faces, process=False)
     both = trimesh.util.concatenate([relief, ball])
     origins, dirs = scene.camera().pixel_rays()
     origins, dirs = origins.reshape(-1, 3), dirs.reshape(-1, 3)
