@@ -9,10 +9,16 @@ floor is the same plane with one filtered texture fetch per fragment, drawn
 in the same run, so the ratio compares like with like on whatever GL this is
 (llvmpipe on a CPU, or a GPU). Seed 001 reports 27–75 frames per second on a
 2005 GPU.
+
+The ``mdf shadows`` rows time a ball's shadow on the textured plane: macro
+shadows alone and with the MDF (seed 001 §4.2: pushed shadow maps, the MDF
+looked up per fragment, the ambient term in shadow), as ratios to the same
+frame without shadows.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from pathlib import Path
 
@@ -22,10 +28,10 @@ import numpy as np
 from render._gl import gl_context, shader_source, vertex_array
 from render.camera import Camera
 from render.lights import PointLight
-from render.meshes import plane
+from render.meshes import merged, plane, sphere
 from render.renderer import Renderer
 from rig.geometry import Sampling
-from rig.material import CompressedBTF, GlobalSVD, Material
+from rig.material import CompressedBTF, GlobalSVD, Material, Mdf
 
 __all__ = ["run_bench"]
 
@@ -141,6 +147,34 @@ def run_bench(*, quick: bool = False, size: tuple[int, int] = _SIZE) -> list[dic
             "view_slots": _SLOTS[method] if kind == "pca" else 4, "fps": round(fps, 3),
             "ratio_to_plain": round(fps / plain_fps, 4), "plain_fps": round(plain_fps, 2),
             "cpu_ms": round(cpu_ms, 1), "plain_cpu_ms": round(plain_cpu_ms, 1),
+            "size": f"{size[0]}x{size[1]}", "gl_renderer": gl_renderer,
+        })  # fmt: skip
+    return rows + _mdf_shadow_rows(texels, frames, camera, lights, size)
+
+
+def _mdf_shadow_rows(texels: int, frames: int, camera: Camera, lights, size) -> list[dict]:
+    """Rows ``kind`` = "mdf shadows": ``shadows``, ``mdf``, ``fps``, ``ratio_to_btf_only``
+    (fps over the same frame without shadows), ``cpu_ms``, ``size``, ``gl_renderer``."""
+    material = _material("pca", 4, texels)
+    views = material.btf.view_vectors
+    depth = np.random.default_rng(1).uniform(0.0, 1.0, (texels, texels))
+    distance = (depth[None] / views[:, 2, None, None]).astype(np.float32)
+    ones = np.ones(distance.shape, np.uint8)
+    mdf = Mdf(distance, material.btf.view_dirs_deg.astype(np.float32), 0 * ones, ones)
+    material = dataclasses.replace(material, mdf=mdf)
+    ball = sphere(radius_mm=40.0, segments=32)
+    ball = dataclasses.replace(ball, positions=ball.positions + np.float32([0.0, 10.0, 60.0]))
+    mesh = merged([plane(size_mm=400.0, segments=4), ball], name="ball over plane")
+    rows, baseline = [], None
+    for shadows, mdf_on in ((False, False), (True, False), (True, True)):
+        with Renderer(material, mesh, shadows=shadows, mdf=mdf_on) as renderer:
+            fps, cpu_ms = _timing(lambda r=renderer: r.draw(camera, lights), frames)
+            gl_renderer = renderer.ctx.info["GL_RENDERER"]
+        baseline = fps if baseline is None else baseline
+        rows.append({
+            "kind": "mdf shadows", "shadows": "on" if shadows else "off",
+            "mdf": "on" if mdf_on else "off", "fps": round(fps, 3),
+            "ratio_to_btf_only": round(fps / baseline, 4), "cpu_ms": round(cpu_ms, 1),
             "size": f"{size[0]}x{size[1]}", "gl_renderer": gl_renderer,
         })  # fmt: skip
     return rows
