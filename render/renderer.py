@@ -12,6 +12,8 @@ shadow maps filtered to soft edges. See ``docs/render.md``.
 
 from __future__ import annotations
 
+import logging
+
 import moderngl
 import numpy as np
 
@@ -22,9 +24,13 @@ from render._shadows import ShadowMaps
 from render._textures import lookup_texture, upload_btf, upload_ps
 from render.camera import Camera
 from render.lights import MAX_LIGHTS, DirectionalLight, PointLight
+from render.mdf import mdf_table, upload_mdf
+from render.peel import SilhouettePeel, open_edges
 from rig.material import CompressedBTF, Material
 
 __all__ = ["MAX_LIGHTS", "Renderer"]
+
+_log = logging.getLogger(__name__)
 
 _METHODS = ("nearest", "nearest4", "barycentric")
 _LAYERS = ("btf", "ps")
@@ -57,6 +63,12 @@ class Renderer:
         Macro shadows of the mesh (shadow maps, 5×5 PCF).
     shadow_size : int
         Texels per side of each light's shadow map.
+    mdf : bool or None
+        Mesostructure silhouettes from the material's MDF by depth peeling
+        (``render.peel``); None: when the material holds an MDF.
+    peel : int
+        Peeling passes with the MDF (1…8): intervals of a ray inside the mesh
+        tested, nearest first.
 
     Notes
     -----
@@ -78,6 +90,8 @@ class Renderer:
         shininess: float = 40.0,
         shadows: bool = True,
         shadow_size: int = 1024,
+        mdf: bool | None = None,
+        peel: int = 2,
     ) -> None:
         self.layers = self._check_layers(material, layers)
         tile = material.sample_mm if tile_mm is None else tile_mm
@@ -129,7 +143,32 @@ class Renderer:
             ShadowMaps(self.ctx, self.vbo, self.ibo, size=shadow_size) if shadows else None
         )
         self._framebuffers: dict[tuple[int, int], moderngl.Framebuffer] = {}
+        self.silhouettes = self._silhouettes(material, mdf, peel, view_method, float(tile))
         self._program(1)  # a shader this GL cannot compile fails here, not at the first frame
+
+    def _silhouettes(self, material, mdf, peel: int, view_method: str, tile_mm: float):
+        """The depth peeling of the MDF, or None without one."""
+        if mdf is None:
+            mdf = material.mdf is not None
+        if not mdf:
+            return None
+        if material.mdf is None:
+            raise RenderError(
+                f"material {str(material.source)!r} holds no mdf; render it without the MDF "
+                "(mdf=False, rig view --no-mdf) or run the mdf stage first"
+            )
+        holes = open_edges(self.mesh)
+        if holes:
+            _log.warning(
+                "mesh %r is open (%d edges bound one face only): MDF silhouettes assume a "
+                "closed object; where a ray finds no back face the mesh's own outline stays",
+                self.mesh.name, holes,
+            )  # fmt: skip
+        texture = upload_mdf(self.ctx, mdf_table(material.mdf), view_method=view_method)
+        self._owned.append(texture)
+        return SilhouettePeel(self.ctx, self.vbo, self.ibo, texture, passes=peel,
+                              texture_scale=tile_mm / material.sample_mm,
+                              uv_scale=self.uv_scale)  # fmt: skip
 
     @staticmethod
     def _check_layers(material, layers) -> tuple[str, ...]:
@@ -277,25 +316,46 @@ class Renderer:
         view_proj = camera.projection_matrix(near, far) @ camera.view_matrix()
         view_proj = view_proj.T.astype(np.float32).tobytes()
         program["view_proj"].write(view_proj)
-        self._depth_program["view_proj"].write(view_proj)
         for name, value in (("orthographic", camera.fov_deg is None), ("eye", tuple(camera.eye)),
                             ("toward_camera", tuple(-camera.forward))):  # fmt: skip
             if name in program:
                 program[name].value = value
+        fbo = self._depth_pass(camera, view_proj)
         for unit, texture in enumerate(self._units):
             texture.use(location=unit)
+        fbo.use()
+        # Shade only what the depth pass left in front (depth equal): where the mesh
+        # folds over itself each pixel runs the costly shader once, not per layer.
+        self.ctx.depth_func = "<=" if self.silhouettes is None else "=="
+        vao.render(moderngl.TRIANGLES)
+        self.ctx.depth_func = "<"
+
+    def _depth_pass(self, camera: Camera, view_proj: bytes) -> moderngl.Framebuffer:
+        """The framebuffer cleared, its depth that of the surfaces to shade: the nearest
+        (depth pre-pass) or, with the MDF, those whose rays meet the mesostructure."""
         fbo = self._framebuffer(camera.size)
         fbo.use()
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        if self.silhouettes is not None:
+            # Texture units above the surface program's and the shadow atlas's.
+            self.silhouettes.draw(camera, view_proj, fbo.depth_attachment,
+                                  unit=len(self._units) + 1)  # fmt: skip
+            return fbo
         self.ctx.enable_only(moderngl.DEPTH_TEST)
-        # Depth first, then shade only what stays in front (depth equal): where the
-        # mesh folds over itself each pixel runs the costly shader once, not per layer.
+        self._depth_program["view_proj"].write(view_proj)
         fbo.color_mask = False, False, False, False
         self._depth_vao.render(moderngl.TRIANGLES)
         fbo.color_mask = True, True, True, True
-        self.ctx.depth_func = "<="
-        vao.render(moderngl.TRIANGLES)
-        self.ctx.depth_func = "<"
+        return fbo
+
+    def coverage(self, camera: Camera) -> np.ndarray:
+        """(H, W) bool: the pixels where the surface is drawn (with the MDF, where a
+        ray meets the mesostructure), row 0 at the top like :meth:`render`."""
+        near, far = camera.depth_range(self.bounds_center, self.bounds_radius)
+        view_proj = camera.projection_matrix(near, far) @ camera.view_matrix()
+        fbo = self._depth_pass(camera, view_proj.T.astype(np.float32).tobytes())
+        depth = np.frombuffer(fbo.read(components=1, attachment=-1, dtype="f4"), np.float32)
+        return np.ascontiguousarray(depth.reshape(camera.size[1], camera.size[0])[::-1] < 1.0)
 
     def release(self) -> None:
         """Free the GPU objects (the shared context stays)."""
@@ -304,10 +364,10 @@ class Renderer:
                 attachment.release()
             fbo.release()
         self._framebuffers.clear()
-        for part in (self.shadows, self.btf_textures, self.ps_textures):
+        for part in (self.shadows, self.btf_textures, self.ps_textures, self.silhouettes):
             if part is not None:
                 part.release()
-        self.shadows = self.btf_textures = self.ps_textures = None
+        self.shadows = self.btf_textures = self.ps_textures = self.silhouettes = None
         for program, vao in self._programs.values():
             vao.release()
             program.release()
