@@ -21,22 +21,29 @@ the depth buffer holds, per pixel, the front face whose ray met the
 mesostructure (1.0 where none did), and the renderer shades with the depth
 test ``==``: only those faces, once each.
 
-The method assumes closed objects. A front face with no back face behind it
-(an open mesh's hole, or more layers than passes) has nothing to pair with
-and is kept as the mesh's own surface, never a guess; :func:`open_edges`
-counts the edges of a mesh that bound one face only, for the warning.
+The method assumes closed objects: on an open mesh a ray's front and back
+faces need not bound a solid (a sheet seen through a fold behind it would be
+cut away), so :func:`mdf_silhouettes` draws an open mesh — one with edges
+that bound a single face once coincident vertices are merged
+(:func:`open_edges`) — without MDF silhouettes and logs a warning saying so.
+A front face with no back face behind it (more layers than passes) has
+nothing to pair with and is kept as the mesh's own surface.
 """
 
 from __future__ import annotations
+
+import logging
 
 import moderngl
 import numpy as np
 
 from render._errors import RenderError
 from render._gl import shader_source, vertex_array
-from render.mdf import MdfTexture
+from render.mdf import MdfTexture, mdf_table, upload_mdf
 
-__all__ = ["MAX_PEEL", "SilhouettePeel", "open_edges"]
+__all__ = ["MAX_PEEL", "SilhouettePeel", "mdf_silhouettes", "open_edges"]
+
+_log = logging.getLogger(__name__)
 
 #: Most peeling passes a renderer accepts.
 MAX_PEEL = 8
@@ -86,6 +93,7 @@ class SilhouettePeel:
     vbo, ibo : moderngl.Buffer
         The mesh buffers (``render._gl.mesh_buffers``).
     mdf : MdfTexture
+        Released with the peel.
     passes : int
         Peeling passes, 1 … :data:`MAX_PEEL` (seed 001 lets the user choose).
     texture_scale : float
@@ -96,8 +104,6 @@ class SilhouettePeel:
 
     def __init__(self, ctx, vbo, ibo, mdf: MdfTexture, *, passes: int, texture_scale: float,
                  uv_scale: float) -> None:  # fmt: skip
-        if not (isinstance(passes, int | np.integer) and 1 <= passes <= MAX_PEEL):
-            raise RenderError(f"peel = {passes!r}: valid are 1…{MAX_PEEL} passes")
         self.ctx, self.mdf, self.passes = ctx, mdf, int(passes)
         header = "#version 330\n" + "".join(f"#define {k} {v}\n" for k, v in mdf.defines().items())
         common = shader_source("directions.glsl") + shader_source("mdf.glsl")
@@ -162,3 +168,40 @@ class SilhouettePeel:
             vao.release()
             program.release()
         self.programs.clear()
+        self.mdf.release()
+
+
+def mdf_silhouettes(ctx, mesh, vbo, ibo, material, *, mdf: bool | None, peel: int,
+                    view_method: str, tile_mm: float) -> SilhouettePeel | None:  # fmt: skip
+    """The depth peeling of ``material``'s MDF on ``mesh`` (a renderer's buffers), or
+    None: ``mdf`` False, or None and the material holds no MDF, or an open mesh
+    (logged as a warning).
+
+    Raises
+    ------
+    RenderError
+        ``mdf`` True and the material holds no MDF; ``peel`` not in 1…:data:`MAX_PEEL`.
+    """
+    if not (isinstance(peel, int | np.integer) and 1 <= peel <= MAX_PEEL):
+        raise RenderError(f"peel = {peel!r}: valid are 1…{MAX_PEEL} passes")
+    if mdf is None:
+        mdf = material.mdf is not None
+    if not mdf:
+        return None
+    if material.mdf is None:
+        raise RenderError(
+            f"material {str(material.source)!r} holds no mdf; render it without the MDF "
+            "(mdf=False, rig view --no-mdf) or run the mdf stage first"
+        )
+    holes = open_edges(mesh)
+    if holes:
+        _log.warning(
+            "mesh %r is open (%d edges bound one face only) and MDF silhouettes need a closed "
+            "object: drawn without them, with the mesh's own outline", mesh.name, holes,
+        )  # fmt: skip
+        return None
+    texture = upload_mdf(ctx, mdf_table(material.mdf), view_method=view_method)
+    scale = tile_mm / material.sample_mm
+    return SilhouettePeel(
+        ctx, vbo, ibo, texture, passes=peel, texture_scale=scale, uv_scale=1.0 / tile_mm
+    )

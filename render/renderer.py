@@ -12,8 +12,6 @@ shadow maps filtered to soft edges. See ``docs/render.md``.
 
 from __future__ import annotations
 
-import logging
-
 import moderngl
 import numpy as np
 
@@ -24,13 +22,10 @@ from render._shadows import ShadowMaps
 from render._textures import lookup_texture, upload_btf, upload_ps
 from render.camera import Camera
 from render.lights import MAX_LIGHTS, DirectionalLight, PointLight
-from render.mdf import mdf_table, upload_mdf
-from render.peel import SilhouettePeel, open_edges
+from render.peel import mdf_silhouettes
 from rig.material import CompressedBTF, Material
 
 __all__ = ["MAX_LIGHTS", "Renderer"]
-
-_log = logging.getLogger(__name__)
 
 _METHODS = ("nearest", "nearest4", "barycentric")
 _LAYERS = ("btf", "ps")
@@ -143,32 +138,11 @@ class Renderer:
             ShadowMaps(self.ctx, self.vbo, self.ibo, size=shadow_size) if shadows else None
         )
         self._framebuffers: dict[tuple[int, int], moderngl.Framebuffer] = {}
-        self.silhouettes = self._silhouettes(material, mdf, peel, view_method, float(tile))
+        self.silhouettes = mdf_silhouettes(
+            self.ctx, mesh, self.vbo, self.ibo, material, mdf=mdf, peel=peel,
+            view_method=view_method, tile_mm=float(tile),
+        )  # fmt: skip
         self._program(1)  # a shader this GL cannot compile fails here, not at the first frame
-
-    def _silhouettes(self, material, mdf, peel: int, view_method: str, tile_mm: float):
-        """The depth peeling of the MDF, or None without one."""
-        if mdf is None:
-            mdf = material.mdf is not None
-        if not mdf:
-            return None
-        if material.mdf is None:
-            raise RenderError(
-                f"material {str(material.source)!r} holds no mdf; render it without the MDF "
-                "(mdf=False, rig view --no-mdf) or run the mdf stage first"
-            )
-        holes = open_edges(self.mesh)
-        if holes:
-            _log.warning(
-                "mesh %r is open (%d edges bound one face only): MDF silhouettes assume a "
-                "closed object; where a ray finds no back face the mesh's own outline stays",
-                self.mesh.name, holes,
-            )  # fmt: skip
-        texture = upload_mdf(self.ctx, mdf_table(material.mdf), view_method=view_method)
-        self._owned.append(texture)
-        return SilhouettePeel(self.ctx, self.vbo, self.ibo, texture, passes=peel,
-                              texture_scale=tile_mm / material.sample_mm,
-                              uv_scale=self.uv_scale)  # fmt: skip
 
     @staticmethod
     def _check_layers(material, layers) -> tuple[str, ...]:
