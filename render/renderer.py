@@ -24,6 +24,7 @@ from render.ambient import upload_ambient
 from render.camera import Camera
 from render.lights import MAX_LIGHTS, DirectionalLight, PointLight
 from render.mdf import GRAZING_DEG, mdf_table, upload_mdf
+from render.peel import mdf_silhouettes
 from rig.material import CompressedBTF, Material
 
 __all__ = ["MAX_LIGHTS", "Renderer"]
@@ -59,13 +60,18 @@ class Renderer:
         Macro shadows of the mesh (shadow maps, 5×5 PCF).
     shadow_size : int
         Texels per side of each light's shadow map.
-    mdf : bool
-        Use the material's MDF (seed 001 §4): shadows are tested where the
-        view ray meets the mesostructure, p − s·D(x, y, v)·v (s = tile_mm /
-        sample_mm), against shadow maps holding the mesostructure's base, and
-        shadowed points are shaded by the ambient term.
+    mdf : bool or None
+        Use the material's MDF (seed 001 §4); None: when the material holds
+        one. Mesostructure silhouettes by depth peeling (``render.peel``), and
+        mesostructure-aware shadows: tested where the view ray meets the
+        mesostructure, p − s·D(x, y, v)·v (s = tile_mm / sample_mm), against
+        shadow maps holding the mesostructure's base, shadowed points shaded
+        by the ambient term.
+    peel : int
+        Peeling passes with the MDF (1…8): intervals of a ray inside the mesh
+        tested, nearest first.
     ambient : float
-        With ``mdf``: the fraction a ∈ [0, 1] of each light's irradiance that
+        With the MDF: the fraction a ∈ [0, 1] of each light's irradiance that
         reaches the points it shadows as uniform skylight (radiance a·E/π),
         shading them by the ambient term L_a, the BTF integrated over all light
         directions (``render.ambient``); 0: shadows are black.
@@ -90,7 +96,8 @@ class Renderer:
         shininess: float = 40.0,
         shadows: bool = True,
         shadow_size: int = 1024,
-        mdf: bool = False,
+        mdf: bool | None = None,
+        peel: int = 2,
         ambient: float = 0.2,
     ) -> None:
         self.layers = self._check_layers(material, layers)
@@ -105,6 +112,7 @@ class Renderer:
             raise RenderError(
                 f"specular = {specular}, shininess = {shininess}: need specular ≥ 0, shininess > 0"
             )
+        mdf = material.mdf is not None if mdf is None else bool(mdf)
         self.ctx = gl_context()
         self.mesh = mesh
         self._owned: list = []
@@ -117,8 +125,8 @@ class Renderer:
             "BTF_KIND": 0 if btf is None else (1 if isinstance(btf, CompressedBTF) else 2),
             "PS": int("ps" in self.layers),
             "SHADOWS": int(bool(shadows)),
-            "MDF_SHADOWS": int(bool(mdf and shadows)),
-            "AMBIENT": int(bool(mdf and btf is not None and ambient > 0)),
+            "MDF_SHADOWS": int(mdf and shadows),
+            "AMBIENT": int(mdf and btf is not None and ambient > 0),
         }
         self._programs: dict[int, tuple[moderngl.Program, moderngl.VertexArray]] = {}
         self._static: dict[str, object] = {}
@@ -147,6 +155,10 @@ class Renderer:
             if shadows else None
         )  # fmt: skip
         self._framebuffers: dict[tuple[int, int], moderngl.Framebuffer] = {}
+        self.silhouettes = mdf_silhouettes(
+            self.ctx, mesh, self.vbo, self.ibo, self.mdf_texture, peel=peel,
+            texture_scale=float(tile) / material.sample_mm, uv_scale=self.uv_scale,
+        )  # fmt: skip
         self._program(1)  # a shader this GL cannot compile fails here, not at the first frame
 
     @staticmethod
@@ -240,8 +252,8 @@ class Renderer:
             return 0.0
         if material.mdf is None:
             raise RenderError(
-                f"material {str(material.source)!r} holds no MDF; render without it (--no-mdf) "
-                "or process the session's laser scans first (rig process --stages mdf)"
+                f"material {str(material.source)!r} holds no MDF; render it without the MDF "
+                "(mdf=False, rig view --no-mdf) or run the mdf stage first"
             )
         if not (np.isfinite(ambient) and 0 <= ambient <= 1):
             raise RenderError(f"ambient = {ambient}: valid is a fraction 0 … 1 of each light")
@@ -324,25 +336,46 @@ class Renderer:
         view_proj = camera.projection_matrix(near, far) @ camera.view_matrix()
         view_proj = view_proj.T.astype(np.float32).tobytes()
         program["view_proj"].write(view_proj)
-        self._depth_program["view_proj"].write(view_proj)
         for name, value in (("orthographic", camera.fov_deg is None), ("eye", tuple(camera.eye)),
                             ("toward_camera", tuple(-camera.forward))):  # fmt: skip
             if name in program:
                 program[name].value = value
+        fbo = self._depth_pass(camera, view_proj)
         for unit, texture in enumerate(self._units):
             texture.use(location=unit)
+        fbo.use()
+        # Shade only what the depth pass left in front (depth equal): where the mesh
+        # folds over itself each pixel runs the costly shader once, not per layer.
+        self.ctx.depth_func = "<=" if self.silhouettes is None else "=="
+        vao.render(moderngl.TRIANGLES)
+        self.ctx.depth_func = "<"
+
+    def _depth_pass(self, camera: Camera, view_proj: bytes) -> moderngl.Framebuffer:
+        """The framebuffer cleared, its depth that of the surfaces to shade: the nearest
+        (depth pre-pass) or, with the MDF, those whose rays meet the mesostructure."""
         fbo = self._framebuffer(camera.size)
         fbo.use()
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        if self.silhouettes is not None:
+            # Texture units above the surface program's and the shadow atlas's.
+            self.silhouettes.draw(camera, view_proj, fbo.depth_attachment,
+                                  unit=len(self._units) + 1)  # fmt: skip
+            return fbo
         self.ctx.enable_only(moderngl.DEPTH_TEST)
-        # Depth first, then shade only what stays in front (depth equal): where the
-        # mesh folds over itself each pixel runs the costly shader once, not per layer.
+        self._depth_program["view_proj"].write(view_proj)
         fbo.color_mask = False, False, False, False
         self._depth_vao.render(moderngl.TRIANGLES)
         fbo.color_mask = True, True, True, True
-        self.ctx.depth_func = "<="
-        vao.render(moderngl.TRIANGLES)
-        self.ctx.depth_func = "<"
+        return fbo
+
+    def coverage(self, camera: Camera) -> np.ndarray:
+        """(H, W) bool: the pixels where the surface is drawn (with the MDF, where a
+        ray meets the mesostructure), row 0 at the top like :meth:`render`."""
+        near, far = camera.depth_range(self.bounds_center, self.bounds_radius)
+        view_proj = camera.projection_matrix(near, far) @ camera.view_matrix()
+        fbo = self._depth_pass(camera, view_proj.T.astype(np.float32).tobytes())
+        depth = np.frombuffer(fbo.read(components=1, attachment=-1, dtype="f4"), np.float32)
+        return np.ascontiguousarray(depth.reshape(camera.size[1], camera.size[0])[::-1] < 1.0)
 
     def release(self) -> None:
         """Free the GPU objects (the shared context stays)."""
@@ -351,11 +384,11 @@ class Renderer:
                 attachment.release()
             fbo.release()
         self._framebuffers.clear()
-        for part in (self.shadows, self.btf_textures, self.ps_textures, self.mdf_texture,
-                     self.ambient_texture):  # fmt: skip
+        for part in (self.shadows, self.btf_textures, self.ps_textures, self.silhouettes,
+                     self.mdf_texture, self.ambient_texture):  # fmt: skip
             if part is not None:
                 part.release()
-        self.shadows = self.btf_textures = self.ps_textures = None
+        self.shadows = self.btf_textures = self.ps_textures = self.silhouettes = None
         self.mdf_texture = self.ambient_texture = None
         for program, vao in self._programs.values():
             vao.release()

@@ -1,12 +1,24 @@
-// Direction lookups shared by the surface and the MDF shaders (prepended after the
-// renderer's #version and #defines): blend a measured direction table at a query
-// exactly as rig.geometry does, from the candidate grids of render/_lookup.py.
+// Tangent frames and direction lookups shared by the surface and the MDF shaders
+// (prepended after the renderer's #version and #defines): blend a measured direction
+// table at a query exactly as rig.geometry does, from the grids of render/_lookup.py.
 
 struct Blend { ivec4 idx; vec4 w; };
 
 vec3 safe_normalize(vec3 v, vec3 fallback) {
     float len2 = dot(v, v);
     return len2 > 1e-24 ? v * inversesqrt(len2) : fallback;
+}
+
+// World → tangent frame (x along +u, y along +v, z the unit normal n): the sample
+// frame of the measurement. tangent.w is the handedness; a tangent along n falls
+// back on any direction across it.
+mat3 tangent_frame(vec3 n, vec4 tangent) {
+    float hand = tangent.w < 0.0 ? -1.0 : 1.0;
+    vec3 t = tangent.xyz - n * dot(n, tangent.xyz);
+    vec3 any_side = abs(n.x) < 0.9 ? vec3(1.0, 0.0, 0.0) : vec3(0.0, 1.0, 0.0);
+    t = safe_normalize(t, safe_normalize(cross(any_side, n), vec3(1.0, 0.0, 0.0)));
+    vec3 b = hand * cross(n, t);
+    return transpose(mat3(t, b, n));
 }
 
 // ---- direction lookups (render/_lookup.py builds the candidate grids) ----

@@ -27,7 +27,7 @@ uniform float uv_scale;        // 1 / tile_mm: sample repeats per UV unit
 uniform vec4 light_place[N_LIGHTS];   // xyz position (w = 1) or direction to the light (w = 0)
 uniform vec3 light_emission[N_LIGHTS];
 
-// Blend, safe_normalize and the blend_* lookups come from directions.glsl, prepended.
+// Blend, safe_normalize, tangent_frame and the blend_* lookups: directions.glsl, prepended.
 
 #if BTF_KIND > 0
 uniform sampler2DArray view_cells;
@@ -197,12 +197,7 @@ void main() {
     // Two-sided: the back of a surface shows the material turned over about its
     // tangent (a rigid turn: the frame (t, −b, −n) stays right-handed).
     if (!gl_FrontFacing) n = -n;
-    float hand = v_tangent.w < 0.0 ? -1.0 : 1.0;
-    vec3 t = v_tangent.xyz - n * dot(n, v_tangent.xyz);
-    vec3 any_side = abs(n.x) < 0.9 ? vec3(1.0, 0.0, 0.0) : vec3(0.0, 1.0, 0.0);
-    t = safe_normalize(t, safe_normalize(cross(any_side, n), vec3(1.0, 0.0, 0.0)));
-    vec3 b = hand * cross(n, t);
-    mat3 to_local = transpose(mat3(t, b, n));
+    mat3 to_local = tangent_frame(n, v_tangent);
 
     vec2 st = v_uv * uv_scale;
     vec3 view_local = to_local * to_eye;
