@@ -144,8 +144,8 @@ def register(app: typer.Typer) -> None:
             bool | None,
             typer.Option(
                 "--mdf/--no-mdf",
-                help="mesostructure silhouettes from the material's MDF by depth peeling "
-                "(default: when the material holds an MDF)",
+                help="mesostructure silhouettes (depth peeling) and shadows (the ambient term "
+                "where shadowed) from the material's MDF (default: when the material holds one)",
             ),
         ] = None,
         peel: Annotated[
