@@ -34,6 +34,7 @@ from scipy import ndimage
 from processing.mdf import Reason
 from render import Camera, DirectionalLight, Renderer
 from render.meshes import Mesh, merged, plane, sphere
+from render.output import write_png
 from rig.geometry import Sampling, direction_vector, texel_centers_mm
 from rig.material import UNSEEN, CompressedBTF, Material, Mdf
 from sim.samples import generator
@@ -46,6 +47,7 @@ __all__ = [
     "relief_mesh",
     "scene_mesh",
     "truth_shadow",
+    "write_figure",
 ]
 
 #: rays start this far above the reference plane (mm), so the plane itself is never hit
@@ -231,7 +233,8 @@ def run_check(scene: ShadowScene | None = None, *, views=None) -> dict:
     plane (the flat plane's outline is not the relief's: silhouettes are
     another matter). Returns ``rows`` (``mdf`` off/on, ``agreement`` over the
     scored pixels, ``band_agreement`` within ``band_px`` of the true boundary,
-    the pixel counts) and the images (``truth``, ``lit_off``, ``lit_on``).
+    the pixel counts) and the images (``truth``, ``lit_off``, ``lit_on``, and
+    ``scored``, the mask).
     ``views``: the MDF's view slots, every third direction of H2 (27) by default.
     """
     scene = ShadowScene() if scene is None else scene
@@ -240,7 +243,7 @@ def run_check(scene: ShadowScene | None = None, *, views=None) -> dict:
     material = shadow_material(scene, views)
     scored = truth.relief & (rendered_lit(scene, material, mdf=False, shadows=False) > 0.5)
     band = _boundary_band(truth, scored, scene.band_px)
-    rows, images = [], {"truth": truth}
+    rows, images = [], {"truth": truth, "scored": scored}
     for mdf in (False, True):
         lit = rendered_lit(scene, material, mdf=mdf)
         agree = (lit > 0.5) == truth.lit
@@ -252,3 +255,23 @@ def run_check(scene: ShadowScene | None = None, *, views=None) -> dict:
             "pixels": int(scored.sum()), "band_pixels": int(band.sum()),
         })  # fmt: skip
     return {"rows": rows, **images}
+
+
+def write_figure(path, check: dict) -> Path:
+    """A PNG: without the MDF | with it | truth. Lit relief light grey, shadowed dark
+    grey, scored pixels where a render disagrees with the truth red; the ball, the
+    background and the pixels not scored black."""
+    truth, scored = check["truth"], check["scored"]
+
+    def panel(seen: np.ndarray, lit: np.ndarray, wrong: np.ndarray) -> np.ndarray:
+        grey = np.where(seen, np.where(lit, 0.7, 0.08), 0.0)
+        image = np.repeat(grey[..., None], 3, axis=2)
+        image[wrong] = (0.9, 0.0, 0.0)
+        return image
+
+    panels = [panel(truth.relief, truth.lit, np.zeros_like(truth.lit))]
+    for name in ("lit_on", "lit_off"):
+        lit = check[name] > 0.5
+        panels.insert(0, panel(scored, lit, scored & (lit != truth.lit)))
+    gap = np.ones((truth.lit.shape[0], 4, 3))
+    return write_png(path, np.hstack([panels[0], gap, panels[1], gap, panels[2]]))
