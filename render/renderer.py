@@ -252,7 +252,7 @@ class Renderer:
             return 0.0
         if material.mdf is None:
             raise RenderError(
-                f"material {str(material.source)!r} holds no MDF; render it without the MDF "
+                f"material {str(material.source)!r} holds no mdf; render it without the MDF "
                 "(mdf=False, rig view --no-mdf) or run the mdf stage first"
             )
         if not (np.isfinite(ambient) and 0 <= ambient <= 1):

@@ -117,7 +117,7 @@ def test_shadow_maps_hold_the_mesostructure_base(theta):
 
 def test_mdf_options_are_checked(pca_model):
     mesh, _ = tilted_quad((0.0, 0.0))
-    with pytest.raises(RenderError, match=r"holds no MDF.*--no-mdf"):
+    with pytest.raises(RenderError, match=r"holds no mdf.*--no-mdf"):
         Renderer(material(pca_model), mesh, mdf=True)
     for bad in (-0.1, 1.5, float("nan")):
         with pytest.raises(RenderError, match=f"ambient = {bad}: valid is a fraction"):
