@@ -273,12 +273,14 @@ def run_silhouettes(*, samples=("bumps", "weave"), shapes=SHAPES, size: int = 25
 
 
 def write_figure(path, cases: list[SilhouetteCase]) -> Path:
-    """A PNG: a row per case, BTF only | BTF + MDF | truth (rendered images scaled so
-    their brightest 1 % is at 90 % white)."""
+    """A PNG: a row per case, BTF only | BTF + MDF | truth, each row cropped to what
+    its pictures show (the rendered ones scaled so their brightest 1 % is at 90 % white)."""
     rows = []
     for case in cases:
         scale = 0.9 / max(float(np.percentile(case.btf_only, 99)), 1e-6)
-        rows.append(np.hstack([case.btf_only * scale, case.with_mdf * scale, case.truth]))
+        row = np.hstack([case.btf_only * scale, case.with_mdf * scale, case.truth])
+        shown = np.flatnonzero(row.sum(axis=(1, 2)) > 0)
+        rows.append(row[max(shown[0] - 4, 0) : shown[-1] + 5])
     return write_png(path, np.vstack(rows))
 
 

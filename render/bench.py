@@ -77,17 +77,18 @@ def _mdf_rows(size: tuple[int, int], texels: int, frames: int) -> list[dict]:
     mesh = torus(segments=96)
     camera = Camera.perspective((0, -210, 120), (0, 0, -8), fov_deg=38, size=size)
     lights = [PointLight((30.0, -120.0, 160.0), intensity=1e4)]
-    rows, btf_fps = [], None
+    rows, btf_fps, btf_cpu_ms = [], None, None
     for mdf, peel in ((False, 0), (True, 1), (True, 2), (True, 3)):
         with Renderer(material, mesh, shadows=False, mdf=mdf, peel=max(peel, 1),
                       tile_mm=10.0) as renderer:  # fmt: skip
             fps, cpu_ms = _timing(lambda r=renderer: r.draw(camera, lights), frames)
             gl_renderer = renderer.ctx.info["GL_RENDERER"]
-        btf_fps = btf_fps or fps
+        btf_fps, btf_cpu_ms = btf_fps or fps, btf_cpu_ms or cpu_ms
         rows.append({
             "kind": "mdf", "mdf": mdf, "peel": peel, "fps": round(fps, 3),
             "ratio_to_btf": round(fps / btf_fps, 4), "btf_fps": round(btf_fps, 2),
-            "cpu_ms": round(cpu_ms, 1), "size": f"{size[0]}x{size[1]}", "gl_renderer": gl_renderer,
+            "cpu_ms": round(cpu_ms, 1), "cpu_ratio_to_btf": round(btf_cpu_ms / cpu_ms, 4),
+            "size": f"{size[0]}x{size[1]}", "gl_renderer": gl_renderer,
         })  # fmt: skip
     return rows
 
@@ -148,7 +149,9 @@ def run_bench(*, quick: bool = False, size: tuple[int, int] = _SIZE) -> list[dic
     (fps over the plain quad's), ``plain_fps``, ``cpu_ms`` (CPU time per frame, see
     ``_timing``), ``plain_cpu_ms``, ``size``, ``gl_renderer``; then the ``mdf`` rows:
     ``mdf``, ``peel`` (passes, 0 without the MDF), ``fps``, ``ratio_to_btf`` (fps over
-    the BTF alone on the same torus), ``btf_fps``, ``cpu_ms``, ``size``, ``gl_renderer``.
+    the BTF alone on the same torus), ``btf_fps``, ``cpu_ms``, ``cpu_ratio_to_btf`` (the
+    BTF alone's CPU time per frame over this one's: the speed ratio that llvmpipe's
+    shared-machine noise leaves alone), ``size``, ``gl_renderer``.
 
     ``quick``: c ∈ {4, 16}, 1 and 4 view slots, 64² textures, best of 2 frames
     (else c ∈ {1, 4, 8, 16}, 1/3/4 slots and the SVD, 128² textures, best of 5).
