@@ -31,27 +31,24 @@ import numpy as np
 import trimesh
 from scipy import ndimage
 
-from processing.mdf import Reason
+from orchestrator.mdf_truth import ray_cast_mdf
 from render import Camera, DirectionalLight, Renderer
 from render.meshes import Mesh, merged, plane, sphere
 from render.output import write_png
-from rig.geometry import Sampling, direction_vector, texel_centers_mm
-from rig.material import UNSEEN, CompressedBTF, Material, Mdf
+from rig.geometry import Sampling, direction_vector
+from rig.material import CompressedBTF, Material, Mdf
 from sim.samples import generator
 from sim.samples.heightfields import BumpsParams
 
 __all__ = [
     "ShadowScene",
     "TruthShadow",
-    "mdf_by_ray_casting",
+    "relief_mdf",
     "relief_mesh",
     "scene_mesh",
     "truth_shadow",
     "write_figure",
 ]
-
-#: rays start this far above the reference plane (mm), so the plane itself is never hit
-_ABOVE_MM = 1e-4
 
 
 @dataclass(frozen=True)
@@ -119,34 +116,13 @@ def relief_mesh(height, *, sample_mm: float, scale: float, extent_mm: float, ste
     return trimesh.Trimesh(vertices, faces, process=False, validate=False)
 
 
-def mdf_by_ray_casting(height, view_dirs_deg, *, sample_mm: float, n: int, step_mm: float) -> Mdf:
-    """The MDF of a periodic height field: D_v(x, y) on the n × n texel grid.
-
-    D_v is the distance from (x, y, 0) along −v to the relief (seed 001 §3),
-    cast (trimesh) against the sample tiled 3 × 3 so slanted rays that leave
-    the sample's square still find its neighbour's relief. −1 where a ray
-    finds nothing.
-    """
+def relief_mdf(height, view_dirs_deg, *, sample_mm: float, n: int, step_mm: float) -> Mdf:
+    """The exact MDF of a periodic height field (``orchestrator.mdf_truth``), its relief
+    meshed at ``step_mm`` and tiled 3 × 3 so slanted rays find the neighbours' relief."""
     tiles = relief_mesh(height, sample_mm=sample_mm, scale=1.0, extent_mm=3 * sample_mm,
                         step_mm=step_mm)  # fmt: skip
-    xy = texel_centers_mm(sample_mm, n).reshape(-1, 2)
-    origins = np.column_stack([xy, np.full(len(xy), _ABOVE_MM)])
-    distance = np.full((len(view_dirs_deg), n * n), UNSEEN, np.float32)
-    for slot, (theta, phi) in enumerate(np.asarray(view_dirs_deg, np.float64)):
-        v = direction_vector(theta, phi)
-        dirs = np.broadcast_to(-v, origins.shape)
-        points, rays, _ = tiles.ray.intersects_location(origins, dirs, multiple_hits=False)
-        t = np.einsum("ij,ij->i", points - origins[rays], dirs[rays])
-        distance[slot, rays] = np.maximum(t - _ABOVE_MM, 0.0)
-    shape = (len(view_dirs_deg), n, n)
-    distance = distance.reshape(shape)
-    seen = distance >= 0
-    return Mdf(
-        distance_mm=distance, view_dirs_deg=np.asarray(view_dirs_deg, np.float32),
-        reason=np.where(seen, Reason.OK, Reason.UNLIT).astype(np.uint8),
-        count=seen.astype(np.uint8),
-        attrs={"source": "ray cast from the sample's height field"},
-    )  # fmt: skip
+    return ray_cast_mdf(tiles, view_dirs_deg, sample_mm=sample_mm, n=n,
+                        source="ray cast from the sample's height field")  # fmt: skip
 
 
 def _ball(scene: ShadowScene) -> Mesh:
@@ -202,7 +178,7 @@ def shadow_material(scene: ShadowScene, view_dirs_deg) -> Material:
         np.zeros((n_views, 1, n, n, 1), np.float16), np.zeros((n_views, n_lights, 1), np.float32),
         np.ones((n_views, n_lights), np.float32), np.ones(n_views, np.int32),
     )  # fmt: skip
-    mdf = mdf_by_ray_casting(scene.height(), views, sample_mm=scene.sample_mm, n=n,
+    mdf = relief_mdf(scene.height(), views, sample_mm=scene.sample_mm, n=n,
                              step_mm=scene.relief_step_mm / 2)  # fmt: skip
     return Material(Path("mdf shadow check"), scene.sample_mm, n, btf, np.ones(n_views, bool),
                     mdf=mdf)  # fmt: skip

@@ -31,13 +31,14 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
+from orchestrator.mdf_truth import ray_cast_mdf
 from processing.btf import compress_btf
 from processing.btf.synthetic import SyntheticBTF
 from render import Camera, DirectionalLight, Renderer
 from render.meshes import Mesh, cylinder, mesh_from_arrays, torus
 from render.output import write_png
-from rig.geometry import Sampling, direction_vector, texel_centers_mm
-from rig.material import UNSEEN, Material, Mdf
+from rig.geometry import Sampling
+from rig.material import Material, Mdf
 from sim.samples import generator
 from sim.samples.heightfields import BumpsParams
 from sim.samples.weave import WeaveParams
@@ -91,18 +92,8 @@ def _tiled_sample(name: str, copies: int) -> trimesh.Trimesh:
 def sample_mdf(name: str, *, size: int = 64, views_deg=None) -> Mdf:
     """The exact MDF of sample ``name`` on a size² texel grid at ``views_deg`` (H1's by default)."""
     views = Sampling.named("H1").directions if views_deg is None else np.asarray(views_deg)
-    mesh = _tiled_sample(name, copies=2)
-    origins = np.column_stack([texel_centers_mm(SAMPLE_MM, size).reshape(-1, 2),
-                               np.zeros(size * size)])  # fmt: skip
-    distance = np.full((len(views), size * size), UNSEEN, np.float32)
-    for k, view in enumerate(views):
-        down = np.broadcast_to(-direction_vector(*view), origins.shape)
-        hits, rays, _ = mesh.ray.intersects_location(origins, down, multiple_hits=False)
-        distance[k, rays] = np.linalg.norm(hits - origins[rays], axis=1)
-    shape = (len(views), size, size)
-    seen = (distance >= 0).reshape(shape).astype(np.uint8)
-    return Mdf(distance.reshape(shape), views.astype(np.float32), 1 - seen, seen,
-               attrs={"source": f"ray cast {name}"})  # fmt: skip
+    return ray_cast_mdf(_tiled_sample(name, copies=2), views, sample_mm=SAMPLE_MM, n=size,
+                        source=f"ray cast {name}")  # fmt: skip
 
 
 def _shell(shape: str):
@@ -191,24 +182,14 @@ def truth_image(mesh: trimesh.Trimesh, camera: Camera) -> tuple[np.ndarray, np.n
     """(H, W) bool coverage and (H, W, 3) Lambert shading of ``mesh`` through the
     camera's pixel centres, row 0 at the top (as ``Renderer.coverage``)."""
     width, height = camera.size
-    lo, hi = mesh.bounds
-    near, far = camera.depth_range((lo + hi) / 2, float(np.linalg.norm(hi - lo)) / 2)
-    unproject = np.linalg.inv(
-        camera.projection_matrix(near, far).astype(np.float64) @ camera.view_matrix()
-    )
-    cols, rows = np.meshgrid(np.arange(width), np.arange(height))
-    ndc = np.stack([(cols + 0.5) / width * 2 - 1, 1 - (rows + 0.5) / height * 2], -1).reshape(-1, 2)
-    ends = [np.column_stack([ndc, np.full(len(ndc), z), np.ones(len(ndc))]) @ unproject.T
-            for z in (-1.0, 1.0)]  # fmt: skip
-    start, stop = (e[:, :3] / e[:, 3:] for e in ends)
-    dirs = (stop - start) / np.linalg.norm(stop - start, axis=1, keepdims=True)
+    start, dirs = (a.reshape(-1, 3) for a in camera.pixel_rays())
     faces, rays = mesh.ray.intersects_id(start, dirs, multiple_hits=False)[:2]
-    covered = np.zeros(len(ndc), bool)
+    covered = np.zeros(len(dirs), bool)
     covered[rays] = True
     normals = mesh.face_normals[faces]
     facing = np.sign(-np.einsum("ij,ij->i", normals, dirs[rays]))[:, None]
     light = np.asarray(_LIGHT) / np.linalg.norm(_LIGHT)
-    shade = np.zeros(len(ndc))
+    shade = np.zeros(len(dirs))
     shade[rays] = 0.08 + 0.8 * np.clip((facing * normals) @ light, 0, None)
     image = np.repeat(shade[:, None], 3, axis=1).reshape(height, width, 3)
     return covered.reshape(height, width), image.astype(np.float32)

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from orchestrator.mdf_shadows import ShadowScene, mdf_by_ray_casting, run_check
+from orchestrator.mdf_shadows import ShadowScene, relief_mdf, run_check
 from rig.geometry import texel_centers_mm
 
 # 128² pixels, the relief meshed at 0.2 mm: the check of docs/render.md at a quarter of the pixels.
@@ -13,7 +13,7 @@ SCENE = ShadowScene(size=128, band_px=5, relief_step_mm=0.2)
 def test_ray_cast_mdf_is_the_height_field_seen_from_above():
     height = SCENE.height()
     views = np.array([[0.0, 0.0], [60.0, 30.0]])
-    mdf = mdf_by_ray_casting(height, views, sample_mm=SCENE.sample_mm, n=32, step_mm=0.05)
+    mdf = relief_mdf(height, views, sample_mm=SCENE.sample_mm, n=32, step_mm=0.05)
     xy = texel_centers_mm(SCENE.sample_mm, 32)
     # Straight down, D is the depth below the reference plane (the mesh's chords: ≤ 0.01 mm).
     np.testing.assert_allclose(mdf.distance_mm[0], -height(xy[..., 0], xy[..., 1]), atol=0.01)
