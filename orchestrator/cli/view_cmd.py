@@ -234,7 +234,9 @@ def _run(
             # Lamps added to the environment maps' image draw no MDF: the outlines must agree.
             mdf, peel = (False, 1) if through_maps else silhouettes
             try:
-                made = Renderer(material, mesh, tile_mm=tile_mm, mdf=mdf, peel=peel)
+                # Under an environment its own light fills the shadows: no ambient term on top.
+                fill = {} if environment is None else {"ambient": 0.0}
+                made = Renderer(material, mesh, tile_mm=tile_mm, mdf=mdf, peel=peel, **fill)
             except RenderError as err:  # --mdf on a material without one
                 err_console.print(f"[red]error:[/red] {err}")
                 raise typer.Exit(EXIT_INVALID) from err
