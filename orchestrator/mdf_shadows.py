@@ -45,6 +45,7 @@ __all__ = [
     "TruthShadow",
     "relief_mdf",
     "relief_mesh",
+    "run_check",
     "scene_mesh",
     "truth_shadow",
     "write_figure",
@@ -168,7 +169,7 @@ def truth_shadow(scene: ShadowScene) -> TruthShadow:
     return TruthShadow(relief=on_relief.reshape(shape), lit=lit.reshape(shape))
 
 
-def shadow_material(scene: ShadowScene, view_dirs_deg) -> Material:
+def _shadow_material(scene: ShadowScene, view_dirs_deg) -> Material:
     """A constant BTF (T ≡ 1 at every view and light, grey) with the relief's MDF."""
     n, views = scene.texels, np.asarray(view_dirs_deg, np.float64)
     lights = Sampling.named("H1").directions
@@ -179,12 +180,12 @@ def shadow_material(scene: ShadowScene, view_dirs_deg) -> Material:
         np.ones((n_views, n_lights), np.float32), np.ones(n_views, np.int32),
     )  # fmt: skip
     mdf = relief_mdf(scene.height(), views, sample_mm=scene.sample_mm, n=n,
-                             step_mm=scene.relief_step_mm / 2)  # fmt: skip
+                     step_mm=scene.relief_step_mm / 2)  # fmt: skip
     return Material(Path("mdf shadow check"), scene.sample_mm, n, btf, np.ones(n_views, bool),
                     mdf=mdf)  # fmt: skip
 
 
-def rendered_lit(
+def _rendered_lit(
     scene: ShadowScene, material: Material, *, mdf: bool, shadows: bool = True
 ) -> np.ndarray:
     """(H, W) float32: the light's lit fraction per pixel, as the renderer shades it
@@ -216,12 +217,12 @@ def run_check(scene: ShadowScene | None = None, *, views=None) -> dict:
     scene = ShadowScene() if scene is None else scene
     views = Sampling.named("H2").directions[::3] if views is None else views
     truth = truth_shadow(scene)
-    material = shadow_material(scene, views)
-    scored = truth.relief & (rendered_lit(scene, material, mdf=False, shadows=False) > 0.5)
+    material = _shadow_material(scene, views)
+    scored = truth.relief & (_rendered_lit(scene, material, mdf=False, shadows=False) > 0.5)
     band = _boundary_band(truth, scored, scene.band_px)
     rows, images = [], {"truth": truth, "scored": scored}
     for mdf in (False, True):
-        lit = rendered_lit(scene, material, mdf=mdf)
+        lit = _rendered_lit(scene, material, mdf=mdf)
         agree = (lit > 0.5) == truth.lit
         images[f"lit_{'on' if mdf else 'off'}"] = lit
         rows.append({
