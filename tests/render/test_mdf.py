@@ -9,7 +9,7 @@ from render._gl import gl_context, shader_source
 from render.mdf import GRAZING_DEG, mdf_reference, mdf_table, upload_mdf
 from rig.geometry import direction_vector
 from rig.material import Mdf
-from tests.render.conftest import VIEWS
+from tests.render.conftest import VIEWS, synthetic_mdf
 
 _LOOKUP_FRAG = """
 uniform vec3 view_local;
@@ -23,20 +23,6 @@ in vec2 in_xy;
 out vec2 v_st;
 void main() { v_st = in_xy * 0.5 + 0.5; gl_Position = vec4(in_xy, 0.0, 1.0); }
 """
-
-
-def synthetic_mdf(n: int = 12, seed: int = 0, unseen: float = 0.0) -> Mdf:
-    """Random depths below the plane seen from VIEWS (D = h / cos θ); a fraction unseen."""
-    rng = np.random.default_rng(seed)
-    depth = rng.uniform(0.0, 2.0, (n, n))
-    cos_theta = direction_vector(VIEWS[:, 0], VIEWS[:, 1])[:, 2]
-    distance = np.broadcast_to(depth, (len(VIEWS), n, n)) / cos_theta[:, None, None]
-    distance = np.where(rng.random(distance.shape) < unseen, -1.0, distance)
-    shape = distance.shape
-    return Mdf(
-        distance.astype(np.float32), VIEWS.astype(np.float32),
-        np.zeros(shape, np.uint8), np.ones(shape, np.uint8),
-    )  # fmt: skip
 
 
 def gpu_lookup(table, view_local, *, method, size=48, st_scale=(1.3, 0.8)) -> np.ndarray:

@@ -9,8 +9,7 @@ import pytest
 from render import Camera, DirectionalLight, Renderer, RenderError
 from render.meshes import plane, sphere, torus
 from render.peel import MAX_PEEL, open_edges
-from tests.render.conftest import SAMPLE_MM, material
-from tests.render.test_mdf import synthetic_mdf
+from tests.render.conftest import SAMPLE_MM, material, synthetic_mdf
 
 LIGHT = [DirectionalLight((0.3, -0.5, 0.8))]
 SIZE = (128, 96)

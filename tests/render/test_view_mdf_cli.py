@@ -10,7 +10,7 @@ from typer.testing import CliRunner
 
 from orchestrator.cli import app
 from rig.material import write_mdf
-from tests.render.test_mdf import synthetic_mdf
+from tests.render.conftest import synthetic_mdf
 
 runner = CliRunner()
 TORUS = ("--mesh", "torus", "--size", "96x64", "--camera", "orbit:80,-90", "--light", "dir:30,-60")
