@@ -117,7 +117,6 @@ class RobotState:
     time_s: float
     q_target: np.ndarray
     q_actual: np.ndarray
-    tool_vector_actual: np.ndarray
     robot_mode: RobotMode
     safety_mode: SafetyMode
     program_running: bool
@@ -150,7 +149,6 @@ class RobotState:
             time_s=float(field("time")[0]),
             q_target=field("q_target").copy(),
             q_actual=field("q_actual").copy(),
-            tool_vector_actual=field("tool_vector_actual").copy(),
             robot_mode=robot_mode,
             safety_mode=safety_mode,
             program_running=field("program_state")[0] == PROGRAM_RUNNING,

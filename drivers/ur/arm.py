@@ -13,7 +13,8 @@ Public API (``drivers.interfaces.Positioner``), all poses ``rig.ur_kinematics.Po
   ``KinematicsError`` naming the arm and the pose when none exists.
 - ``move_to(pose)`` checks as above, then sends ``movej`` with those joint
   angles; returns at once. ``wait_until_settled()`` returns the pose reached.
-- ``pose()``, ``joints_deg()``, ``status()`` read back; ``stop()`` sends ``stopj``.
+- ``pose()`` (the TCP pose of the joints the controller reports),
+  ``joints_deg()``, ``status()`` read back; ``stop()`` sends ``stopj``.
 - ``unlock_protective_stop()`` clears a protective stop (dashboard); the
   move it interrupted must then be sent again.
 - ``close()``.
@@ -41,7 +42,7 @@ from rig.clock import Clock
 from rig.config import Axis
 from rig.devices import ARM_ROLE, UrController
 from rig.errors import KinematicsError
-from rig.ur_kinematics import UR_MODELS, Pose, nearest_joints
+from rig.ur_kinematics import UR_MODELS, Pose, forward, nearest_joints
 
 __all__ = ["ArmStatus", "UrArm"]
 
@@ -205,7 +206,7 @@ class UrArm:
         self._target = None
 
     def pose(self) -> Pose:
-        """The tool pose the controller reports (``tool_vector_actual``)."""
+        """The tool pose of the joint angles the controller reports (``q_actual``)."""
         return self._pose_of(self._read_state("pose"))
 
     def joints_deg(self) -> np.ndarray:
@@ -238,10 +239,11 @@ class UrArm:
                 "brakes (home())",
             )
 
-    @staticmethod
-    def _pose_of(state: RobotState) -> Pose:
-        vector = state.tool_vector_actual
-        return Pose(tuple(vector[:3].tolist()), tuple(vector[3:].tolist()))
+    def _pose_of(self, state: RobotState) -> Pose:
+        # From the joints, not the controller's tool vector: that follows whichever
+        # TCP the controller has active, which may not be ours between moves.
+        flange = forward(state.q_actual, self.model)
+        return Pose.from_matrix(flange @ self.tcp.matrix())
 
     def _read_state(self, operation: str) -> RobotState:
         return self._retried(lambda: self._on_stream(StateStream.latest), operation)
