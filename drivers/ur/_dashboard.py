@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import socket
 
-from drivers.errors import DeviceTimeout, ProtocolError
+from drivers.errors import DeviceError, DeviceTimeout, ProtocolError
 
 __all__ = ["Dashboard"]
 
@@ -33,7 +33,7 @@ class Dashboard:
             ) from err
         try:
             greeting = self._read_line("connect")
-        except Exception:
+        except DeviceError:
             self._sock.close()
             raise
         if not greeting.startswith(_GREETING):

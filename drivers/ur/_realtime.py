@@ -12,6 +12,7 @@ reads.
 from __future__ import annotations
 
 import enum
+import itertools
 import select
 import socket
 import struct
@@ -64,14 +65,17 @@ STATE_FIELDS: tuple[tuple[str, int], ...] = (
     ("elbow_velocity", 3),
     ("safety_status", 1),
 )
-_DOUBLES = struct.Struct(">" + "d" * sum(n for _, n in STATE_FIELDS))
+_DOUBLES = struct.Struct(">" + "d" * sum(count for _, count in STATE_FIELDS))
 _SIZE = struct.Struct(">i")
 PACKET_SIZE = _SIZE.size + _DOUBLES.size  # 1116
-_OFFSETS = {}
-_at = 0
-for _name, _count in STATE_FIELDS:
-    _OFFSETS[_name] = (_at, _count)
-    _at += _count
+_COUNTS = [count for _, count in STATE_FIELDS]
+# field → (index of its first double, number of doubles)
+_OFFSETS = {
+    name: (start, count)
+    for (name, count), start in zip(
+        STATE_FIELDS, itertools.accumulate(_COUNTS, initial=0), strict=False
+    )
+}
 
 
 class RobotMode(enum.IntEnum):

@@ -1,11 +1,14 @@
-"""The driver's reading of real-time state packets: bytes in, fields out."""
+"""The driver's framing: real-time state packets (bytes in, fields out), the dashboard greeting."""
 
+import socket
 import struct
+import threading
 
 import numpy as np
 import pytest
 
 from drivers.errors import ProtocolError
+from drivers.ur._dashboard import Dashboard
 from drivers.ur._realtime import PACKET_SIZE, RobotMode, RobotState, SafetyMode
 from sim.peers.ur._server import encode_state
 
@@ -47,3 +50,23 @@ def test_an_unknown_mode_is_a_protocol_error():
     packet = encode_state({"robot_mode": 42, "safety_mode": 1})
     with pytest.raises(ProtocolError, match="unknown mode"):
         RobotState.decode(packet, device="arm")
+
+
+def test_a_port_that_is_not_a_dashboard_server_is_named():
+    listener = socket.create_server(("127.0.0.1", 0))
+
+    def greet_wrongly():
+        conn, _ = listener.accept()
+        with conn:
+            conn.sendall(b"220 FTP server ready\n")
+            conn.recv(16)  # until the client hangs up
+
+    server = threading.Thread(target=greet_wrongly)
+    server.start()
+    try:
+        port = listener.getsockname()[1]
+        with pytest.raises(ProtocolError, match=rf"arm: connect failed: 127.0.0.1:{port} greeted"):
+            Dashboard("127.0.0.1", port, timeout_s=1.0, device="arm")
+    finally:
+        server.join(timeout=5)
+        listener.close()
