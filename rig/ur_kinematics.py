@@ -23,6 +23,7 @@ Universal Robots, "DH parameters for calculations of kinematics and dynamics".
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 import numpy as np
@@ -144,7 +145,7 @@ def _rotvec(r: np.ndarray) -> np.ndarray:
 
 
 def _link(theta: float, d: float, a: float, alpha: float) -> np.ndarray:
-    ct, st, ca, sa = np.cos(theta), np.sin(theta), np.cos(alpha), np.sin(alpha)
+    ct, st, ca, sa = math.cos(theta), math.sin(theta), math.cos(alpha), math.sin(alpha)
     return np.array(
         [
             [ct, -st * ca, st * sa, a * ct],
@@ -153,6 +154,13 @@ def _link(theta: float, d: float, a: float, alpha: float) -> np.ndarray:
             [0, 0, 0, 1],
         ]
     )
+
+
+def _inverse_rigid(t: np.ndarray) -> np.ndarray:
+    inv = np.eye(4)
+    inv[:3, :3] = t[:3, :3].T
+    inv[:3, 3] = -t[:3, :3].T @ t[:3, 3]
+    return inv
 
 
 def forward(joints_rad, model: DhParameters = UR_MODELS["ur5e"]) -> np.ndarray:
@@ -183,7 +191,7 @@ def inverse(transform, model: DhParameters = UR_MODELS["ur5e"]) -> np.ndarray:
         return np.empty((0, 6))
     psi = np.arctan2(p05[1], p05[0])
     phi = np.arccos(np.clip(d4 / r05, -1.0, 1.0))
-    t60 = np.linalg.inv(t)
+    t60 = _inverse_rigid(t)
     for q1 in (psi + phi + _HALF_PI, psi - phi + _HALF_PI):
         s1, c1 = np.sin(q1), np.cos(q1)
         c5 = (t[0, 3] * s1 - t[1, 3] * c1 - d4) / d6
@@ -200,7 +208,7 @@ def inverse(transform, model: DhParameters = UR_MODELS["ur5e"]) -> np.ndarray:
             t01 = _link(q1, d1, 0.0, model.alpha[0])
             t45 = _link(q5, d5, 0.0, model.alpha[4])
             t56 = _link(q6, d6, 0.0, model.alpha[5])
-            t14 = np.linalg.inv(t01) @ t @ np.linalg.inv(t45 @ t56)
+            t14 = _inverse_rigid(t01) @ t @ _inverse_rigid(t45 @ t56)
             p13 = t14 @ np.array([0.0, -d4, 0.0, 1.0]) - np.array([0.0, 0.0, 0.0, 1.0])
             n13 = np.linalg.norm(p13[:3])
             c3 = (n13**2 - a2**2 - a3**2) / (2 * a2 * a3)
@@ -210,7 +218,7 @@ def inverse(transform, model: DhParameters = UR_MODELS["ur5e"]) -> np.ndarray:
                 q2 = -np.arctan2(p13[1], -p13[0]) + np.arcsin(np.clip(a3 * np.sin(q3) / n13, -1, 1))
                 t12 = _link(q2, 0.0, a2, model.alpha[1])
                 t23 = _link(q3, 0.0, a3, model.alpha[2])
-                t34 = np.linalg.inv(t12 @ t23) @ t14
+                t34 = _inverse_rigid(t12 @ t23) @ t14
                 q4 = np.arctan2(t34[1, 0], t34[0, 0])
                 q = _wrap(np.array([q1, q2, q3, q4, q5, q6]))
                 if np.max(np.abs(forward(q, model) - t)) < _FK_TOLERANCE:
@@ -248,7 +256,7 @@ def nearest_joints(
     """
     current = np.asarray(current_rad, dtype=np.float64)
     limits = np.asarray(limits_rad, dtype=np.float64)
-    flange = pose.matrix() if tcp is None else pose.matrix() @ np.linalg.inv(tcp.matrix())
+    flange = pose.matrix() if tcp is None else pose.matrix() @ _inverse_rigid(tcp.matrix())
     solutions = inverse(flange, model)
     if len(solutions) == 0:
         distance = np.linalg.norm(flange[:3, 3] - [0.0, 0.0, model.d[0]])
