@@ -30,6 +30,12 @@ def _pose_error(a: Pose, b: Pose) -> tuple[float, float]:
     return position, float(np.degrees(np.arccos(cos)))
 
 
+class ArmSection(BaseModel):
+    """The part of a rig kind's arm section the registry reads: its device."""
+
+    device: ArmDevice
+
+
 # A sample orientation: tool tilted 30° from pointing straight down.
 _TILTED = (0.0, np.pi * 5 / 6, 0.0)
 
@@ -182,9 +188,6 @@ def test_one_owner_per_controller(arm, controller, clock):
 
 
 def test_registry_opens_the_arm_on_its_peer(world, clock):
-    class ArmSection(BaseModel):
-        device: ArmDevice
-
     section = ArmSection(device={"kind": "ur", "retry": {"timeout_s": 0.5}})
     peer = start_peer("arm", section, world, faults={"powered": True})
     try:
@@ -195,4 +198,26 @@ def test_registry_opens_the_arm_on_its_peer(world, clock):
         finally:
             arm.close()
     finally:
+        peer.stop()
+
+
+def test_a_fault_table_stops_the_nth_move_of_a_session(world, clock):
+    section = ArmSection(device={"kind": "ur", "retry": {"timeout_s": 0.5}})
+    faults = {"powered": True, "protective_stop_move": 2, "unlock_delay_s": 0.0}
+    peer = start_peer("arm", section, world, faults=faults)
+    arm = open_device("arm", peer.connect(section), clock=clock)
+    try:
+        start = arm.pose()
+        targets = [_offset(start, 0.05 * i, 0.0, _TILTED) for i in (1, 2, 3)]
+        arm.move_to(targets[0])
+        arm.wait_until_settled()
+        arm.move_to(targets[1])
+        with pytest.raises(DeviceFault, match="protective stop"):
+            arm.wait_until_settled()
+        arm.unlock_protective_stop()
+        for target in targets[1:]:  # the interrupted move again, then the session goes on
+            arm.move_to(target)
+            assert _pose_error(arm.wait_until_settled(), target)[0] < 1e-4
+    finally:
+        arm.close()
         peer.stop()
