@@ -133,13 +133,10 @@ def _rotvec(r: np.ndarray) -> np.ndarray:
     angle = np.arccos(cos)
     if angle < 1e-9:
         return np.zeros(3)
-    if np.pi - angle < 1e-6:  # near a half turn: the axis from the symmetric part
-        axis = np.sqrt(np.clip((np.diag(r) + 1) / 2, 0.0, None))
-        i = int(np.argmax(axis))
-        axis[[j for j in range(3) if j != i]] = (
-            r[i, [j for j in range(3) if j != i]] + r[[j for j in range(3) if j != i], i]
-        ) / (4 * axis[i])
-        return angle * axis / np.linalg.norm(axis)
+    if np.pi - angle < 1e-6:  # a half turn: R = 2·a·aᵀ − I, the axis from its largest column
+        outer = (r + np.eye(3)) / 2
+        i = int(np.argmax(np.diag(outer)))
+        return angle * outer[:, i] / np.sqrt(outer[i, i])
     w = np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
     return angle * w / (2 * np.sin(angle))
 
