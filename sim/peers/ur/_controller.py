@@ -1,9 +1,10 @@
 """The simulated controller's state: power, brakes, safety, the running program, the joints.
 
 Time is the world's clock; every read brings the state up to the clock's
-now. Motion is joint space: each joint follows a trapezoidal profile at the
-program's speed and acceleration (the ``movej`` model; ``movel`` is moved the
-same way to its target). A protective stop can be armed for a coming move:
+now. Motion is a straight line in joint space, as ``movej`` moves: the joint
+with the furthest to go follows a trapezoidal profile at the program's speed
+and acceleration and the others keep in step, so all start and stop together
+(``movel`` is moved the same way to its target). A protective stop can be armed for a coming move:
 at the given fraction of the move every joint stops where it is, the program
 ends and the safety mode reads ``PROTECTIVE_STOP`` until unlocked, which the
 controller refuses during the first ``unlock_delay_s``.
@@ -65,8 +66,10 @@ class ControllerState:
         self._stopped_at = 0.0
         self._stop_plan: dict[int, float] = {}  # move number → fraction at which it stops
         self._stop_time: float | None = None
-        rest = Axis(speed_deg_s=1.0, accel_deg_s2=1.0, min_deg=-360.0, max_deg=360.0)
-        self._joints = [AxisMotion(rest, start_deg=q, target_deg=q) for q in joints_deg]
+        self._start_deg = np.asarray(joints_deg, dtype=np.float64)
+        self._delta_deg = np.zeros(6)
+        # the leading joint's progress, 0 → its travel (deg); the others scale with it
+        self._path = AxisMotion(Axis(speed_deg_s=1.0, accel_deg_s2=1.0, min_deg=0.0, max_deg=720.0))
 
     # -- the dashboard's commands ------------------------------------------------
     def power_on(self) -> None:
@@ -147,19 +150,23 @@ class ControllerState:
             if outside.any():
                 raise ScriptError(f"joint {int(np.argmax(outside)) + 1} target beyond its limit")
         speed, accel = np.degrees(statement.keyword("v")), np.degrees(statement.keyword("a"))
-        profile = Axis(speed_deg_s=speed, accel_deg_s2=accel, min_deg=-360.0, max_deg=360.0)
-        duration = 0.0
-        for motion, q in zip(self._joints, np.degrees(target), strict=True):
-            motion.limits = profile
-            motion.command(q, now)
-            duration = max(duration, float(profile.move_time_s(q - motion.start_deg)))
+        self._start_deg = np.degrees(current)
+        self._delta_deg = np.degrees(target) - self._start_deg
+        travel = float(np.max(np.abs(self._delta_deg)))
+        self._path = AxisMotion(
+            Axis(speed_deg_s=speed, accel_deg_s2=accel, min_deg=0.0, max_deg=720.0),
+            target_deg=travel,
+            t_start=now,
+        )
         self.moves += 1
         fraction = self._stop_plan.pop(self.moves, None)
+        duration = float(self._path.limits.move_time_s(travel))
         self._stop_time = None if fraction is None else now + fraction * duration
 
     def _halt(self, t: float) -> None:
-        for motion in self._joints:
-            motion.command(motion.position(t), t)
+        self._start_deg = np.degrees(self._joints_rad_at(t))
+        self._delta_deg = np.zeros(6)
+        self._path = AxisMotion(self._path.limits, t_start=t)
         self._stop_time = None
 
     # -- state ---------------------------------------------------------------------
@@ -174,8 +181,12 @@ class ControllerState:
             self.errors.append("protective stop")
 
     def joints_rad(self) -> np.ndarray:
-        t = self.clock.now()
-        return np.radians([motion.position(t) for motion in self._joints])
+        return self._joints_rad_at(self.clock.now())
+
+    def _joints_rad_at(self, t: float) -> np.ndarray:
+        travel = self._path.target_deg
+        progress = 1.0 if travel == 0 else self._path.position(t) / travel
+        return np.radians(self._start_deg + progress * self._delta_deg)
 
     def snapshot(self) -> dict:
         """The fields of the state stream at the clock's now (rad, m)."""
@@ -183,8 +194,8 @@ class ControllerState:
             self._update()
             t = self.clock.now()
             q = self.joints_rad()
-            q_target = np.radians([motion.target_deg for motion in self._joints])
-            running = any(motion.is_moving(t) for motion in self._joints)
+            q_target = np.radians(self._start_deg + self._delta_deg)
+            running = self._path.is_moving(t)
             tool = Pose.from_matrix(forward(q, self.model) @ self.tcp.matrix())
             return {
                 "time": t - self._epoch,

@@ -7,8 +7,8 @@ import time
 import numpy as np
 import pytest
 
-from rig.clock import RealClock
-from rig.config import default_rig_config
+from rig.clock import RealClock, VirtualClock
+from rig.config import Axis, default_rig_config
 from rig.errors import ConfigError
 from rig.ur_kinematics import Pose, forward
 from sim.peers.ur import ScriptError, UrControllerPeer, parse_program
@@ -159,3 +159,30 @@ def test_parse_a_program_block_with_defaults():
 def test_bad_programs_are_refused_saying_why(script, message):
     with pytest.raises(ScriptError, match=message):
         parse_program(script)
+
+
+def test_movej_is_a_straight_line_in_joint_space():
+    clock = VirtualClock()
+    peer = UrControllerPeer(World(default_rig_config(), clock), faults={"powered": True})
+    try:
+        start = peer.joints_deg()
+        goal = start + np.array([40.0, -10.0, 20.0, 0.0, 5.0, -80.0])
+        peer.state.run_script(
+            f"movej([{', '.join(str(q) for q in np.radians(goal))}], a=1.0, v=0.5)"
+        )
+        lead = Axis(
+            speed_deg_s=np.degrees(0.5), accel_deg_s2=np.degrees(1.0), min_deg=0, max_deg=720
+        )
+        duration = float(lead.move_time_s(80.0))  # the joint going furthest sets the time
+        for t in (0.2, 0.5, 0.8):
+            clock.advance_to(t * duration)
+            progress = (peer.joints_deg() - start) / (goal - start + (goal == start))
+            moving = goal != start
+            assert np.ptp(progress[moving]) < 1e-9 and 0 < progress[moving][0] < 1
+        clock.advance_to(duration - 1e-3)
+        assert peer.state.snapshot()["program_state"] == 2.0
+        clock.advance_to(duration)
+        assert peer.joints_deg() == pytest.approx(goal, abs=1e-9)
+        assert peer.state.snapshot()["program_state"] == 1.0
+    finally:
+        peer.stop()
