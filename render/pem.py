@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from render._errors import RenderError
 from render.median_cut import median_cut_regions
 
 __all__ = ["blinn_half_width", "lobe_level", "pcf_radius", "pem_radiance", "region_pyramid"]
@@ -65,6 +66,13 @@ def region_pyramid(environment, region, level: int) -> tuple[np.ndarray, np.ndar
     return mean / np.maximum(norm, 1e-300), light
 
 
+def _unit(name: str, vector) -> np.ndarray:
+    v = np.asarray(vector, np.float64)
+    if v.shape != (3,) or not np.all(np.isfinite(v)) or not np.linalg.norm(v) > 0:
+        raise RenderError(f"{name} = {vector!r}: expected a finite, non-zero (x, y, z)")
+    return v / np.linalg.norm(v)
+
+
 def _shade(directions, light, normal, view, albedo, specular, shininess):
     cosine = np.clip(directions @ normal, 0.0, None)
     half = directions + view
@@ -76,11 +84,17 @@ def _shade(directions, light, normal, view, albedo, specular, shininess):
 def pem_radiance(
     environment, count, normal, view, *, albedo=1.0, specular=0.0, shininess=40.0, mip=True
 ) -> np.ndarray:
-    """(3,) radiance of a flat, unoccluded surface (unit ``normal`` and ``view``) under
+    """(3,) radiance of a flat, unoccluded surface (``normal``, ``view`` normalised) under
     the ``count`` median-cut regions: Σ over regions of the Lambert part read at the
     Lambert level plus the Blinn–Phong lobe read at its level, exposure included.
     ``mip=False`` reads every region at its top level — the directional lights."""
-    normal, view = np.asarray(normal, np.float64), np.asarray(view, np.float64)
+    if not (np.isfinite(albedo) and albedo >= 0 and np.isfinite(specular) and specular >= 0
+            and np.isfinite(shininess) and shininess > 0):  # fmt: skip
+        raise RenderError(
+            f"albedo = {albedo}, specular = {specular}, shininess = {shininess}: need albedo ≥ 0, "
+            "specular ≥ 0, shininess > 0, all finite"
+        )
+    normal, view = _unit("normal", normal), _unit("view", view)
     h = environment.height
     total = np.zeros(3)
     for region in median_cut_regions(environment, count):

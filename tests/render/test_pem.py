@@ -3,6 +3,7 @@
 import numpy as np
 import pytest
 
+from render import RenderError
 from render.environment import EnvironmentMap, synthetic_environment
 from render.median_cut import median_cut_regions
 from render.pem import blinn_half_width, lobe_level, pcf_radius, pem_radiance, region_pyramid
@@ -92,3 +93,21 @@ def test_black_environment_gives_black():
     environment = EnvironmentMap(np.zeros((16, 32, 3), np.float32))
     got = pem_radiance(environment, 8, (0, 0, 1), (0, 0, 1), specular=1.0)
     np.testing.assert_array_equal(got, 0.0)
+
+
+@pytest.mark.parametrize(
+    ("arguments", "field"),
+    [
+        ({"shininess": 0.0}, "shininess"),
+        ({"specular": -1.0}, "specular"),
+        ({"albedo": float("nan")}, "albedo"),
+        ({"normal": (0, 0, 0)}, "normal"),
+        ({"view": (1, 2)}, "view"),
+        ({"count": 3}, "count"),
+    ],
+)
+def test_bad_input_names_the_field(arguments, field):
+    call = {"count": 4, "normal": (0, 0, 1), "view": (0, 0, 1)} | arguments
+    environment = synthetic_environment("sky", height=16)
+    with pytest.raises(RenderError, match=field):
+        pem_radiance(environment, call.pop("count"), call.pop("normal"), call.pop("view"), **call)
