@@ -36,8 +36,23 @@ def check_directions(
     return d
 
 
+class _Directions:
+    """Unit vectors of a BTF's direction tables (``view_dirs_deg``, ``light_dirs_deg``)."""
+
+    view_dirs_deg: np.ndarray
+    light_dirs_deg: np.ndarray
+
+    @property
+    def view_vectors(self) -> np.ndarray:
+        return direction_vector(self.view_dirs_deg[:, 0], self.view_dirs_deg[:, 1])
+
+    @property
+    def light_vectors(self) -> np.ndarray:
+        return direction_vector(self.light_dirs_deg[:, 0], self.light_dirs_deg[:, 1])
+
+
 @dataclass(frozen=True)
-class CompressedBTF:
+class CompressedBTF(_Directions):
     """A BTF as per-view-slot PCA (seed 000 eq. (1)).
 
     normtexture(view j, light i) ≈ mean[j] + Σ_k weights[j, i, k] · basis[j, k].
@@ -74,14 +89,6 @@ class CompressedBTF:
         return self.mean.shape[1]
 
     @property
-    def view_vectors(self) -> np.ndarray:
-        return direction_vector(self.view_dirs_deg[:, 0], self.view_dirs_deg[:, 1])
-
-    @property
-    def light_vectors(self) -> np.ndarray:
-        return direction_vector(self.light_dirs_deg[:, 0], self.light_dirs_deg[:, 1])
-
-    @property
     def nbytes(self) -> int:
         """Bytes of the arrays a renderer needs (means, bases, weights)."""
         return self.mean.nbytes + self.basis.nbytes + self.weights.nbytes
@@ -112,7 +119,7 @@ class CompressedBTF:
 
 
 @dataclass(frozen=True)
-class GlobalSVD:
+class GlobalSVD(_Directions):
     """A BTF as one SVD over all views (seed 001 §5).
 
     The matrix A has a row per (light, y, x, channel) and a column per view:
@@ -145,14 +152,6 @@ class GlobalSVD:
     @property
     def size(self) -> int:
         return self.eigenmaps.shape[2]
-
-    @property
-    def view_vectors(self) -> np.ndarray:
-        return direction_vector(self.view_dirs_deg[:, 0], self.view_dirs_deg[:, 1])
-
-    @property
-    def light_vectors(self) -> np.ndarray:
-        return direction_vector(self.light_dirs_deg[:, 0], self.light_dirs_deg[:, 1])
 
     @property
     def nbytes(self) -> int:

@@ -372,13 +372,9 @@ class LampBankPeer(_ModbusPeer):
             )
 
 
-@register_peer("turntable", "modbus")
-def start_drive(
-    section: Turntable, world: World, *, faults: Mapping[str, Any], serial: bool
-) -> TurntableDrivePeer:
-    """A drive with the section's register map and unit id, started (TCP, or RTU on a pty)."""
+def _start(peer_class, section, world: World, faults: Mapping[str, Any], serial: bool):
     device = section.device
-    return TurntableDrivePeer(
+    return peer_class(
         world,
         registers=device.registers,
         unit_id=device.unit_id,
@@ -386,6 +382,14 @@ def start_drive(
         baudrate=device.baudrate,
         faults=faults,
     ).start()
+
+
+@register_peer("turntable", "modbus")
+def start_drive(
+    section: Turntable, world: World, *, faults: Mapping[str, Any], serial: bool
+) -> TurntableDrivePeer:
+    """A drive with the section's register map and unit id, started (TCP, or RTU on a pty)."""
+    return _start(TurntableDrivePeer, section, world, faults, serial)
 
 
 @register_peer("lamp_bank", "modbus")
@@ -393,12 +397,4 @@ def start_lamp_bank(
     section: LampBank, world: World, *, faults: Mapping[str, Any], serial: bool
 ) -> LampBankPeer:
     """A bank with the light arc's lamps and the section's layout and unit id, started."""
-    device = section.device
-    return LampBankPeer(
-        world,
-        registers=device.registers,
-        unit_id=device.unit_id,
-        transport="rtu" if serial else "tcp",
-        baudrate=device.baudrate,
-        faults=faults,
-    ).start()
+    return _start(LampBankPeer, section, world, faults, serial)
