@@ -16,21 +16,37 @@ a sharp lobe reads fine levels, a broad one coarse levels):
 The region's light for that surface is the lobe-weighted sum over its texels at
 that level — the simplest faithful form of seed 002's filtered lookup: the colour
 and strength of a region depend on the glossiness, and the sum over regions
-weights each by its own visibility (eq. (5)). Its soft shadow edge comes from
-the region's angular extent (:func:`pcf_radius`).
+weights each by its own visibility (eq. (5)). :func:`partial_maps` makes the
+table of texels the GL renderer (:mod:`render.pem_renderer`) reads and
+:func:`pem_radiance` sums on the CPU. A region's soft shadow edge comes from
+its angular radius: √2 × the light-weighted RMS angle of its pixels from its
+direction, the radius of a uniform disc of that spread.
 """
 
 from __future__ import annotations
+
+from dataclasses import dataclass
 
 import numpy as np
 
 from render._errors import RenderError
 from render.median_cut import median_cut_regions
 
-__all__ = ["blinn_half_width", "lobe_level", "pcf_radius", "pem_radiance", "region_pyramid"]
+__all__ = [
+    "MAX_LOBE_TEXELS",
+    "PartialMaps",
+    "blinn_half_width",
+    "lobe_level",
+    "partial_maps",
+    "pem_radiance",
+    "region_pyramid",
+]
 
 #: Half-width at half maximum of the cosine (Lambert) lobe.
 _LAMBERT_HALF_WIDTH = np.pi / 3
+#: Texels one lobe reads over all regions at most: a sharper lobe on a larger map
+#: reads a coarser level (each fragment sums them, so they bound a frame's cost).
+MAX_LOBE_TEXELS = 1024
 
 
 def blinn_half_width(shininess: float) -> float:
@@ -45,13 +61,9 @@ def lobe_level(half_width: float, height: int) -> int:
     return max(int(np.floor(np.log2(max(half_width / texel, 1.0)))), 0)
 
 
-def region_pyramid(environment, region, level: int) -> tuple[np.ndarray, np.ndarray]:
-    """Directions (M, 3) unit and light Σ L Δω (M, 3) of a region's texels at ``level``:
-    blocks of 2^level × 2^level pixels, each at its light-weighted mean direction.
-    Blocks without light are left out. Rotation applies, exposure not."""
+def _pyramid(vectors, power, region, level: int) -> tuple[np.ndarray, np.ndarray]:
     r0, r1, c0, c1 = region
-    vectors, solid = environment.pixel_directions()
-    power = environment.radiance[r0:r1, c0:c1].astype(np.float64) * solid[r0:r1, :, None]
+    power = power[r0:r1, c0:c1]
     weight = power.sum(axis=2)
     step = 2**level
     rows, cols = -(-(r1 - r0) // step) * step, -(-(c1 - c0) // step) * step
@@ -66,56 +78,160 @@ def region_pyramid(environment, region, level: int) -> tuple[np.ndarray, np.ndar
     return mean / np.maximum(norm, 1e-300), light
 
 
+def _power(environment) -> tuple[np.ndarray, np.ndarray]:
+    vectors, solid = environment.pixel_directions()
+    return vectors, environment.radiance.astype(np.float64) * solid[..., None]
+
+
+def region_pyramid(environment, region, level: int) -> tuple[np.ndarray, np.ndarray]:
+    """Directions (M, 3) unit and light Σ L Δω (M, 3) of a region's texels at ``level``:
+    blocks of 2^level × 2^level pixels, each at its light-weighted mean direction.
+    Blocks without light are left out. Rotation applies, exposure not."""
+    return _pyramid(*_power(environment), region, level)
+
+
+@dataclass(frozen=True)
+class PartialMaps:
+    """The lit median-cut regions of an environment and their texels at two levels.
+
+    Attributes
+    ----------
+    directions : (K, 3) float64, unit
+        Each region's light-weighted mean direction (its top level: the shadow
+        map's direction).
+    light : (K, 3) float64
+        Each region's light Σ L Δω, exposure included.
+    angular_radius : (K,) float64, radians
+        √2 × the light-weighted RMS angle of the region's pixels from its direction.
+    diffuse, glossy : (K, 2) int64
+        First and count of each region's texels at the Lambert level and at the
+        lobe's level in ``texel_directions`` / ``texel_light`` (count 0: none).
+    texel_directions : (M, 3) float64, unit
+    texel_light : (M, 3) float64
+        Light Σ L Δω of each texel, exposure included.
+    levels : (int, int)
+        The Lambert and the lobe level asked for (a region smaller than a level's
+        texel is read at its own top).
+    """
+
+    directions: np.ndarray
+    light: np.ndarray
+    angular_radius: np.ndarray
+    diffuse: np.ndarray
+    glossy: np.ndarray
+    texel_directions: np.ndarray
+    texel_light: np.ndarray
+    levels: tuple[int, int]
+
+
+def partial_maps(environment, count: int, *, shininess: float | None = None,
+                 mip: bool = True) -> PartialMaps:  # fmt: skip
+    """The partial maps of ``environment``'s ``count`` median-cut regions.
+
+    ``shininess`` (the Blinn–Phong exponent s > 0) adds the lobe's texels; ``None``:
+    Lambert only. ``mip=False`` reads every region at its top level: the
+    directional lights of :mod:`render.median_cut`. The lobe's level is raised
+    until its texels over all regions are at most :data:`MAX_LOBE_TEXELS`.
+    """
+    if shininess is not None and not (np.isfinite(shininess) and shininess > 0):
+        raise RenderError(f"shininess = {shininess}: need a finite exponent > 0")
+    vectors, power = _power(environment)
+    h = environment.height
+    regions = [r for r in median_cut_regions(environment, count)
+               if power[r[0]:r[1], r[2]:r[3]].any()]  # fmt: skip
+    tops = [int(np.ceil(np.log2(max(r1 - r0, c1 - c0, 1)))) for r0, r1, c0, c1 in regions]
+    top = max(tops, default=0)
+    diffuse_level = lobe_level(_LAMBERT_HALF_WIDTH, h) if mip else top
+    levels = [(min(diffuse_level, t),) for t in tops]
+    glossy_level = -1
+    if shininess is not None:
+        glossy_level = lobe_level(blinn_half_width(shininess), h) if mip else top
+        while glossy_level < top and _texel_count(regions, tops, glossy_level) > MAX_LOBE_TEXELS:
+            glossy_level += 1
+        levels = [(*lv, min(glossy_level, t)) for lv, t in zip(levels, tops, strict=True)]
+    directions, light, radius = [], [], []
+    ranges = np.zeros((len(regions), 2, 2), np.int64)
+    texel_d, texel_l, first = [], [], 0
+    weight = power.sum(axis=2)
+    for k, (region, region_levels) in enumerate(zip(regions, levels, strict=True)):
+        d, e = _pyramid(vectors, power, region, tops[k])
+        directions.append(d[0])
+        light.append(e[0])
+        r0, r1, c0, c1 = region
+        w = weight[r0:r1, c0:c1]
+        cosine = np.clip(vectors[r0:r1, c0:c1] @ d[0], -1.0, 1.0)
+        radius.append(np.sqrt(2.0 * (w * np.arccos(cosine) ** 2).sum() / w.sum()))
+        for j, level in enumerate(region_levels):
+            d, e = _pyramid(vectors, power, region, level)
+            ranges[k, j] = first, len(d)
+            texel_d.append(d)
+            texel_l.append(e)
+            first += len(d)
+    f = environment.exposure
+    return PartialMaps(
+        directions=np.array(directions).reshape(-1, 3),
+        light=np.array(light).reshape(-1, 3) * f,
+        angular_radius=np.array(radius, np.float64),
+        diffuse=ranges[:, 0],
+        glossy=ranges[:, 1],
+        texel_directions=np.concatenate(texel_d or [np.zeros((0, 3))]),
+        texel_light=np.concatenate(texel_l or [np.zeros((0, 3))]) * f,
+        levels=(diffuse_level, glossy_level),
+    )
+
+
+def _texel_count(regions, tops, level: int) -> int:
+    """Texels of the regions at ``level`` (each at most at its top), dark ones included."""
+    count = 0
+    for (r0, r1, c0, c1), top in zip(regions, tops, strict=True):
+        step = 2 ** min(level, top)
+        count += -(-(r1 - r0) // step) * -(-(c1 - c0) // step)
+    return count
+
+
 def _unit(name: str, vector) -> np.ndarray:
     v = np.asarray(vector, np.float64)
-    if v.shape != (3,) or not np.all(np.isfinite(v)) or not np.linalg.norm(v) > 0:
-        raise RenderError(f"{name} = {vector!r}: expected a finite, non-zero (x, y, z)")
-    return v / np.linalg.norm(v)
+    norm = np.linalg.norm(v, axis=-1, keepdims=True) if v.ndim else np.zeros(1)
+    if v.shape[-1:] != (3,) or not np.all(np.isfinite(v)) or not np.all(norm > 0):
+        raise RenderError(f"{name} = {vector!r}: expected finite, non-zero (x, y, z) vectors")
+    return v / norm
 
 
-def _shade(directions, light, normal, view, albedo, specular, shininess):
-    cosine = np.clip(directions @ normal, 0.0, None)
-    half = directions + view
-    half /= np.maximum(np.linalg.norm(half, axis=1, keepdims=True), 1e-12)
-    lobe = specular * np.clip(half @ normal, 0.0, None) ** shininess * (cosine > 0)
-    return (albedo * cosine)[:, None] * light, lobe[:, None] * light
+def _lobe_sum(maps: PartialMaps, ranges, normal, view, shininess) -> np.ndarray:
+    """(…, 3): Σ over the ranges' texels of their light × (n·l)⁺, or × (n·h)^s where n·l > 0."""
+    total = np.zeros((*np.broadcast_shapes(normal.shape, view.shape)[:-1], 3))
+    for first, count in ranges:
+        d = maps.texel_directions[first : first + count]
+        cosine = np.clip(normal @ d.T, 0.0, None)
+        if shininess is None:
+            weight = cosine
+        else:
+            half = d + view[..., None, :]
+            half /= np.maximum(np.linalg.norm(half, axis=-1, keepdims=True), 1e-12)
+            n_dot_h = np.clip(np.einsum("...k,...mk->...m", normal, half), 0.0, None)
+            weight = n_dot_h**shininess * (cosine > 0)
+        total += weight @ maps.texel_light[first : first + count]
+    return total
 
 
 def pem_radiance(
     environment, count, normal, view, *, albedo=1.0, specular=0.0, shininess=40.0, mip=True
 ) -> np.ndarray:
-    """(3,) radiance of a flat, unoccluded surface (``normal``, ``view`` normalised) under
-    the ``count`` median-cut regions: Σ over regions of the Lambert part read at the
-    Lambert level plus the Blinn–Phong lobe read at its level, exposure included.
-    ``mip=False`` reads every region at its top level — the directional lights."""
-    if not (np.isfinite(albedo) and albedo >= 0 and np.isfinite(specular) and specular >= 0
+    """(…, 3) radiance of flat, unoccluded surfaces (``normal``, ``view`` (…, 3), normalised)
+    under the ``count`` median-cut regions: Σ over regions of ``albedo`` (a number or (…, 3))
+    × the Lambert part read at the Lambert level plus ``specular`` × the Blinn–Phong lobe read
+    at its level, exposure included. ``mip=False`` reads every region at its top level — the
+    directional lights."""
+    if not (np.all(np.isfinite(albedo)) and np.all(np.asarray(albedo) >= 0)
+            and np.isfinite(specular) and specular >= 0
             and np.isfinite(shininess) and shininess > 0):  # fmt: skip
         raise RenderError(
             f"albedo = {albedo}, specular = {specular}, shininess = {shininess}: need albedo ≥ 0, "
             "specular ≥ 0, shininess > 0, all finite"
         )
     normal, view = _unit("normal", normal), _unit("view", view)
-    h = environment.height
-    total = np.zeros(3)
-    for region in median_cut_regions(environment, count):
-        top = int(np.ceil(np.log2(max(region[1] - region[0], region[3] - region[2], 1))))
-        diffuse_level = min(lobe_level(_LAMBERT_HALF_WIDTH, h), top) if mip else top
-        glossy_level = min(lobe_level(blinn_half_width(shininess), h), top) if mip else top
-        d, e = region_pyramid(environment, region, diffuse_level)
-        total += _shade(d, e, normal, view, albedo, specular, shininess)[0].sum(axis=0)
-        if specular > 0:
-            d, e = region_pyramid(environment, region, glossy_level)
-            total += _shade(d, e, normal, view, albedo, specular, shininess)[1].sum(axis=0)
-    return total * environment.exposure
-
-
-def pcf_radius(environment, region, shadow_texel: float, depth: float) -> float:
-    """The percentage-closer filter radius (shadow-map texels) of a region: the
-    penumbra an occluder ``depth`` scene units above the receiver casts under a
-    light of the region's angular radius √(Ω/π), in texels of ``shadow_texel``
-    scene units; at least 1 (the renderer's hard-edge kernel)."""
-    r0, r1, c0, c1 = region
-    _, solid = environment.pixel_directions()
-    omega = float(solid[r0:r1, 0].sum()) * (c1 - c0)
-    angular_radius = np.sqrt(omega / np.pi)
-    return max(depth * np.tan(min(angular_radius, 1.5)) / shadow_texel, 1.0)
+    maps = partial_maps(environment, count, shininess=shininess if specular > 0 else None, mip=mip)
+    total = np.asarray(albedo, np.float64) * _lobe_sum(maps, maps.diffuse, normal, view, None)
+    if specular > 0:
+        total = total + specular * _lobe_sum(maps, maps.glossy, normal, view, shininess)
+    return total

@@ -6,23 +6,33 @@ import pytest
 from render import RenderError
 from render.environment import EnvironmentMap, synthetic_environment
 from render.median_cut import median_cut_regions
-from render.pem import blinn_half_width, lobe_level, pcf_radius, pem_radiance, region_pyramid
+from render.pem import (
+    MAX_LOBE_TEXELS,
+    blinn_half_width,
+    lobe_level,
+    partial_maps,
+    pem_radiance,
+    region_pyramid,
+)
 from rig.geometry import direction_vector
 
 GLOSSY = {"albedo": 0.0, "specular": 1.0, "shininess": 40.0}
 LAMBERT = {"albedo": 1.0}
+GLOSSY_PART = {"specular": 0.5, "shininess": 40.0}
 
 
 def brute_force(environment, normal, view, *, albedo=0.0, specular=0.0, shininess=40.0):
-    """Σ over every pixel L Δω (albedo cos θ + specular (n·h)^s), no occlusion."""
+    """(…, 3): Σ over every pixel L Δω (albedo cos θ + specular (n·h)^s), no occlusion;
+    ``normal`` (…, 3), ``view`` (3,) unit, ``albedo`` a number or (…, 3)."""
     vectors, solid = environment.pixel_directions()
     d = vectors.reshape(-1, 3)
     light = (environment.radiance.astype(np.float64) * solid[..., None]).reshape(-1, 3)
-    cosine = np.clip(d @ normal, 0.0, None)
+    normal = np.asarray(normal, np.float64)
+    cosine = np.clip(normal @ d.T, 0.0, None)
     half = d + view
     half /= np.linalg.norm(half, axis=1, keepdims=True)
-    lobe = specular * np.clip(half @ normal, 0.0, None) ** shininess * (cosine > 0)
-    return ((albedo * cosine + lobe)[:, None] * light).sum(axis=0) * environment.exposure
+    lobe = specular * np.clip(normal @ half.T, 0.0, None) ** shininess * (cosine > 0)
+    return (np.asarray(albedo) * (cosine @ light) + lobe @ light) * environment.exposure
 
 
 def surfaces(count=12):
@@ -80,13 +90,48 @@ def test_every_level_keeps_the_region_light():
             np.testing.assert_allclose(np.linalg.norm(directions, axis=1), 1.0, rtol=1e-12)
 
 
-def test_larger_regions_cast_softer_shadows():
-    environment = synthetic_environment("window", height=32)
-    regions = median_cut_regions(environment, 16)
-    sizes = [(r1 - r0) * (c1 - c0) for r0, r1, c0, c1 in regions]
-    small, large = regions[int(np.argmin(sizes))], regions[int(np.argmax(sizes))]
-    assert pcf_radius(environment, large, 0.01, 0.5) > pcf_radius(environment, small, 0.01, 0.5)
-    assert pcf_radius(environment, small, 1.0, 1e-6) == 1.0
+def disc_environment(radius_deg, *, centre_deg=(30.0, 90.0), height=64, power=1.0):
+    """Black but for a uniform disc of ``radius_deg`` at ``centre_deg`` (θ, φ) carrying
+    ``power`` (Σ L Δω)."""
+    black = EnvironmentMap(np.zeros((height, 2 * height, 3), np.float32))
+    vectors, solid = black.pixel_directions()
+    angle = np.degrees(np.arccos(np.clip(vectors @ direction_vector(*centre_deg), -1, 1)))
+    inside = angle <= radius_deg
+    radiance = np.where(inside, power / (solid * inside).sum(), 0.0)
+    return EnvironmentMap(np.repeat(radiance[..., None], 3, axis=2).astype(np.float32))
+
+
+@pytest.mark.parametrize("radius_deg", [8.0, 20.0])
+def test_a_disc_region_has_the_disc_radius(radius_deg):
+    """One region holding a uniform disc: √2 × its RMS angle is the disc's radius (within the
+    pixels' 2.8° steps), so its shadow is as soft as the disc's."""
+    maps = partial_maps(disc_environment(radius_deg), 1)
+    assert len(maps.angular_radius) == 1
+    assert np.degrees(maps.angular_radius[0]) == pytest.approx(radius_deg, abs=1.5)
+    np.testing.assert_allclose(maps.directions[0], direction_vector(30.0, 90.0), atol=0.01)
+
+
+def test_sharp_lobes_on_large_maps_read_a_coarser_level():
+    environment = synthetic_environment("studio", height=128)
+    sharp = partial_maps(environment, 16, shininess=1e4)
+    assert sharp.glossy[:, 1].sum() <= MAX_LOBE_TEXELS < _texels_at(environment, 16, 0)
+    assert sharp.levels[1] > lobe_level(blinn_half_width(1e4), 128) == 0
+
+
+def _texels_at(environment, count, level):
+    regions = median_cut_regions(environment, count)
+    return sum(len(region_pyramid(environment, region, level)[0]) for region in regions)
+
+
+def test_surfaces_are_shaded_at_once_as_one_by_one():
+    environment = synthetic_environment("window", height=16)
+    pairs = surfaces(4)
+    normals, views = np.array([n for n, _ in pairs]), np.array([v for _, v in pairs])
+    albedo = np.linspace(0.2, 0.8, 12).reshape(4, 3)
+    together = pem_radiance(environment, 8, normals, views, albedo=albedo, **GLOSSY_PART)
+    for i in range(4):
+        alone = pem_radiance(environment, 8, normals[i], views[i], albedo=albedo[i], **GLOSSY_PART)
+        np.testing.assert_allclose(together[i], alone, rtol=1e-12)
 
 
 def test_black_environment_gives_black():
