@@ -40,6 +40,7 @@ __all__ = [
     "partial_maps",
     "pem_radiance",
     "region_pyramid",
+    "region_radiance",
 ]
 
 #: Half-width at half maximum of the cosine (Lambert) lobe.
@@ -197,12 +198,13 @@ def _unit(name: str, vector) -> np.ndarray:
     return v / norm
 
 
-def _lobe_sum(maps: PartialMaps, ranges, normal, view, shininess) -> np.ndarray:
-    """(…, 3): Σ over the ranges' texels of their light × (n·l)⁺, or × (n·h)^s where n·l > 0."""
-    total = np.zeros((*np.broadcast_shapes(normal.shape, view.shape)[:-1], 3))
-    for first, count in ranges:
+def _lobe_sums(maps: PartialMaps, ranges, normal, view, horizon, shininess) -> np.ndarray:
+    """(K, …, 3): per region Σ over its texels in ``ranges`` above ``horizon``'s horizon of
+    their light × (n·l)⁺, or × (n·h)^s where n·l > 0 (``shininess`` s; None: the cosine)."""
+    totals = np.zeros((len(ranges), *np.broadcast_shapes(normal.shape, view.shape)[:-1], 3))
+    for k, (first, count) in enumerate(ranges):
         d = maps.texel_directions[first : first + count]
-        cosine = np.clip(normal @ d.T, 0.0, None)
+        cosine = np.clip(normal @ d.T, 0.0, None) * (horizon @ d.T > 0)
         if shininess is None:
             weight = cosine
         else:
@@ -210,18 +212,19 @@ def _lobe_sum(maps: PartialMaps, ranges, normal, view, shininess) -> np.ndarray:
             half /= np.maximum(np.linalg.norm(half, axis=-1, keepdims=True), 1e-12)
             n_dot_h = np.clip(np.einsum("...k,...mk->...m", normal, half), 0.0, None)
             weight = n_dot_h**shininess * (cosine > 0)
-        total += weight @ maps.texel_light[first : first + count]
-    return total
+        totals[k] = weight @ maps.texel_light[first : first + count]
+    return totals
 
 
-def pem_radiance(
-    environment, count, normal, view, *, albedo=1.0, specular=0.0, shininess=40.0, mip=True
-) -> np.ndarray:
-    """(…, 3) radiance of flat, unoccluded surfaces (``normal``, ``view`` (…, 3), normalised)
-    under the ``count`` median-cut regions: Σ over regions of ``albedo`` (a number or (…, 3))
-    × the Lambert part read at the Lambert level plus ``specular`` × the Blinn–Phong lobe read
-    at its level, exposure included. ``mip=False`` reads every region at its top level — the
-    directional lights."""
+def region_radiance(maps: PartialMaps, normal, view, *, surface=None, albedo=1.0, specular=0.0,
+                    shininess=40.0) -> np.ndarray:  # fmt: skip
+    """(K, …, 3): what each region of ``maps`` sends towards ``view`` from surfaces of unit
+    shading ``normal`` (…, 3) unoccluded, its texels above the horizon of ``surface`` (the
+    geometric normals (…, 3), ``normal`` by default: a sheet is lit from its front only) only:
+    ``albedo`` (a number or (…, 3)) × its texels at the
+    Lambert level × (n·l)⁺ + ``specular`` × its texels at the lobe's level × (n·h)^s where
+    n·l > 0 (``maps`` made with this ``shininess``), exposure included. Times each
+    region's visibility and summed, it is a surface's radiance (seed 002 eq. (5))."""
     if not (np.all(np.isfinite(albedo)) and np.all(np.asarray(albedo) >= 0)
             and np.isfinite(specular) and specular >= 0
             and np.isfinite(shininess) and shininess > 0):  # fmt: skip
@@ -230,8 +233,21 @@ def pem_radiance(
             "specular ≥ 0, shininess > 0, all finite"
         )
     normal, view = _unit("normal", normal), _unit("view", view)
-    maps = partial_maps(environment, count, shininess=shininess if specular > 0 else None, mip=mip)
-    total = np.asarray(albedo, np.float64) * _lobe_sum(maps, maps.diffuse, normal, view, None)
+    surface = normal if surface is None else _unit("surface", surface)
+    lambert = _lobe_sums(maps, maps.diffuse, normal, view, surface, None)
+    total = np.asarray(albedo, np.float64) * lambert
     if specular > 0:
-        total = total + specular * _lobe_sum(maps, maps.glossy, normal, view, shininess)
+        total = total + specular * _lobe_sums(maps, maps.glossy, normal, view, surface, shininess)
     return total
+
+
+def pem_radiance(environment, count, normal, view, *, surface=None, albedo=1.0, specular=0.0,
+                 shininess=40.0, mip=True) -> np.ndarray:  # fmt: skip
+    """(…, 3) radiance of flat, unoccluded surfaces (``normal``, ``view`` (…, 3), normalised;
+    ``surface``: see :func:`region_radiance`) under the ``count`` median-cut regions: Σ over
+    regions of ``albedo`` (a number or (…, 3)) × the Lambert part read at the Lambert level
+    plus ``specular`` × the Blinn–Phong lobe read at its level, exposure included.
+    ``mip=False`` reads every region at its top level — the directional lights."""
+    maps = partial_maps(environment, count, shininess=shininess if specular > 0 else None, mip=mip)
+    shading = {"surface": surface, "albedo": albedo, "specular": specular, "shininess": shininess}
+    return region_radiance(maps, normal, view, **shading).sum(axis=0)

@@ -276,16 +276,17 @@ uniform float light_spread[N_LIGHTS];  // the region's shadow taps' spacing, sce
 #endif
 
 #if PEM == 1 && PS == 1
-// Σ over texels first … first + count − 1 of their light × (n·l)⁺, or (lobe) × (n·h)^s
-// where n·l > 0; n, the view and the texels' directions in the scene frame.
-vec3 texel_sum(int first, int count, vec3 n, vec3 view, bool lobe) {
+// Σ over texels first … first + count − 1 above the surface's horizon (normal `surface`:
+// a sheet is lit from its front only) of their light × (n·l)⁺, or (lobe) × (n·h)^s where
+// n·l > 0; the normals, the view and the texels' directions in the scene frame.
+vec3 texel_sum(int first, int count, vec3 surface, vec3 n, vec3 view, bool lobe) {
     int width = textureSize(pem_texels, 0).x;
     vec3 total = vec3(0.0);
     for (int i = first; i < first + count; ++i) {
         ivec2 at = ivec2((2 * i) % width, (2 * i) / width);
         vec3 d = texelFetch(pem_texels, at, 0).xyz;
         float cos_in = dot(n, d);
-        if (cos_in <= 0.0) continue;
+        if (cos_in <= 0.0 || dot(surface, d) <= 0.0) continue;
         float weight = cos_in;
         if (lobe) weight = pow(max(dot(n, safe_normalize(d + view, vec3(0.0))), 0.0), shininess);
         total += weight * texelFetch(pem_texels, at + ivec2(1, 0), 0).rgb;
@@ -293,17 +294,20 @@ vec3 texel_sum(int first, int count, vec3 n, vec3 view, bool lobe) {
     return total;
 }
 
-// Region l's light on the bumped normal n (seed 002 eq. (5)): its visibility (the shadow
+// Region l's light on the bumped normal n of a surface of normal `surface` (seed 002
+// eq. (5)): its visibility (the shadow
 // map's, from the region's irradiance over its emission; 1 where its direction is below
 // the horizon, out of the map's reach) × its texels at the Lambert level × the albedo
 // (under a BTF, which holds the diffuse shading, none) + at the lobe's level × specular.
-vec3 region_light(int l, vec3 irradiance, float height, vec3 n, vec3 view, vec3 albedo) {
+vec3 region_light(int l, vec3 irradiance, float height, vec3 surface, vec3 n, vec3 view,
+                  vec3 albedo) {
     vec3 emission = light_emission[l];
     float visible = height > 0.0 ? dot(irradiance, vec3(1.0)) / max(dot(emission, vec3(1.0)),
                                                                    1e-30) : 1.0;
-    vec3 light = specular * texel_sum(light_texels[l].z, light_texels[l].w, n, view, true);
+    vec3 light = specular * texel_sum(light_texels[l].z, light_texels[l].w, surface, n, view,
+                                      true);
 #if BTF_KIND == 0
-    light += albedo * texel_sum(light_texels[l].x, light_texels[l].y, n, view, false);
+    light += albedo * texel_sum(light_texels[l].x, light_texels[l].y, surface, n, view, false);
 #endif
     return visible * light;
 }
@@ -403,8 +407,8 @@ void main() {
     for (int l = 0; l < N_LIGHTS; ++l) {
 #if PEM == 1
         if (light_texels[l].y + light_texels[l].w > 0) {
-            colour += region_light(l, irradiance[l], light_local[l].z, to_world * bumped, to_eye,
-                                   albedo);
+            colour += region_light(l, irradiance[l], light_local[l].z, n, to_world * bumped,
+                                   to_eye, albedo);
             continue;
         }
 #endif

@@ -21,14 +21,18 @@ LAMBERT = {"albedo": 1.0}
 GLOSSY_PART = {"specular": 0.5, "shininess": 40.0}
 
 
-def brute_force(environment, normal, view, *, albedo=0.0, specular=0.0, shininess=40.0):
-    """(…, 3): Σ over every pixel L Δω (albedo cos θ + specular (n·h)^s), no occlusion;
-    ``normal`` (…, 3), ``view`` (3,) unit, ``albedo`` a number or (…, 3)."""
+def brute_force(environment, normal, view, *, surface=None, albedo=0.0, specular=0.0,
+                shininess=40.0):  # fmt: skip
+    """(…, 3): Σ over every pixel above the horizon of ``surface`` (``normal`` by default) of
+    L Δω (albedo cos θ + specular (n·h)^s), no occlusion; ``normal`` (…, 3), ``view`` (3,)
+    unit, ``albedo`` a number or (…, 3)."""
     vectors, solid = environment.pixel_directions()
     d = vectors.reshape(-1, 3)
     light = (environment.radiance.astype(np.float64) * solid[..., None]).reshape(-1, 3)
     normal = np.asarray(normal, np.float64)
     cosine = np.clip(normal @ d.T, 0.0, None)
+    if surface is not None:
+        cosine *= d @ np.asarray(surface, np.float64) > 0
     half = d + view
     half /= np.linalg.norm(half, axis=1, keepdims=True)
     lobe = specular * np.clip(normal @ half.T, 0.0, None) ** shininess * (cosine > 0)

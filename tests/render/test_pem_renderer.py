@@ -24,6 +24,8 @@ from tests.render.conftest import SAMPLE_MM, N, material, ps_view, tilted_quad
 from tests.render.test_pem import brute_force, disc_environment
 
 VIEW_DEG = (35.0, 60.0)
+#: The quad's shading frame: its normal is FRAME[:, 2].
+FRAME = tilted_quad(VIEW_DEG)[1]
 GLOSSY = {"specular": 1.0, "shininess": 40.0}
 
 
@@ -37,8 +39,7 @@ def render_plane(environment, count, *, mip=True, specular=0.0, shininess=40.0, 
 
 def plane_normals() -> np.ndarray:
     """(N, N, 3) the bumped normals in the scene frame, as the pixels see them."""
-    _, frame = tilted_quad(VIEW_DEG)
-    return ps_view().normals.astype(np.float64) @ frame.T
+    return ps_view().normals.astype(np.float64) @ FRAME.T
 
 
 def relative_error(image, reference) -> float:
@@ -52,7 +53,8 @@ def test_gl_equals_the_cpu_sum_of_the_partial_maps(name, shading):
     environment = synthetic_environment(name, height=32)
     image = render_plane(environment, 16, **shading)
     expected = pem_radiance(environment, 16, plane_normals(), np.array([0.0, 0.0, 1.0]),
-                            albedo=ps_view().albedo.astype(np.float64), **shading)  # fmt: skip
+                            surface=FRAME[:, 2], albedo=ps_view().albedo.astype(np.float64),
+                            **shading)  # fmt: skip
     np.testing.assert_allclose(image, expected, atol=1e-4 * np.abs(expected).max(), rtol=0)
 
 
@@ -67,15 +69,16 @@ def test_a_btf_takes_each_region_whole_from_its_direction(pca_model):
     np.testing.assert_allclose(image, expected, atol=1e-5 * np.abs(expected).max(), rtol=0)
 
 
-def _error_against_every_pixel(environment, count, *, mip, **shading):
+def _error_against_every_pixel(environment, count, *, mip, **lobe):
+    """Relative L1 error of the plane's image against the sum over every pixel: the albedo
+    part alone, or with ``lobe`` (specular, shininess) the lobe part alone."""
+    albedo = 0.0 if lobe else ps_view().albedo.astype(np.float64)
     reference = brute_force(environment, plane_normals(), np.array([0.0, 0.0, 1.0]),
-                            albedo=ps_view().albedo.astype(np.float64) if "specular" not in shading
-                            else 0.0, **shading)  # fmt: skip
-    if "specular" in shading:  # the lobe alone: the albedo part is the Lambert test's
-        image = render_plane(environment, count, mip=mip, **shading)
-        lambert = render_plane(environment, count, mip=mip, specular=0.0)
-        return relative_error(image - lambert, reference)
-    return relative_error(render_plane(environment, count, mip=mip), reference)
+                            surface=FRAME[:, 2], albedo=albedo, **lobe)  # fmt: skip
+    image = render_plane(environment, count, mip=mip, **lobe)
+    if lobe:
+        image = image - render_plane(environment, count, mip=mip)
+    return relative_error(image, reference)
 
 
 @pytest.mark.parametrize("name", ["window", "studio"])
