@@ -78,7 +78,7 @@ class PemRenderer(Renderer):
         self._table: moderngl.Texture | None = None
         self._pass: tuple[np.ndarray, np.ndarray] | None = None
 
-    def partial_maps(self, environment, count: int) -> PartialMaps:
+    def maps_for(self, environment, count: int) -> PartialMaps:
         """The regions of ``environment`` read at this renderer's levels (made once per
         environment and count; its texel table goes to the GPU then)."""
         if self._cached is None or self._cached[0] is not environment or self._cached[1] != count:
@@ -101,7 +101,7 @@ class PemRenderer(Renderer):
     def render_environment(self, camera, environment, *, count: int = 16, lights=()) -> np.ndarray:
         """(H, W, 3) float32: the scene under ``environment``'s ``count`` median-cut regions
         (a power of 2) and any further ``lights``, exposure included."""
-        maps = self.partial_maps(environment, count)
+        maps = self.maps_for(environment, count)
         lights = list(lights)
         regions = [
             DirectionalLight(tuple(d), tuple(rgb / rgb.max()), float(rgb.max()))
