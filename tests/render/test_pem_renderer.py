@@ -69,6 +69,23 @@ def test_a_btf_takes_each_region_whole_from_its_direction(pca_model):
     np.testing.assert_allclose(image, expected, atol=1e-5 * np.abs(expected).max(), rtol=0)
 
 
+def test_under_a_btf_the_ps_layer_adds_only_its_lobe(pca_model):
+    """BTF + PS: the BTF takes the regions whole, the PS lobe reads its level (no albedo term,
+    the BTF holds the diffuse shading)."""
+    environment = synthetic_environment("studio", height=16)
+    mesh, _ = tilted_quad(VIEW_DEG)
+    both = material(pca_model, ps=ps_view())
+    camera = texel_camera(SAMPLE_MM, N)
+    with PemRenderer(both, mesh, shadows=False, **GLOSSY) as renderer:
+        image = renderer.render_environment(camera, environment, count=16)
+    with Renderer(both, mesh, shadows=False) as renderer:
+        btf_part = render_median_cut(renderer, camera, environment, count=16)
+    lobe = pem_radiance(environment, 16, plane_normals(), np.array([0.0, 0.0, 1.0]),
+                        surface=FRAME[:, 2], albedo=0.0, **GLOSSY)  # fmt: skip
+    assert np.abs(lobe).max() > 0.1 * np.abs(btf_part).max()
+    np.testing.assert_allclose(image, btf_part + lobe, atol=1e-4 * np.abs(image).max(), rtol=0)
+
+
 def _error_against_every_pixel(environment, count, *, mip, **lobe):
     """Relative L1 error of the plane's image against the sum over every pixel: the albedo
     part alone, or with ``lobe`` (specular, shininess) the lobe part alone."""
