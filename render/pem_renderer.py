@@ -79,12 +79,14 @@ class PemRenderer(Renderer):
         self._pass: tuple[np.ndarray, np.ndarray] | None = None
 
     def maps_for(self, environment, count: int) -> PartialMaps:
-        """The regions of ``environment`` read at this renderer's levels (made once per
-        environment and count; its texel table goes to the GPU then)."""
-        if self._cached is None or self._cached[0] is not environment or self._cached[1] != count:
+        """The regions of ``environment`` read at this renderer's levels (made once per map,
+        rotation, exposure and count; its texel table goes to the GPU then)."""
+        cached = self._cached
+        key = (environment.rotation_deg, environment.exposure, count)
+        if cached is None or cached[0] is not environment.radiance or cached[1] != key:
             maps = partial_maps(environment, count, shininess=self._shininess, mip=self.mip)
             self._upload(maps)
-            self._cached = (environment, count, maps)
+            self._cached = (environment.radiance, key, maps)
         return self._cached[2]
 
     def _upload(self, maps: PartialMaps) -> None:

@@ -188,3 +188,14 @@ def test_a_black_map_and_a_blinding_sun_stay_finite(case):
 def test_a_negative_occluder_height_is_refused():
     with pytest.raises(RenderError, match="occluder_mm"):
         PemRenderer(material(ps=grey_ps()), blocker_scene(10.0), occluder_mm=-1.0)
+
+
+def test_the_partial_maps_are_made_once_per_map_rotation_and_count():
+    sky = synthetic_environment("sky", height=16)
+    with PemRenderer(material(ps=grey_ps()), blocker_scene(10.0)) as renderer:
+        first = renderer.maps_for(sky, 8)
+        assert renderer.maps_for(sky.with_view(rotation_deg=0.0), 8) is first
+        turned = renderer.maps_for(sky.with_view(rotation_deg=90.0), 8)
+        assert turned is not first and renderer.maps_for(sky, 16) is not turned
+        np.testing.assert_allclose(turned.light, first.light)  # the same light, turned
+        assert not np.allclose(turned.directions, first.directions)
