@@ -12,6 +12,8 @@ shadow maps filtered to soft edges. See ``docs/render.md``.
 
 from __future__ import annotations
 
+from typing import ClassVar
+
 import moderngl
 import numpy as np
 
@@ -65,6 +67,9 @@ class Renderer:
     a direction at an empty slot takes its valid neighbours.
     """
 
+    #: Shader features a subclass turns on (``render.pem_renderer``: PEM 1).
+    _features: ClassVar[dict[str, int]] = {"PEM": 0}
+
     def __init__(
         self,
         material: Material,
@@ -103,6 +108,7 @@ class Renderer:
             "BTF_KIND": 0 if btf is None else (1 if isinstance(btf, CompressedBTF) else 2),
             "PS": int("ps" in self.layers),
             "SHADOWS": int(bool(shadows)),
+            **self._features,
         }
         self._programs: dict[int, tuple[moderngl.Program, moderngl.VertexArray]] = {}
         self._static: dict[str, object] = {}
@@ -272,6 +278,7 @@ class Renderer:
         if self.shadows is not None:
             self.shadows.draw(lights, self.bounds_center, self.bounds_radius)
             self.shadows.bind(program, unit=len(self._units))
+        self._bind_lights(program, lights, unit=len(self._units) + 1)
         near, far = camera.depth_range(self.bounds_center, self.bounds_radius)
         view_proj = camera.projection_matrix(near, far) @ camera.view_matrix()
         view_proj = view_proj.T.astype(np.float32).tobytes()
@@ -295,6 +302,9 @@ class Renderer:
         self.ctx.depth_func = "<="
         vao.render(moderngl.TRIANGLES)
         self.ctx.depth_func = "<"
+
+    def _bind_lights(self, program: moderngl.Program, lights: list, *, unit: int) -> None:
+        """A subclass's per-frame uniforms of its ``lights`` and its texture on ``unit``."""
 
     def release(self) -> None:
         """Free the GPU objects (the shared context stays)."""

@@ -125,8 +125,8 @@ def register(app: typer.Typer) -> None:
             str,
             typer.Option(
                 help="visibility (a new pass over every visibility map per environment or turn), "
-                "pca (the PCA of 30 turns: turning is fast) or pem (median-cut lights with "
-                "shadow maps: any material)"
+                "pca (the PCA of 30 turns: turning is fast) or pem (median-cut regions as "
+                "extended lights with soft shadows: any material)"
             ),
         ] = "visibility",
         vis_res: Annotated[
@@ -181,8 +181,7 @@ def _run(
     window: bool,
     lighting: tuple,
 ) -> None:
-    from render import EnvironmentRenderer, Renderer, RenderError
-    from render.median_cut import render_median_cut
+    from render import EnvironmentRenderer, PemRenderer, Renderer, RenderError
     from render.meshes import MeshError, mesh_by_name
     from render.output import to_srgb8, write_exr, write_png
     from rig.material import MaterialError, read_material
@@ -213,7 +212,8 @@ def _run(
             stack.enter_context(lit)
         renderer = None
         if lights or not through_maps:
-            renderer = stack.enter_context(Renderer(material, mesh, tile_mm=tile_mm))
+            kind = Renderer if through_maps or environment is None else PemRenderer
+            renderer = stack.enter_context(kind(material, mesh, tile_mm=tile_mm))
 
         def draw(turn_deg: float, tilt_deg: float, light_turn_deg: float) -> np.ndarray:
             """The image with the camera turned and raised, the lights turned (degrees)."""
@@ -229,7 +229,7 @@ def _run(
             # Light adds up: the environment's image plus the lights' image.
             turned = environment.with_view(rotation_deg=environment.rotation_deg + light_turn_deg)
             if not through_maps:
-                return render_median_cut(renderer, camera, turned, count=median_cut, lights=placed)
+                return renderer.render_environment(camera, turned, count=median_cut, lights=placed)
             image = lit.render(camera, turned)
             return image + renderer.render(camera, placed) if placed else image
 
