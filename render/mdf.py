@@ -98,22 +98,23 @@ def mdf_table(mdf: Mdf) -> MdfTable:
     depth_max = float(depth.max()) if seen.any() else 0.0
     angles = angular_distance_deg(views[:, None, :], views[None, :, :])
     filled_depth = depth.copy()
+    seen_anywhere = seen.any(axis=0)
     for v in range(len(views)):
-        missing = ~seen[v]
+        missing = ~seen[v] & seen_anywhere
         for u in np.argsort(angles[v], kind="stable")[1:]:
             if not missing.any():
                 break
             take = missing & seen[u]
             filled_depth[v][take] = depth[u][take]
             missing &= ~take
-        filled_depth[v][missing] = depth_max  # seen by no view: the base
+        filled_depth[v][~seen_anywhere] = depth_max  # seen by no view: the base
     slant = np.maximum(cos_theta, np.cos(np.deg2rad(GRAZING_DEG)))  # h ≤ d_max: the clamp
     return MdfTable(
         distance_mm=np.ascontiguousarray(filled_depth / slant, np.float32),
         view_vectors=views,
         depth_mm=depth_max,
         filled=int((~seen).sum()),
-        never_seen=int((~seen.any(axis=0)).sum()),
+        never_seen=int((~seen_anywhere).sum()),
     )
 
 

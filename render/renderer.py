@@ -12,6 +12,8 @@ shadow maps filtered to soft edges. See ``docs/render.md``.
 
 from __future__ import annotations
 
+from typing import ClassVar
+
 import moderngl
 import numpy as np
 
@@ -83,6 +85,9 @@ class Renderer:
     a direction at an empty slot takes its valid neighbours.
     """
 
+    #: Shader features a subclass turns on (``render.pem_renderer``: PEM 1).
+    _features: ClassVar[dict[str, int]] = {"PEM": 0}
+
     def __init__(
         self,
         material: Material,
@@ -127,6 +132,7 @@ class Renderer:
             "SHADOWS": int(bool(shadows)),
             "MDF_SHADOWS": int(mdf and shadows),
             "AMBIENT": int(mdf and btf is not None and ambient > 0),
+            **self._features,
         }
         self._programs: dict[int, tuple[moderngl.Program, moderngl.VertexArray]] = {}
         self._static: dict[str, object] = {}
@@ -332,6 +338,7 @@ class Renderer:
         if self.shadows is not None:
             self.shadows.draw(lights, self.bounds_center, self.bounds_radius)
             self.shadows.bind(program, unit=len(self._units))
+        self._bind_lights(program, lights, unit=len(self._units) + 1)
         near, far = camera.depth_range(self.bounds_center, self.bounds_radius)
         view_proj = camera.projection_matrix(near, far) @ camera.view_matrix()
         view_proj = view_proj.T.astype(np.float32).tobytes()
@@ -357,9 +364,10 @@ class Renderer:
         fbo.use()
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         if self.silhouettes is not None:
-            # Texture units above the surface program's and the shadow atlas's.
+            # Texture units above the surface program's, the shadow atlas's and the one
+            # a subclass binds for its lights (_bind_lights).
             self.silhouettes.draw(camera, view_proj, fbo.depth_attachment,
-                                  unit=len(self._units) + 1)  # fmt: skip
+                                  unit=len(self._units) + 2)  # fmt: skip
             return fbo
         self.ctx.enable_only(moderngl.DEPTH_TEST)
         self._depth_program["view_proj"].write(view_proj)
@@ -376,6 +384,9 @@ class Renderer:
         fbo = self._depth_pass(camera, view_proj.T.astype(np.float32).tobytes())
         depth = np.frombuffer(fbo.read(components=1, attachment=-1, dtype="f4"), np.float32)
         return np.ascontiguousarray(depth.reshape(camera.size[1], camera.size[0])[::-1] < 1.0)
+
+    def _bind_lights(self, program: moderngl.Program, lights: list, *, unit: int) -> None:
+        """A subclass's per-frame uniforms of its ``lights`` and its texture on ``unit``."""
 
     def release(self) -> None:
         """Free the GPU objects (the shared context stays)."""

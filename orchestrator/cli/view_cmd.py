@@ -125,8 +125,8 @@ def register(app: typer.Typer) -> None:
             str,
             typer.Option(
                 help="visibility (a new pass over every visibility map per environment or turn), "
-                "pca (the PCA of 30 turns: turning is fast) or pem (median-cut lights with "
-                "shadow maps: any material)"
+                "pca (the PCA of 30 turns: turning is fast) or pem (median-cut regions as "
+                "extended lights with soft shadows: any material)"
             ),
         ] = "visibility",
         vis_res: Annotated[
@@ -199,8 +199,7 @@ def _run(
     lighting: tuple,
     silhouettes: tuple[bool | None, int],
 ) -> None:
-    from render import EnvironmentRenderer, Renderer, RenderError
-    from render.median_cut import render_median_cut
+    from render import EnvironmentRenderer, PemRenderer, Renderer, RenderError
     from render.meshes import MeshError, mesh_by_name
     from render.output import to_srgb8, write_exr, write_png
     from rig.material import MaterialError, read_material
@@ -233,10 +232,11 @@ def _run(
         if lights or not through_maps:
             # Lamps added to the environment maps' image draw no MDF: the outlines must agree.
             mdf, peel = (False, 1) if through_maps else silhouettes
+            kind = Renderer if through_maps or environment is None else PemRenderer
             try:
                 # Under an environment its own light fills the shadows: no ambient term on top.
                 fill = {} if environment is None else {"ambient": 0.0}
-                made = Renderer(material, mesh, tile_mm=tile_mm, mdf=mdf, peel=peel, **fill)
+                made = kind(material, mesh, tile_mm=tile_mm, mdf=mdf, peel=peel, **fill)
             except RenderError as err:  # --mdf on a material without one
                 err_console.print(f"[red]error:[/red] {err}")
                 raise typer.Exit(EXIT_INVALID) from err
@@ -256,7 +256,7 @@ def _run(
             # Light adds up: the environment's image plus the lights' image.
             turned = environment.with_view(rotation_deg=environment.rotation_deg + light_turn_deg)
             if not through_maps:
-                return render_median_cut(renderer, camera, turned, count=median_cut, lights=placed)
+                return renderer.render_environment(camera, turned, count=median_cut, lights=placed)
             image = lit.render(camera, turned)
             return image + renderer.render(camera, placed) if placed else image
 

@@ -29,17 +29,21 @@ void main() {
     float t = orthographic ? dot(v_position - eye, ray) : length(v_position - eye);
     float previous = texelFetch(peel_now, px, 0).r;
     if (t <= previous + 1e-6 * abs(previous)) discard;  // peeled already
+    // The cheap tests first: fragments dropped here skip the MDF lookup.
+#if BACK_FACES == 1
+    if (texelFetch(hit_mask, px, 0).r > 0.5) discard;
+#else
+    vec2 back = texelFetch(peel_next, px, 0).rg;
+    if (t >= back.r) discard;               // beyond this layer's exit: a later layer's face
+#endif
     // The view direction of the MDF points away from the surface: towards the eye at a
     // front face, along the ray at a back face (the ray leaves through it).
     vec3 n = safe_normalize(v_normal, vec3(0.0, 0.0, 1.0));
     vec3 away = BACK_FACES == 1 ? ray : -ray;
     float d = texture_scale * mdf_distance_mm(v_uv * uv_scale, tangent_frame(n, v_tangent) * away);
 #if BACK_FACES == 1
-    if (texelFetch(hit_mask, px, 0).r > 0.5) discard;
     peel = vec4(t, d, 0.0, 1.0);
 #else
-    vec2 back = texelFetch(peel_next, px, 0).rg;
-    if (t >= back.r) discard;               // beyond this layer's exit: a later layer's face
     if (t + d > back.r - back.g) discard;   // the ray passes through the mesostructure
     peel = vec4(1.0);
 #endif

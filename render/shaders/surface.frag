@@ -1,6 +1,7 @@
 // The measured material under point and directional lights (prepended by the
 // renderer: #version, and #defines BTF_KIND 0 none / 1 pca / 2 svd, PS 0/1,
-// SHADOWS 0/1, MDF_SHADOWS 0/1, AMBIENT 0/1 (mdf_shadow.glsl), N_LIGHTS (this
+// SHADOWS 0/1, MDF_SHADOWS 0/1, AMBIENT 0/1 (mdf_shadow.glsl), PEM 0/1 (lights
+// may be partial environment maps), N_LIGHTS (this
 // program's number of lights, ≥ 1); with a BTF
 // COMPONENTS (c) and, for the VIEW and LIGHT tables, _METHOD (0 nearest-k,
 // 1 barycentric), _K (neighbours blended) and _CANDIDATES (per lookup cell)).
@@ -157,6 +158,57 @@ uniform float specular;            // Blinn–Phong weight
 uniform float shininess;
 #endif
 
+#if PEM == 1
+// Partial environment maps (render/pem.py, render/pem_renderer.py): light l is a
+// median-cut region when it has texels. light_texels[l]: first and count of its
+// texels at the Lambert level, first and count at the level of the specular lobe;
+// entry i of pem_texels is texel 2i (direction) and 2i + 1 (light Σ L Δω) in row order.
+uniform sampler2D pem_texels;
+uniform ivec4 light_texels[N_LIGHTS];
+uniform float light_spread[N_LIGHTS];  // the region's shadow taps' spacing, scene units
+#define SPREAD(l) max(light_spread[l] / shadow_offset[l], 1.0)
+#else
+#define SPREAD(l) 1.0
+#endif
+
+#if PEM == 1 && PS == 1
+// Σ over texels first … first + count − 1 above the surface's horizon (normal `surface`:
+// a sheet is lit from its front only) of their light × (n·l)⁺, or (lobe) × (n·h)^s where
+// n·l > 0; the normals, the view and the texels' directions in the scene frame.
+vec3 texel_sum(int first, int count, vec3 surface, vec3 n, vec3 view, bool lobe) {
+    int width = textureSize(pem_texels, 0).x;
+    vec3 total = vec3(0.0);
+    for (int i = first; i < first + count; ++i) {
+        ivec2 at = ivec2((2 * i) % width, (2 * i) / width);
+        vec3 d = texelFetch(pem_texels, at, 0).xyz;
+        float cos_in = dot(n, d);
+        if (cos_in <= 0.0 || dot(surface, d) <= 0.0) continue;
+        float weight = cos_in;
+        if (lobe) weight = pow(max(dot(n, safe_normalize(d + view, vec3(0.0))), 0.0), shininess);
+        total += weight * texelFetch(pem_texels, at + ivec2(1, 0), 0).rgb;
+    }
+    return total;
+}
+
+// Region l's light on the bumped normal n of a surface of normal `surface` (seed 002
+// eq. (5)): its visibility (the shadow
+// map's, from the region's irradiance over its emission; 1 where its direction is below
+// the horizon, out of the map's reach) × its texels at the Lambert level × the albedo
+// (under a BTF, which holds the diffuse shading, none) + at the lobe's level × specular.
+vec3 region_light(int l, vec3 irradiance, float height, vec3 surface, vec3 n, vec3 view,
+                  vec3 albedo) {
+    vec3 emission = light_emission[l];
+    float visible = height > 0.0 ? dot(irradiance, vec3(1.0)) / max(dot(emission, vec3(1.0)),
+                                                                   1e-30) : 1.0;
+    vec3 light = specular * texel_sum(light_texels[l].z, light_texels[l].w, surface, n, view,
+                                      true);
+#if BTF_KIND == 0
+    light += albedo * texel_sum(light_texels[l].x, light_texels[l].y, surface, n, view, false);
+#endif
+    return visible * light;
+}
+#endif
+
 #if SHADOWS == 1
 uniform sampler2DShadow shadow_maps;       // atlas: light l's depth map is tile l of shadow_tiles
 uniform mat4 light_view_proj[N_LIGHTS];
@@ -165,15 +217,17 @@ uniform int shadow_tiles;
 uniform float shadow_size;                 // texels per tile side
 
 // Fraction of light l reaching p: 5×5 percentage-closer filtering of the
-// light's depth map (each tap itself bilinear), so shadow edges are soft. The
-// point is moved towards the light by what the surface's slope in the map adds
-// over the kernel's 3-texel radius (moving along the light ray does not move it
-// in the map), and off the surface by a texel: no self-shadowing acne.
+// light's depth map (each tap itself bilinear), so shadow edges are soft; the taps
+// are SPREAD(l) texels apart (1, or wider for an extended light). The point is
+// moved towards the light by what the surface's slope in the map adds over the
+// kernel's radius (moving along the light ray does not move it in the map), and
+// off the surface by a texel: no self-shadowing acne.
 float lit_fraction(int l, vec3 p, vec3 n, vec3 to_light) {
     float cos_in = clamp(dot(n, to_light), 0.05, 1.0);
     float tan_in = sqrt(1.0 - cos_in * cos_in) / cos_in;
     float texel = shadow_offset[l];
-    vec3 moved = p + n * texel + to_light * texel * (1.0 + 3.0 * tan_in);
+    float spread = SPREAD(l);
+    vec3 moved = p + n * texel + to_light * texel * (1.0 + 3.0 * spread * tan_in);
     vec4 clip = light_view_proj[l] * vec4(moved, 1.0);
     if (clip.w <= 0.0) return 1.0;
     vec3 s = clip.xyz / clip.w * 0.5 + 0.5;
@@ -182,7 +236,7 @@ float lit_fraction(int l, vec3 p, vec3 n, vec3 to_light) {
     float sum = 0.0;
     for (int dy = -2; dy <= 2; ++dy) {
         for (int dx = -2; dx <= 2; ++dx) {
-            vec2 tap = clamp(s.xy + vec2(dx, dy) / shadow_size, vec2(lo), vec2(1.0 - lo));
+            vec2 tap = clamp(s.xy + spread * vec2(dx, dy) / shadow_size, vec2(lo), vec2(1.0 - lo));
             tap.x = (tap.x + float(l)) / float(shadow_tiles);
             sum += texture(shadow_maps, vec3(tap, s.z));
         }
@@ -250,6 +304,9 @@ void main() {
     // radiance a · E / π, for what each shadow holds back.
     colour += (ambient / 3.14159265) * shadowed * ambient_term(st, view);
 #endif
+#if PEM == 1 && PS == 1
+    mat3 to_world = transpose(to_local);
+#endif
 #if PS == 1
     // Bump mapping (seed 004): the measured normal, in the tangent frame, bends the
     // shading normal. Alone: Lambert + Blinn–Phong. Under a BTF, whose normtextures
@@ -258,6 +315,13 @@ void main() {
     vec3 bumped = safe_normalize(bump, vec3(0.0, 0.0, 1.0));
     vec3 albedo = texture(ps_albedo, st).rgb;
     for (int l = 0; l < N_LIGHTS; ++l) {
+#if PEM == 1
+        if (light_texels[l].y + light_texels[l].w > 0) {
+            colour += region_light(l, irradiance[l], light_local[l].z, n, to_world * bumped,
+                                   to_eye, albedo);
+            continue;
+        }
+#endif
         if (irradiance[l] == vec3(0.0)) continue;
         float cos_in = dot(bumped, light_local[l]);
         if (cos_in <= 0.0) continue;

@@ -4,12 +4,15 @@ rules for unseen texels and grazing views (``render.mdf``)."""
 import moderngl
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
 
 from render._gl import gl_context, shader_source
 from render.mdf import GRAZING_DEG, mdf_reference, mdf_table, upload_mdf
 from rig.geometry import direction_vector
 from rig.material import Mdf
-from tests.render.conftest import VIEWS
+from tests.render.conftest import VIEWS, synthetic_mdf
 
 _LOOKUP_FRAG = """
 uniform vec3 view_local;
@@ -23,20 +26,6 @@ in vec2 in_xy;
 out vec2 v_st;
 void main() { v_st = in_xy * 0.5 + 0.5; gl_Position = vec4(in_xy, 0.0, 1.0); }
 """
-
-
-def synthetic_mdf(n: int = 12, seed: int = 0, unseen: float = 0.0) -> Mdf:
-    """Random depths below the plane seen from VIEWS (D = h / cos θ); a fraction unseen."""
-    rng = np.random.default_rng(seed)
-    depth = rng.uniform(0.0, 2.0, (n, n))
-    cos_theta = direction_vector(VIEWS[:, 0], VIEWS[:, 1])[:, 2]
-    distance = np.broadcast_to(depth, (len(VIEWS), n, n)) / cos_theta[:, None, None]
-    distance = np.where(rng.random(distance.shape) < unseen, -1.0, distance)
-    shape = distance.shape
-    return Mdf(
-        distance.astype(np.float32), VIEWS.astype(np.float32),
-        np.zeros(shape, np.uint8), np.ones(shape, np.uint8),
-    )  # fmt: skip
 
 
 def gpu_lookup(table, view_local, *, method, size=48, st_scale=(1.3, 0.8)) -> np.ndarray:
@@ -147,3 +136,28 @@ def test_grazing_slot_is_clamped_and_finite():
     assert np.all(np.isfinite(table.distance_mm))
     np.testing.assert_allclose(table.distance_mm[2:], cap, rtol=1e-5)
     np.testing.assert_allclose(table.distance_mm[1], 1.5 / cos_theta[1], rtol=1e-5)
+
+
+@given(
+    views=arrays(np.float64, (5, 2), elements=st.floats(0.0, 90.0)),
+    depth=arrays(np.float64, (5, 4, 4), elements=st.floats(0.0, 50.0)),
+    unseen=arrays(np.bool_, (5, 4, 4)),
+)
+def test_any_mdf_becomes_finite_bounded_and_keeps_what_was_seen(views, depth, unseen):
+    # Distinct directions: θ strictly increasing up to 90°, φ spread.
+    views[:, 0] = np.sort(views[:, 0]) * 88.0 / 90.0 + np.arange(5) * 0.5
+    views[:, 1] = np.arange(5) * 72.0
+    cos_theta = direction_vector(views[:, 0], views[:, 1])[:, 2]
+    grazing = cos_theta[:, None, None] < 1e-3
+    with np.errstate(divide="ignore"):
+        distance = np.where(unseen | grazing, -1.0, depth / cos_theta[:, None, None])
+    distance = distance.astype(np.float32)
+    shape = distance.shape
+    flags = np.zeros(shape, np.uint8), np.ones(shape, np.uint8)
+    table = mdf_table(Mdf(distance, views.astype(np.float32), *flags))
+    cap = table.depth_mm / np.cos(np.radians(GRAZING_DEG))
+    assert np.all(np.isfinite(table.distance_mm))
+    assert np.all(table.distance_mm >= 0)
+    assert np.all(table.distance_mm <= cap * (1 + 1e-5) + 1e-6)
+    kept = (distance >= 0) & (views[:, 0] <= GRAZING_DEG)[:, None, None]
+    np.testing.assert_allclose(table.distance_mm[kept], distance[kept], rtol=1e-5, atol=1e-6)

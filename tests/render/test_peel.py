@@ -9,8 +9,8 @@ import pytest
 from render import Camera, DirectionalLight, Renderer, RenderError
 from render.meshes import plane, sphere, torus
 from render.peel import MAX_PEEL, open_edges
-from tests.render.conftest import SAMPLE_MM, material
-from tests.render.test_mdf import synthetic_mdf
+from rig.material import Mdf
+from tests.render.conftest import SAMPLE_MM, material, synthetic_mdf
 
 LIGHT = [DirectionalLight((0.3, -0.5, 0.8))]
 SIZE = (128, 96)
@@ -120,3 +120,23 @@ def test_texture_scale_follows_tile_mm(with_mdf):
     with Renderer(with_mdf, torus(segments=16), tile_mm=2 * SAMPLE_MM) as renderer:
         program = renderer.silhouettes.programs[1][0]
         assert program["texture_scale"].value == pytest.approx(2.0)
+
+
+def test_constant_mdf_shrinks_a_sphere_to_the_analytic_outline(pca_model):
+    """D = d everywhere: a ray through a sphere of radius R at distance ρ from its centre
+    crosses a chord 2√(R² − ρ²), so it meets the mesostructure where ρ ≤ √(R² − d²)."""
+    radius, depth, n, width = 50.0, 30.0, 128, 120.0
+    views = pca_model.view_dirs_deg
+    shape = (len(views), 8, 8)
+    constant = Mdf(np.full(shape, depth, np.float32), views.astype(np.float32),
+                   np.zeros(shape, np.uint8), np.ones(shape, np.uint8))  # fmt: skip
+    model = dataclasses.replace(material(pca_model), mdf=constant)
+    camera = Camera.orthographic((0, -200, 0), (0, 0, 0), up=(0, 0, 1), height=width, size=(n, n))
+    mask = coverage(model, sphere(radius_mm=radius, segments=96), camera, mdf=True)
+    centres = (np.arange(n) + 0.5) / n * width - width / 2
+    rho = np.hypot(*np.meshgrid(centres, centres[::-1]))
+    expected = rho <= np.sqrt(radius**2 - depth**2)
+    pixel = width / n
+    unsure = np.abs(rho - np.sqrt(radius**2 - depth**2)) < 1.5 * pixel
+    np.testing.assert_array_equal(mask[~unsure], expected[~unsure])
+    assert abs(np.sqrt(mask.sum() / np.pi) * pixel - 40.0) < pixel

@@ -1,10 +1,11 @@
 """MDF silhouettes against the ray-cast truth (``orchestrator.silhouettes``), at 128².
 
-Measured at 128² (docs/render.md has 256²): the bumps on the torus gain 0.026 in
-IoU with two peeling passes (0.953 → 0.979) and the band halves (0.92 → 0.41
-px); the weave on the cylinder gains 0.009 (0.983 → 0.991), band 0.33 → 0.16
-px. The margins below are about half of that, so losing the MDF's effect (or
-testing the wrong intervals) fails them.
+Measured at 128² with a 32² MDF (docs/render.md has 256² and 64²): the bumps on
+the torus gain 0.026 in IoU with two peeling passes (0.953 → 0.979), the error
+band shrinks to 0.44 of the mesh outline's (0.82 → 0.36 px), and the second pass
+adds 0.007 over the first; the weave on the cylinder gains 0.009 (0.983 → 0.991),
+band 0.31 → 0.15 px. The margins below are about half of that, so losing the
+MDF's effect (or pairing the wrong faces) fails them.
 """
 
 import numpy as np

@@ -10,7 +10,7 @@ from typer.testing import CliRunner
 
 from orchestrator.cli import app
 from rig.material import write_mdf
-from tests.render.test_mdf import synthetic_mdf
+from tests.render.conftest import synthetic_mdf
 
 runner = CliRunner()
 # Lit from the camera, so every pixel it sees is lit and only the background is black.
@@ -68,3 +68,16 @@ def test_bad_silhouette_options_exit_2_naming_them(mdf_store, tmp_path, args, op
     assert result.exit_code == 2, result.output
     assert option in result.output
     assert says in result.output
+
+
+def test_partial_environment_maps_draw_the_silhouettes_too(mdf_store, tmp_path):
+    common = (*TORUS, "--tile-mm", "100", "--exposure", "4", "--env", "sky", "--env-method", "pem")
+    images = {}
+    for flag in ("--mdf", "--no-mdf"):
+        out = tmp_path / f"{flag}.png"
+        result = runner.invoke(app, ["view", str(mdf_store), *common, flag, "--out", str(out)])
+        assert result.exit_code == 0, result.output
+        images[flag] = np.asarray(Image.open(out).convert("RGB"), np.int16)
+    drawn = {flag: image.sum(axis=-1) > 0 for flag, image in images.items()}
+    assert drawn["--mdf"].sum() < drawn["--no-mdf"].sum() - 20
+    assert not np.any(drawn["--mdf"] & ~drawn["--no-mdf"])
