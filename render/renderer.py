@@ -20,12 +20,11 @@ import numpy as np
 from render._errors import RenderError
 from render._gl import gl_context, mesh_buffers, shader_source, vertex_array
 from render._lookup import build_lookup
+from render._mdf_shading import mdf_shading
 from render._shadows import ShadowMaps
 from render._textures import lookup_texture, upload_btf, upload_ps
-from render.ambient import upload_ambient
 from render.camera import Camera
 from render.lights import MAX_LIGHTS, DirectionalLight, PointLight
-from render.mdf import GRAZING_DEG, mdf_table, upload_mdf
 from render.peel import mdf_silhouettes
 from rig.material import CompressedBTF, Material
 
@@ -117,6 +116,8 @@ class Renderer:
             raise RenderError(
                 f"specular = {specular}, shininess = {shininess}: need specular ≥ 0, shininess > 0"
             )
+        if not (np.isfinite(ambient) and 0 <= ambient <= 1):
+            raise RenderError(f"ambient = {ambient}: valid is a fraction 0 … 1 of each light")
         mdf = material.mdf is not None if mdf is None else bool(mdf)
         self.ctx = gl_context()
         self.mesh = mesh
@@ -131,7 +132,7 @@ class Renderer:
             "PS": int("ps" in self.layers),
             "SHADOWS": int(bool(shadows)),
             "MDF_SHADOWS": int(mdf and shadows),
-            "AMBIENT": int(mdf and btf is not None and ambient > 0),
+            "AMBIENT": 0,
             **self._features,
         }
         self._programs: dict[int, tuple[moderngl.Program, moderngl.VertexArray]] = {}
@@ -155,14 +156,24 @@ class Renderer:
             self._bind("ps_normals", self.ps_textures.normals)
             self._set("specular", float(specular))
             self._set("shininess", float(shininess))
-        base_depth = self._bind_mdf(material, mdf, view_method, light_method, ambient, tile)
+        self.mdf = None
+        if mdf:
+            self.mdf = mdf_shading(self.ctx, material, btf, view_method=view_method,
+                                   light_method=light_method, ambient=ambient,
+                                   tile_mm=float(tile))  # fmt: skip
+            for name, texture in self.mdf.textures().items():
+                self._bind(name, texture)
+            for name, value in self.mdf.uniforms.items():
+                self._set(name, value)
+            self._defines.update(self.mdf.defines())
+        base_depth = 0.0 if self.mdf is None else self.mdf.base_depth
         self.shadows = (
             ShadowMaps(self.ctx, self.vbo, self.ibo, size=shadow_size, base_depth=base_depth)
             if shadows else None
         )  # fmt: skip
         self._framebuffers: dict[tuple[int, int], moderngl.Framebuffer] = {}
         self.silhouettes = mdf_silhouettes(
-            self.ctx, mesh, self.vbo, self.ibo, self.mdf_texture, peel=peel,
+            self.ctx, mesh, self.vbo, self.ibo, self.mdf and self.mdf.texture, peel=peel,
             texture_scale=float(tile) / material.sample_mm, uv_scale=self.uv_scale,
         )  # fmt: skip
         self._program(1)  # a shader this GL cannot compile fails here, not at the first frame
@@ -204,7 +215,7 @@ class Renderer:
             defines = {**self._defines, "N_LIGHTS": n_lights}
             header = "#version 330\n" + "".join(f"#define {k} {v}\n" for k, v in defines.items())
             header += shader_source("directions.glsl")
-            if self.mdf_texture is not None:
+            if self.mdf is not None:
                 header += shader_source("mdf.glsl") + shader_source("mdf_shadow.glsl")
             try:
                 program = self.ctx.program(
@@ -249,33 +260,6 @@ class Renderer:
                              PACKED=textures.packed)  # fmt: skip
         self._bind("btf_weights", textures.weights)
         self._bind("btf_images", textures.images)
-
-    def _bind_mdf(self, material, mdf, view_method, light_method, ambient, tile) -> float:
-        """The MDF's textures and the ambient term's; the mesostructure's depth s·d_max
-        (scene units, 0 without the MDF) for the shadow maps."""
-        self.mdf_texture = self.ambient_texture = None
-        if not mdf:
-            return 0.0
-        if material.mdf is None:
-            raise RenderError(
-                f"material {str(material.source)!r} holds no mdf; render it without the MDF "
-                "(mdf=False, rig view --no-mdf) or run the mdf stage first"
-            )
-        if not (np.isfinite(ambient) and 0 <= ambient <= 1):
-            raise RenderError(f"ambient = {ambient}: valid is a fraction 0 … 1 of each light")
-        self.mdf_texture = upload_mdf(self.ctx, mdf_table(material.mdf), view_method=view_method)
-        self._bind("mdf_distance", self.mdf_texture.distance)
-        self._bind("mdf_view_cells", self.mdf_texture.view_cells)
-        self._defines.update(self.mdf_texture.defines())
-        scale = float(tile) / material.sample_mm
-        self._set("mdf_scale", scale)
-        self._set("mdf_depth", self.mdf_texture.table.depth_mm)
-        self._set("max_slant", 1.0 / np.cos(np.deg2rad(GRAZING_DEG)))
-        if self._defines["AMBIENT"]:
-            self.ambient_texture = upload_ambient(self.ctx, material.btf, light_method=light_method)
-            self._bind("ambient_images", self.ambient_texture)
-            self._set("ambient", float(ambient))
-        return scale * self.mdf_texture.table.depth_mm
 
     def _framebuffer(self, size: tuple[int, int]) -> moderngl.Framebuffer:
         if size not in self._framebuffers:
@@ -396,11 +380,10 @@ class Renderer:
             fbo.release()
         self._framebuffers.clear()
         for part in (self.shadows, self.btf_textures, self.ps_textures, self.silhouettes,
-                     self.mdf_texture, self.ambient_texture):  # fmt: skip
+                     self.mdf):  # fmt: skip
             if part is not None:
                 part.release()
-        self.shadows = self.btf_textures = self.ps_textures = self.silhouettes = None
-        self.mdf_texture = self.ambient_texture = None
+        self.shadows = self.btf_textures = self.ps_textures = self.silhouettes = self.mdf = None
         for program, vao in self._programs.values():
             vao.release()
             program.release()
