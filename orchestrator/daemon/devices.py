@@ -202,14 +202,14 @@ class RigDevices:
         self.lamps.switch(frozenset({lamp_id}) if on else frozenset())
 
     def laser(self, mount: int, on: bool) -> None:
-        """Switch the laser diode of mount ``mount`` (one unit: mount 0)."""
+        """Light the laser diode of mount ``mount`` alone, or switch the diodes off."""
         mounts = len(self.config.laser.mount_theta_deg)
         if not 0 <= mount < mounts:
             raise DeviceError(
                 "laser brick", f"laser {'on' if on else 'off'}",
                 f"mount {mount} does not exist; laser.mount_theta_deg has {mounts}",
             )  # fmt: skip
-        self._laser_unit().set_laser(on)
+        self._laser_unit().set_laser(on, mount=mount)
 
     def capture(
         self, cameras: Sequence[str], exposures_s: Sequence[float]
