@@ -25,8 +25,10 @@ from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from pydantic import ValidationError
 
-from rig.config import RigConfig
+from rig.config import Laser, RigConfig
+from rig.errors import ConfigError
 from rig.geometry import direction_vector
 from rig.plan import Plan
 from rig.schedule import compile_plan
@@ -41,6 +43,7 @@ __all__ = [
     "choose_locations",
     "coverage_rows",
     "laser_reach",
+    "with_mounts",
 ]
 
 _OFFSET_MM = 1e-3  # occlusion rays start this far off the surface
@@ -197,8 +200,7 @@ def coverage_rows(
     """
     rows = []
     for angles in mounts:
-        rig = config.model_copy(update={"laser": config.laser.model_copy(
-            update={"mount_theta_deg": tuple(float(a) for a in angles)})})  # fmt: skip
+        rig = with_mounts(config, angles)
         choices = {}
         for k in even if len(angles) == 1 else ():
             locations = _even(abs(float(angles[0])), k)
@@ -219,6 +221,21 @@ def coverage_rows(
                 "capture_s": capture_s(rig, view_dir, locations),
             })  # fmt: skip
     return rows
+
+
+def with_mounts(config: RigConfig, angles: Sequence[float]) -> RigConfig:
+    """``config`` with the laser mounts at ``angles`` (validated: ``ConfigError``
+    naming ``laser.mount_theta_deg`` and what is valid)."""
+    data = {**config.laser.model_dump(), "mount_theta_deg": [float(a) for a in angles]}
+    try:
+        laser = Laser.model_validate(data)
+    except ValidationError as err:
+        problems = "; ".join(
+            ".".join(["laser", *map(str, e["loc"])]) + ": " + e["msg"].removeprefix("Value error, ")
+            for e in err.errors()
+        )
+        raise ConfigError(problems) from None
+    return config.model_copy(update={"laser": laser})
 
 
 def _even(theta_deg: float, count: int) -> np.ndarray:
