@@ -34,7 +34,7 @@ from rig.plan import Plan
 from rig.schedule import compile_plan
 from sim.illumination import visible_from
 from sim.model import SceneModel
-from sim.truth import _texel_hits
+from sim.truth import texel_hits
 
 __all__ = [
     "LaserReach",
@@ -108,7 +108,7 @@ def laser_reach(
             f"locations_deg: θ must lie in (0°, 90°) (above the sample, not at the zenith "
             f"where the sheet is vertical), got {locations[:, 0].tolist()}"
         )
-    hits, _ = _texel_hits(model, view_dir, n)
+    hits, _ = texel_hits(model, view_dir, n)
     view = direction_vector(*view_dir)
     visible = np.zeros(n * n, dtype=bool)
     visible[hits.pixels] = True
