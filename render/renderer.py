@@ -24,6 +24,7 @@ from render._shadows import ShadowMaps
 from render._textures import lookup_texture, upload_btf, upload_ps
 from render.camera import Camera
 from render.lights import MAX_LIGHTS, DirectionalLight, PointLight
+from render.peel import mdf_silhouettes
 from rig.material import CompressedBTF, Material
 
 __all__ = ["MAX_LIGHTS", "Renderer"]
@@ -59,6 +60,12 @@ class Renderer:
         Macro shadows of the mesh (shadow maps, 5×5 PCF).
     shadow_size : int
         Texels per side of each light's shadow map.
+    mdf : bool or None
+        Mesostructure silhouettes from the material's MDF by depth peeling
+        (``render.peel``); None: when the material holds an MDF.
+    peel : int
+        Peeling passes with the MDF (1…8): intervals of a ray inside the mesh
+        tested, nearest first.
 
     Notes
     -----
@@ -83,6 +90,8 @@ class Renderer:
         shininess: float = 40.0,
         shadows: bool = True,
         shadow_size: int = 1024,
+        mdf: bool | None = None,
+        peel: int = 2,
     ) -> None:
         self.layers = self._check_layers(material, layers)
         tile = material.sample_mm if tile_mm is None else tile_mm
@@ -135,6 +144,10 @@ class Renderer:
             ShadowMaps(self.ctx, self.vbo, self.ibo, size=shadow_size) if shadows else None
         )
         self._framebuffers: dict[tuple[int, int], moderngl.Framebuffer] = {}
+        self.silhouettes = mdf_silhouettes(
+            self.ctx, mesh, self.vbo, self.ibo, material, mdf=mdf, peel=peel,
+            view_method=view_method, tile_mm=float(tile),
+        )  # fmt: skip
         self._program(1)  # a shader this GL cannot compile fails here, not at the first frame
 
     @staticmethod
@@ -173,6 +186,7 @@ class Renderer:
         if n_lights not in self._programs:
             defines = {**self._defines, "N_LIGHTS": n_lights}
             header = "#version 330\n" + "".join(f"#define {k} {v}\n" for k, v in defines.items())
+            header += shader_source("directions.glsl")
             try:
                 program = self.ctx.program(
                     vertex_shader=shader_source("surface.vert"),
@@ -283,25 +297,47 @@ class Renderer:
         view_proj = camera.projection_matrix(near, far) @ camera.view_matrix()
         view_proj = view_proj.T.astype(np.float32).tobytes()
         program["view_proj"].write(view_proj)
-        self._depth_program["view_proj"].write(view_proj)
         for name, value in (("orthographic", camera.fov_deg is None), ("eye", tuple(camera.eye)),
                             ("toward_camera", tuple(-camera.forward))):  # fmt: skip
             if name in program:
                 program[name].value = value
+        fbo = self._depth_pass(camera, view_proj)
         for unit, texture in enumerate(self._units):
             texture.use(location=unit)
+        fbo.use()
+        # Shade only what the depth pass left in front (depth equal): where the mesh
+        # folds over itself each pixel runs the costly shader once, not per layer.
+        self.ctx.depth_func = "<=" if self.silhouettes is None else "=="
+        vao.render(moderngl.TRIANGLES)
+        self.ctx.depth_func = "<"
+
+    def _depth_pass(self, camera: Camera, view_proj: bytes) -> moderngl.Framebuffer:
+        """The framebuffer cleared, its depth that of the surfaces to shade: the nearest
+        (depth pre-pass) or, with the MDF, those whose rays meet the mesostructure."""
         fbo = self._framebuffer(camera.size)
         fbo.use()
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        if self.silhouettes is not None:
+            # Texture units above the surface program's, the shadow atlas's and the one
+            # a subclass binds for its lights (_bind_lights).
+            self.silhouettes.draw(camera, view_proj, fbo.depth_attachment,
+                                  unit=len(self._units) + 2)  # fmt: skip
+            return fbo
         self.ctx.enable_only(moderngl.DEPTH_TEST)
-        # Depth first, then shade only what stays in front (depth equal): where the
-        # mesh folds over itself each pixel runs the costly shader once, not per layer.
+        self._depth_program["view_proj"].write(view_proj)
         fbo.color_mask = False, False, False, False
         self._depth_vao.render(moderngl.TRIANGLES)
         fbo.color_mask = True, True, True, True
-        self.ctx.depth_func = "<="
-        vao.render(moderngl.TRIANGLES)
-        self.ctx.depth_func = "<"
+        return fbo
+
+    def coverage(self, camera: Camera) -> np.ndarray:
+        """(H, W) bool: the pixels where the surface is drawn (with the MDF, where a
+        ray meets the mesostructure), row 0 at the top like :meth:`render`."""
+        near, far = camera.depth_range(self.bounds_center, self.bounds_radius)
+        view_proj = camera.projection_matrix(near, far) @ camera.view_matrix()
+        fbo = self._depth_pass(camera, view_proj.T.astype(np.float32).tobytes())
+        depth = np.frombuffer(fbo.read(components=1, attachment=-1, dtype="f4"), np.float32)
+        return np.ascontiguousarray(depth.reshape(camera.size[1], camera.size[0])[::-1] < 1.0)
 
     def _bind_lights(self, program: moderngl.Program, lights: list, *, unit: int) -> None:
         """A subclass's per-frame uniforms of its ``lights`` and its texture on ``unit``."""
@@ -313,10 +349,10 @@ class Renderer:
                 attachment.release()
             fbo.release()
         self._framebuffers.clear()
-        for part in (self.shadows, self.btf_textures, self.ps_textures):
+        for part in (self.shadows, self.btf_textures, self.ps_textures, self.silhouettes):
             if part is not None:
                 part.release()
-        self.shadows = self.btf_textures = self.ps_textures = None
+        self.shadows = self.btf_textures = self.ps_textures = self.silhouettes = None
         for program, vao in self._programs.values():
             vao.release()
             program.release()

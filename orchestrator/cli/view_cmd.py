@@ -140,6 +140,17 @@ def register(app: typer.Typer) -> None:
         median_cut: Annotated[
             int, typer.Option(min=1, max=1024, help="lights of --env-method pem (a power of 2)")
         ] = 16,
+        mdf: Annotated[
+            bool | None,
+            typer.Option(
+                "--mdf/--no-mdf",
+                help="mesostructure silhouettes from the material's MDF by depth peeling "
+                "(default: when the material holds an MDF)",
+            ),
+        ] = None,
+        peel: Annotated[
+            int, typer.Option(min=1, max=8, help="depth-peeling passes with the MDF")
+        ] = 2,
     ) -> None:
         """Render a material on a mesh under point and directional lights or an environment."""
         if env_method not in ("visibility", "pca", "pem"):
@@ -150,6 +161,12 @@ def register(app: typer.Typer) -> None:
             raise typer.BadParameter(f"{median_cut} is not a power of 2", param_hint="--median-cut")
         if vis_res % 2:
             raise typer.BadParameter(f"{vis_res} is odd; give an even n", param_hint="--vis-res")
+        if mdf and env is not None and env_method != "pem":
+            raise typer.BadParameter(
+                f"--env-method {env_method} draws no MDF silhouettes; use --env-method pem "
+                "or --no-mdf",
+                param_hint="--mdf",
+            )
         environment = None if env is None else parse_environment(env, env_rotate)
         lighting = environment, env_method, vis_res, median_cut
         # Under an environment, lights are only those given (added to its light).
@@ -163,7 +180,7 @@ def register(app: typer.Typer) -> None:
             require_display()  # before the material and the mesh are read
         _run(
             material, mesh, lights, camera_spec, fov_deg, image_size, tile_mm, exposure,
-            out, turntable, window, lighting,
+            out, turntable, window, lighting, (mdf, peel),
         )  # fmt: skip
 
 
@@ -180,6 +197,7 @@ def _run(
     turntable: int | None,
     window: bool,
     lighting: tuple,
+    silhouettes: tuple[bool | None, int],
 ) -> None:
     from render import EnvironmentRenderer, PemRenderer, Renderer, RenderError
     from render.meshes import MeshError, mesh_by_name
@@ -212,8 +230,15 @@ def _run(
             stack.enter_context(lit)
         renderer = None
         if lights or not through_maps:
+            # Lamps added to the environment maps' image draw no MDF: the outlines must agree.
+            mdf, peel = (False, 1) if through_maps else silhouettes
             kind = Renderer if through_maps or environment is None else PemRenderer
-            renderer = stack.enter_context(kind(material, mesh, tile_mm=tile_mm))
+            try:
+                made = kind(material, mesh, tile_mm=tile_mm, mdf=mdf, peel=peel)
+            except RenderError as err:  # --mdf on a material without one
+                err_console.print(f"[red]error:[/red] {err}")
+                raise typer.Exit(EXIT_INVALID) from err
+            renderer = stack.enter_context(made)
 
         def draw(turn_deg: float, tilt_deg: float, light_turn_deg: float) -> np.ndarray:
             """The image with the camera turned and raised, the lights turned (degrees)."""
