@@ -29,6 +29,7 @@ import moderngl
 import numpy as np
 
 from render._errors import RenderError
+from render._textures import material_sampling
 from render.visibility import hemicube, light_table
 from rig.material import CompressedBTF, GlobalSVD
 
@@ -98,10 +99,6 @@ def upload_ambient(ctx: moderngl.Context, btf, *, light_method: str) -> moderngl
     ambient = ambient_term(btf, light_method=light_method)
     n_views, n, _, channels = ambient.shape
     data = np.ascontiguousarray(ambient[:, ::-1], np.float32)
-    texture = ctx.texture_array((n, n, n_views), channels, data, dtype="f4")
-    if channels == 1:
-        texture.swizzle = "RRR1"
-    texture.repeat_x = texture.repeat_y = True
-    texture.build_mipmaps()
-    texture.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
-    return texture
+    return material_sampling(
+        ctx.texture_array((n, n, n_views), channels, data, dtype="f4"), channels
+    )

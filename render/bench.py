@@ -81,15 +81,25 @@ def _mdf_rows(size: tuple[int, int], texels: int, frames: int) -> list[dict]:
     mesh = torus(segments=96)
     camera = Camera.perspective((0, -210, 120), (0, 0, -8), fov_deg=38, size=size)
     lights = [PointLight((30.0, -120.0, 160.0), intensity=1e4)]
+    cases = [
+        ({"kind": "mdf", "mdf": mdf, "peel": peel},
+         {"shadows": False, "mdf": mdf, "peel": max(peel, 1), "tile_mm": 10.0})
+        for mdf, peel in ((False, 0), (True, 1), (True, 2), (True, 3))
+    ]  # fmt: skip
+    return _rows_against_first(material, mesh, camera, lights, cases, size, frames)
+
+
+def _rows_against_first(material, mesh, camera, lights, cases, size, frames) -> list[dict]:
+    """One row per ``(row fields, Renderer options)`` case: frames/s and CPU ms per frame,
+    with their ratios to the first case's in the same run."""
     rows, btf_fps, btf_cpu_ms = [], None, None
-    for mdf, peel in ((False, 0), (True, 1), (True, 2), (True, 3)):
-        with Renderer(material, mesh, shadows=False, mdf=mdf, peel=max(peel, 1),
-                      tile_mm=10.0) as renderer:  # fmt: skip
+    for fields, options in cases:
+        with Renderer(material, mesh, **options) as renderer:
             fps, cpu_ms = _timing(lambda r=renderer: r.draw(camera, lights), frames)
             gl_renderer = renderer.ctx.info["GL_RENDERER"]
         btf_fps, btf_cpu_ms = btf_fps or fps, btf_cpu_ms or cpu_ms
         rows.append({
-            "kind": "mdf", "mdf": mdf, "peel": peel, "fps": round(fps, 3),
+            **fields, "fps": round(fps, 3),
             "ratio_to_btf": round(fps / btf_fps, 4), "btf_fps": round(btf_fps, 2),
             "cpu_ms": round(cpu_ms, 1), "cpu_ratio_to_btf": round(btf_cpu_ms / cpu_ms, 4),
             "size": f"{size[0]}x{size[1]}", "gl_renderer": gl_renderer,
@@ -202,16 +212,8 @@ def _mdf_shadow_rows(size: tuple[int, int], texels: int, frames: int) -> list[di
     mesh = merged([plane(size_mm=400.0, segments=4), ball], name="ball over plane")
     camera = Camera.perspective((0, -90, 70), (0, 10, 0), fov_deg=60, size=size)
     lights = [PointLight((30.0, -20.0, 80.0), intensity=1e4)]
-    rows, btf_fps, btf_cpu_ms = [], None, None
-    for shadows, mdf in ((False, False), (True, False), (True, True)):
-        with Renderer(material, mesh, shadows=shadows, mdf=mdf) as renderer:
-            fps, cpu_ms = _timing(lambda r=renderer: r.draw(camera, lights), frames)
-            gl_renderer = renderer.ctx.info["GL_RENDERER"]
-        btf_fps, btf_cpu_ms = btf_fps or fps, btf_cpu_ms or cpu_ms
-        rows.append({
-            "kind": "mdf shadows", "shadows": shadows, "mdf": mdf, "fps": round(fps, 3),
-            "ratio_to_btf": round(fps / btf_fps, 4), "btf_fps": round(btf_fps, 2),
-            "cpu_ms": round(cpu_ms, 1), "cpu_ratio_to_btf": round(btf_cpu_ms / cpu_ms, 4),
-            "size": f"{size[0]}x{size[1]}", "gl_renderer": gl_renderer,
-        })  # fmt: skip
-    return rows
+    cases = [
+        ({"kind": "mdf shadows", "shadows": shadows, "mdf": mdf}, {"shadows": shadows, "mdf": mdf})
+        for shadows, mdf in ((False, False), (True, False), (True, True))
+    ]
+    return _rows_against_first(material, mesh, camera, lights, cases, size, frames)
