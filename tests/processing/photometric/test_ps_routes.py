@@ -14,7 +14,7 @@ from processing.photometric import DistantLights, PhotometricError, Reason, solv
 from processing.photometric._block import solve_block
 from processing.photometric._inputs import check_stack
 from processing.photometric._robust import _median
-from processing.photometric._solve import _check_options
+from processing.photometric._solve import _check_options, _read_chunk
 from tests.processing.photometric.ps_synthetic import ring_directions
 
 DIRS = ring_directions(16, theta_deg=(20, 45, 65))
@@ -24,11 +24,9 @@ N_PIXELS = 60
 def per_pixel_reference(images, dirs, *, dark_level=0.0):
     """Every pixel through the per-pixel route, float64 throughout."""
     stack = check_stack(images, len(dirs), None)
-    options = _check_options("lsq", dark_level, stack.saturation, 100.0, 0.05, 0.1, 3)
-    obs = stack.values.astype(np.float64) * stack.scale
-    energy = np.einsum("ln...,ln...->n...", obs, obs)
-    condition = np.linalg.cond(dirs)
-    return solve_block(obs, energy, dirs, condition, options)
+    options = _check_options("lsq", dark_level, 100.0, 0.05, 0.1, 3)
+    chunk = _read_chunk(stack, slice(0, stack.values.shape[1]), dark_level)
+    return solve_block(*chunk, dirs, np.linalg.cond(dirs), options)
 
 
 def scene(dtype, colour, *, exclusions, seed=0):
