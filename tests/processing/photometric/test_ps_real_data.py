@@ -132,9 +132,7 @@ def test_an_integer_mask_of_0_and_255_or_1_selects_like_a_bool_one(surface, on):
     images = render_distant(surface, DIRS).astype(np.float32)
     chosen = np.random.default_rng(2).random(surface.albedo.shape) < 0.2
     as_bool = solve(images, DistantLights(DIRS), method="lsq", mask=chosen)
-    as_image = solve(
-        images, DistantLights(DIRS), method="lsq", mask=(chosen * on).astype(np.uint8)
-    )
+    as_image = solve(images, DistantLights(DIRS), method="lsq", mask=(chosen * on).astype(np.uint8))
     assert_array_equal(as_image.reason, as_bool.reason)
     assert_array_equal(as_image.normals, as_bool.normals)
     assert (as_image.reason[~chosen] == Reason.MASKED).all()
