@@ -49,7 +49,7 @@ def irls_weights_kernel(grey, usable, lights, rank, settings, out):
     support = np.empty((n_lights, TILE), np.float32)
     residual = np.empty((n_lights, TILE), np.float32)
     order = np.empty(TILE, np.int32)
-    count = np.empty(TILE, np.int32)
+    count = np.empty(TILE, np.float32)
     lower = np.empty(TILE, np.int32)
     upper = np.empty(TILE, np.int32)
     values = np.empty(TILE, np.float32)
@@ -93,9 +93,9 @@ def irls_weights_kernel(grey, usable, lights, rank, settings, out):
                 for i in range(m):
                     on = w[i] > 0
                     key[i] = bits[i] if on else _ABSENT
-                    count[i] += 1 if on else 0
+                    count[i] += np.float32(1) if on else np.float32(0)
             for i in range(m):
-                order[i] = max((count[i] - 1) // 2, 0)
+                order[i] = max((np.int32(count[i]) - 1) // 2, 0)
             _select(keys, m, order, lower)
             _upper_middle(keys, m, lower, order, count, upper)
             for i in range(m):
@@ -200,7 +200,8 @@ def _select(keys, m, order, out):
     n_lights = keys.shape[0]
     low = np.empty(m, np.int64)  # the answer lies in [low, low + 2^bit)
     candidate = np.empty(m, np.int32)
-    below = np.empty(m, np.int32)
+    below = np.empty(m, np.float32)  # float32 counts: int32 sums widen to int64 lanes
+    one, zero = np.float32(1), np.float32(0)
     low[:] = -(2**31)
     for bit in range(31, -1, -1):
         for i in range(m):
@@ -209,7 +210,7 @@ def _select(keys, m, order, out):
         for light in range(n_lights):
             row = keys[light]
             for i in range(m):
-                below[i] += 1 if row[i] < candidate[i] else 0
+                below[i] += one if row[i] < candidate[i] else zero
         for i in range(m):
             if below[i] <= order[i]:
                 low[i] += 1 << bit
@@ -225,16 +226,17 @@ def _upper_middle(keys, m, lower, order, count, out):
     smallest key above it.
     """
     n_lights = keys.shape[0]
-    at_most = np.zeros(m, np.int32)
+    at_most = np.zeros(m, np.float32)
     above = np.full(m, _ABSENT, np.int32)
+    one, zero = np.float32(1), np.float32(0)
     for light in range(n_lights):
         row = keys[light]
         for i in range(m):
             k = row[i]
-            at_most[i] += 1 if k <= lower[i] else 0
+            at_most[i] += one if k <= lower[i] else zero
             above[i] = k if (k > lower[i]) & (k < above[i]) else above[i]
     for i in range(m):
-        same = count[i] // 2 == order[i] or at_most[i] > order[i] + 1
+        same = np.int32(count[i]) // 2 == order[i] or at_most[i] > order[i] + 1
         out[i] = lower[i] if same else above[i]
 
 

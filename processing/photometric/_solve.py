@@ -152,10 +152,11 @@ def solve(
     for index in _chunks(n_pixels, chunk, selected):
         if route is not None:
             pixel = _pixel_ids(index)
-            if isinstance(index, slice):
+            if isinstance(index, slice) and stack.values.flags.c_contiguous:
                 hard = route.solve(stack.values, index.start, pixel.size, pixel, flat_out)
-            else:  # the masked pixels, packed
-                hard = route.solve(stack.values[:, index], 0, pixel.size, pixel, flat_out)
+            else:  # the masked pixels, or a chunk of a strided stack (a crop), packed
+                packed = np.ascontiguousarray(stack.values[:, index])
+                hard = route.solve(packed, 0, pixel.size, pixel, flat_out)
             if not hard.any():
                 continue
             index = pixel[hard]
