@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import _robust, _system
+from ._kernels import weighted_sums
 from ._result import CONDITION_CAP, Reason
 
 
@@ -69,6 +70,9 @@ def solve_block(
         e = energy
         weight_sum = np.full(n, float(n_lights))
         used = np.full(n, n_lights)
+    elif lights.ndim == 2:  # one light matrix: all the sums in one compiled pass
+        a, g, e, weight_sum, used = _shared_weighted_sums(obs, weights, lights)
+        condition_used = _system.condition(a)
     else:
         a = _system.normal_matrix(lights, weights)
         condition_used = _system.condition(a)
@@ -154,6 +158,25 @@ def _weights(grey, usable, lights, all_usable: bool, options) -> np.ndarray | No
         iterations=options.irls_iterations,
         max_condition=options.max_condition,
     )
+
+
+def _shared_weighted_sums(obs, weights, lights):
+    """``A``, ``g``, ``e``, ``Σ w`` and the count used, shaped as the numpy route gives them."""
+    n = weights.shape[1]
+    colour = obs.ndim == 3
+    planes = np.ascontiguousarray(np.moveaxis(obs, 2, 0)) if colour else obs[None]
+    weights = np.ascontiguousarray(weights, dtype=np.float64)
+    upper = np.empty((6, n))
+    moment = np.empty((planes.shape[0], 3, n))
+    energy = np.empty((planes.shape[0], n))
+    weight_sum = np.empty(n)
+    used = np.empty(n)
+    weighted_sums(weights, np.ascontiguousarray(planes), lights, upper, moment, energy,
+                  weight_sum, used)  # fmt: skip
+    a = upper.T[:, _system.FULL_FROM_PAIRS].reshape(n, 3, 3)
+    g = moment.transpose(2, 1, 0) if colour else moment[0].T
+    e = energy.T if colour else energy[0]
+    return a, g, e, weight_sum, used.astype(np.int64)
 
 
 def _coplanar(n: int, colour: bool, condition_full: np.ndarray) -> dict:

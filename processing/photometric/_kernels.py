@@ -222,3 +222,59 @@ def pinv_store(normals, albedo, sq, clipped, lit, pixel, n_lights, condition, ou
         for c in range(n_channels):
             out_albedo[p, c] = albedo[c, i] if valid else 0.0
         out_residual[p] = residual if valid else 0.0
+
+
+@njit(cache=True, nogil=True, fastmath=_CONTRACT)
+def weighted_sums(weights, planes, lights, upper, moment, energy, weight_sum, used):
+    """The per-pixel sums of a weighted fit with one shared light matrix, in one pass.
+
+    weights : (L, n) float64; planes : (C, L, n) float64 observations per
+    channel; lights : (L, 3) float64. Out: upper (6, n) ``Σ w s_i s_j`` for
+    (i, j) in (00, 01, 02, 11, 12, 22); moment (C, 3, n) ``Σ w I s``; energy
+    (C, n) ``Σ w I²``; weight_sum (n,) ``Σ w``; used (n,) float64, the
+    observations with a non-zero weight. Loops hold three or four arrays
+    each (more stop LLVM vectorising them).
+    """
+    n_lights, n = weights.shape
+    n_channels = planes.shape[0]
+    one, zero = 1.0, 0.0
+    for t0 in range(0, n, TILE):
+        m = min(TILE, n - t0)
+        a00, a01, a02 = upper[0, t0 : t0 + m], upper[1, t0 : t0 + m], upper[2, t0 : t0 + m]
+        a11, a12, a22 = upper[3, t0 : t0 + m], upper[4, t0 : t0 + m], upper[5, t0 : t0 + m]
+        total, count = weight_sum[t0 : t0 + m], used[t0 : t0 + m]
+        for acc in (a00, a01, a02, a11, a12, a22, total, count):
+            acc[:] = 0
+        for c in range(n_channels):
+            moment[c, :, t0 : t0 + m] = 0
+            energy[c, t0 : t0 + m] = 0
+        for light in range(n_lights):
+            s0, s1, s2 = lights[light, 0], lights[light, 1], lights[light, 2]
+            w = weights[light, t0 : t0 + m]
+            p00, p01, p02, p11, p12, p22 = s0 * s0, s0 * s1, s0 * s2, s1 * s1, s1 * s2, s2 * s2
+            for i in range(m):
+                a00[i] += p00 * w[i]
+                a01[i] += p01 * w[i]
+                a02[i] += p02 * w[i]
+            for i in range(m):
+                a11[i] += p11 * w[i]
+                a12[i] += p12 * w[i]
+                a22[i] += p22 * w[i]
+            for i in range(m):
+                total[i] += w[i]
+                count[i] += one if w[i] != 0 else zero
+            for c in range(n_channels):
+                row = planes[c, light, t0 : t0 + m]
+                g0, g1, g2 = (
+                    moment[c, 0, t0 : t0 + m],
+                    moment[c, 1, t0 : t0 + m],
+                    moment[c, 2, t0 : t0 + m],
+                )
+                e = energy[c, t0 : t0 + m]
+                for i in range(m):
+                    wi = w[i] * row[i]
+                    g0[i] += s0 * wi
+                    g1[i] += s1 * wi
+                    g2[i] += s2 * wi
+                for i in range(m):
+                    e[i] += w[i] * row[i] * row[i]
