@@ -12,9 +12,10 @@ maximum with its frame index, a running minimum (the background: the
 contrast max - min is what is thresholded, so bright albedo is not mistaken
 for laser light) and, per pixel, the ``2r+1`` samples around its maximum,
 copied once ``r`` frames have followed it. Per frame that is a copy into the
-buffer plus its share of one max and one min reduction over the block; the
-frame of the maximum is searched only where the block raised it. Memory is
-``O((4r+1+block)·H·W)`` whatever the sequence length.
+buffer plus its share of one compiled pass over the block
+(:mod:`processing.mdf._spacetime_kernel`: running max, min and the frame that
+raised the maximum, per tile of pixels). Memory is ``O((4r+1+block)·H·W)``
+whatever the sequence length.
 """
 
 from __future__ import annotations
