@@ -2,18 +2,20 @@
 
 A session of photometric-stereo views is recorded on the simulated rig in
 virtual time (``run_local``; the examples' bumps sample), then the ``ps`` stage
-runs over it through ``processing.offline.run_stages`` exactly as ``rig
-process --stages ps --workers N --size S`` runs it: a local Dask cluster of N
-threads, each item opening the archive itself. Rows per size and worker count:
-items per second and the speed-up against one worker at the same size, in the
-same run.
+runs over it through ``processing.offline.run_stages`` as ``rig process
+--stages ps --size S`` runs it: with ``--workers N`` (the local cluster of N
+threads, the default) and with ``--scheduler`` pointing at a local cluster of N
+single-threaded worker processes (each item opens the archive itself in both).
+Rows per cluster kind, size and worker count: items per second and the speed-up
+against one worker of the same kind at the same size, in the same run.
 
-Where the time goes, per row: ``cpu_s_per_item`` is the process's CPU time
-(every thread: workers, scheduler, BLAS) per item; ``compute_share`` is the
-fraction of the workers' wall time spent inside the stage's ``compute`` (the
-rest: scheduling, gathering results, writing ``material/ps``); and
-``cpu_per_compute`` is CPU seconds per second inside ``compute`` summed over
-items: below 1 the items wait (for the GIL, or for cores other programs hold).
+Where the time goes, per row: ``cpu_s_per_item`` is the CPU time of the thread
+computing an item, per item (the work itself, whatever the machine's load);
+``compute_share`` is the fraction of the workers' wall time spent inside the
+stage's ``compute`` (the rest: starting the cluster, scheduling, gathering
+results, writing ``material/ps``); ``cpu_per_compute`` is CPU seconds per wall
+second inside ``compute``: below 1 the items wait, for the GIL or for cores that
+other threads and programs hold.
 
 It records with the simulator and processes with the offline stages, so it
 lives on top of both.
@@ -21,9 +23,12 @@ lives on top of both.
 
 from __future__ import annotations
 
+import contextlib
+import logging
 import os
 import tempfile
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -87,20 +92,39 @@ class _Timed:
         }
 
 
-def _run(archive: Path, *, size: int, workers: int) -> dict:
-    wall, cpu = time.perf_counter(), time.process_time()
-    (run,) = run_stages(archive, [_Timed(PsStage(size=size))], workers=workers)
-    wall, cpu = time.perf_counter() - wall, time.process_time() - cpu
-    written = len(read_material(archive).ps)
+#: How the workers run: ``rig process``'s own local cluster of ``--workers`` threads,
+#: or a running cluster of single-threaded worker processes given as ``--scheduler``.
+CLUSTERS = ("threads", "processes")
+
+
+@contextlib.contextmanager
+def _cluster(kind: str, workers: int) -> Iterator[dict]:
+    """``run_stages``' options for ``workers`` workers of ``kind``."""
+    if kind == "threads":
+        yield {"workers": workers}
+        return
+    from distributed import LocalCluster
+
+    with LocalCluster(
+        n_workers=workers, threads_per_worker=1, processes=True,
+        dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR,
+    ) as cluster:  # fmt: skip
+        yield {"scheduler": cluster.scheduler_address}
+
+
+def _run(archive: Path, *, size: int, workers: int, options: dict) -> dict:
+    wall = time.perf_counter()
+    (run,) = run_stages(archive, [_Timed(PsStage(size=size))], **options)
+    wall = time.perf_counter() - wall
     compute_s = run.summary["compute_s"]
     return {
         "size": size,
         "workers": workers,
         "items": run.items,
-        "written": written,
+        "written": len(read_material(archive).ps),
         "wall_s": wall,
         "items_per_s": run.items / wall,
-        "cpu_s_per_item": cpu / run.items,
+        "cpu_s_per_item": run.summary["compute_cpu_s"] / run.items,
         "compute_share": compute_s / (workers * wall),
         "cpu_per_compute": run.summary["compute_cpu_s"] / compute_s,
     }
@@ -111,20 +135,24 @@ def run_bench(
     quick: bool = False,
     sizes: tuple[int, ...] | None = None,
     workers: tuple[int, ...] | None = None,
+    clusters: tuple[str, ...] = CLUSTERS,
     views: int | None = None,
     lamps: int = 6,
     repeats: int | None = None,
 ) -> list[dict]:
-    """Rows per ``--size`` and worker count (1, 2 and all cores by default): items
-    (views) per second of ``rig process --stages ps``, and ``speedup``: items/s
-    against the fewest workers (one by default) at the same size, in the same run
-    (best of ``repeats``).
+    """Rows per cluster kind (:data:`CLUSTERS`), ``--size`` and worker count (1, 2 and
+    all cores by default): items (views) per second of ``rig process --stages ps``,
+    and ``speedup``: items/s against the fewest workers (one by default) of the same
+    kind at the same size, in the same run (best of ``repeats``).
 
     ``views``: the session's views, the stage's items (default twice the most
     workers, at least 8, so every worker has items to take); ``written``: the views
-    found in ``material/ps`` afterwards. One untimed run first imports and warms
-    what the stage uses.
+    found in ``material/ps`` afterwards. An untimed run first imports and warms what
+    the stage uses (in each cluster of processes).
     """
+    unknown = set(clusters) - set(CLUSTERS)
+    if unknown:
+        raise ValueError(f"clusters {sorted(unknown)}: valid are {CLUSTERS}")
     cores = os.cpu_count() or 1
     sizes = sizes or ((32, 64) if quick else (64, 128, 256))
     workers = tuple(sorted(set(workers or (1, 2, cores))))
@@ -133,12 +161,21 @@ def run_bench(
     rows = []
     with tempfile.TemporaryDirectory(prefix="rig-process-bench-") as tmp:
         archive = record_session(Path(tmp), views=views, lamps=lamps)
-        _run(archive, size=min(sizes), workers=1)
-        for size in sizes:
-            base = None
+        _run(archive, size=min(sizes), workers=1, options={"workers": 1})
+        for kind in clusters:
             for count in workers:
-                runs = [_run(archive, size=size, workers=count) for _ in range(repeats)]
-                row = max(runs, key=lambda r: r["items_per_s"])
-                base = base or row["items_per_s"]
-                rows.append({**row, "speedup": row["items_per_s"] / base, "cores": cores})
-    return rows
+                with _cluster(kind, count) as options:
+                    if kind != "threads":
+                        _run(archive, size=min(sizes), workers=count, options=options)
+                    for size in sizes:
+                        runs = [
+                            _run(archive, size=size, workers=count, options=options)
+                            for _ in range(repeats)
+                        ]
+                        best = max(runs, key=lambda r: r["items_per_s"])
+                        rows.append({"cluster": kind, **best})
+    for row in rows:  # the fewest workers come first
+        base = next(r for r in rows if (r["cluster"], r["size"]) == (row["cluster"], row["size"]))
+        row["speedup"] = row["items_per_s"] / base["items_per_s"]
+        row["cores"] = cores
+    return sorted(rows, key=lambda r: (clusters.index(r["cluster"]), r["size"], r["workers"]))

@@ -2,6 +2,7 @@
 
 import math
 
+import pytest
 from typer.testing import CliRunner
 
 from orchestrator.cli import app
@@ -9,8 +10,13 @@ from orchestrator.process_bench import run_bench
 
 
 def test_rows_count_the_views_processed_and_speedup_is_against_one_worker():
-    rows = run_bench(sizes=(32,), workers=(2, 1), views=3, lamps=3, repeats=1)
-    assert [(r["size"], r["workers"]) for r in rows] == [(32, 1), (32, 2)]
+    rows = run_bench(
+        sizes=(32,), workers=(2, 1), clusters=("threads",), views=3, lamps=3, repeats=1
+    )
+    assert [(r["cluster"], r["size"], r["workers"]) for r in rows] == [
+        ("threads", 32, 1),
+        ("threads", 32, 2),
+    ]
     for row in rows:
         # items: what the runner planned and computed; written: views found in material/ps
         assert row["items"] == row["written"] == 3
@@ -20,6 +26,11 @@ def test_rows_count_the_views_processed_and_speedup_is_against_one_worker():
     one, two = rows
     assert one["speedup"] == 1.0
     assert math.isclose(two["speedup"], two["items_per_s"] / one["items_per_s"])
+
+
+def test_an_unknown_cluster_kind_is_named_with_the_valid_ones():
+    with pytest.raises(ValueError, match=r"\['fibers'\].*threads.*processes"):
+        run_bench(clusters=("threads", "fibers"))
 
 
 def test_help_says_what_is_measured():
