@@ -72,7 +72,8 @@ AREAS: dict[str, tuple[str, Callable]] = {
 # an area's help where the generic line says too little
 HELP = {
     "process": "Items/s of `rig process --stages ps` on a simulated session against Dask "
-    "workers (1, 2, all cores) and --size; speed-up against one worker in the same run.",
+    "workers (1, 2, all cores; threads and worker processes) and --size; speed-up against "
+    "one worker in the same run.",
 }
 
 app = typer.Typer(no_args_is_help=True, help="Benchmarks: accuracy against time, per area.")
