@@ -38,7 +38,7 @@ from sim.rig import SimulatedRig
 from sim.scene import Scene, scene_from_dict
 from sim.simulator import Simulator
 
-__all__ = ["HELD_OUT", "PLANS", "SCENES", "plot_bench", "run_bench"]
+__all__ = ["HELD_OUT", "PLANS", "SCENES", "patient_cameras", "plot_bench", "run_bench"]
 
 #: The samples: the examples' bumps and weave, with sensor noise (a measurement,
 #: not the truth) and the weave's specular yarns.
@@ -110,7 +110,7 @@ def plan_toml(name: str) -> str:
     )
 
 
-def _patient_cameras(config: RigConfig) -> RigConfig:
+def patient_cameras(config: RigConfig) -> RigConfig:
     """The simulated cameras render each frame on this machine's CPU, which a loaded
     machine can slow past a real camera's 1 s timeout: wait up to a minute."""
     cameras = []
@@ -128,7 +128,7 @@ def _measure(scene: Scene, plan_text: str, folder: Path, *, size: int, component
     plan_path.write_text(plan_text)
     clock = VirtualClock()
     with SimulatedRig(scene, clock=clock) as rig:
-        config = _patient_cameras(rig.rig_config())
+        config = patient_cameras(rig.rig_config())
         final = run_local(plan_path, config, archive=archive, clock=clock, on_fault="fail")
     if final.get("state") != "done":
         raise RigError(f"the simulated session of {plan_path} ended {final.get('state')}: {final}")

@@ -13,7 +13,7 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
-from orchestrator.cli.common import console
+from orchestrator.cli.common import console, quiet_dask_logs
 from rig.config import default_rig_config
 from rig.plan import parse_plan
 from rig.schedule import compile_plan
@@ -27,6 +27,11 @@ def _archive(module, quick: bool) -> list[dict]:
 
 
 def _plain(module, quick: bool) -> list[dict]:
+    return module.run_bench(quick=quick)
+
+
+def _process(module, quick: bool) -> list[dict]:
+    quiet_dask_logs()
     return module.run_bench(quick=quick)
 
 
@@ -53,6 +58,7 @@ def _btf(module, quick: bool) -> list[dict]:
 AREAS: dict[str, tuple[str, Callable]] = {
     "archive": ("rig.archive.bench", _archive),
     "daemon": ("orchestrator.daemon.bench", _plain),
+    "process": ("orchestrator.process_bench", _process),
     "sim": ("sim.bench", _plain),
     "ps": ("processing.photometric.bench", _ps),
     "btf": ("processing.btf.bench", _btf),
@@ -62,6 +68,13 @@ AREAS: dict[str, tuple[str, Callable]] = {
     "render-loop": ("orchestrator.render_loop", _plain),
     "silhouettes": ("orchestrator.silhouettes", _plain),
     "environment": ("render.env_bench", _plain),
+}
+
+# an area's help where the generic line says too little
+HELP = {
+    "process": "Items/s of `rig process --stages ps` on a simulated session against Dask "
+    "workers (1, 2, all cores; threads and worker processes) and --size; speed-up against "
+    "one worker in the same run.",
 }
 
 app = typer.Typer(no_args_is_help=True, help="Benchmarks: accuracy against time, per area.")
@@ -110,7 +123,9 @@ def _make(area: str):
         if json_out is not None:
             json_out.write_text(json.dumps(rows, indent=2, default=float))
 
-    command.__doc__ = f"Run the {area} benchmark (against baselines measured in the same run)."
+    command.__doc__ = HELP.get(
+        area, f"Run the {area} benchmark (against baselines measured in the same run)."
+    )
     return command
 
 

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import logging
 import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -26,6 +27,7 @@ __all__ = [
     "console",
     "load_config_option",
     "prepare_folder",
+    "quiet_dask_logs",
     "reporting_errors",
 ]
 
@@ -108,6 +110,15 @@ class RigGroup(TyperGroup):
 def load_config_option(path: Path | None) -> RigConfig:
     """The rig config at ``path``, or the default rig when none is given."""
     return default_rig_config() if path is None else load_rig_config(path)
+
+
+def quiet_dask_logs() -> None:
+    """Dask's loggers to WARNING: their INFO lines are for its developers."""
+    import distributed  # noqa: F401  (configures its loggers on import)
+
+    for name in list(logging.root.manager.loggerDict):
+        if name.split(".")[0] == "distributed":
+            logging.getLogger(name).setLevel(logging.WARNING)
 
 
 def prepare_folder(path: Path, option: str) -> Path:

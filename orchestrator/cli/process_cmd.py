@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-import logging
 from pathlib import Path
 from typing import Annotated
 
@@ -10,7 +9,7 @@ import typer
 from rich.markup import escape
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from orchestrator.cli.common import console, prepare_folder
+from orchestrator.cli.common import console, prepare_folder, quiet_dask_logs
 from rig.errors import ConfigError, RigError
 
 __all__ = ["register", "write_mdf_previews", "write_ps_previews"]
@@ -102,13 +101,9 @@ def register(app: typer.Typer) -> None:
         A stage that can use none of its frames (all flagged: saturated, black…) is
         skipped with the reason, the others still run, and the exit code is 1.
         """
-        import distributed  # noqa: F401  (configures its loggers on import)
-
+        quiet_dask_logs()
         from processing.offline import STAGES, run_stages
 
-        for name in list(logging.root.manager.loggerDict):
-            if name.split(".")[0] == "distributed":  # its INFO lines are for its developers
-                logging.getLogger(name).setLevel(logging.WARNING)
         names = [s.strip() for s in stages.split(",") if s.strip()]
         unknown = [n for n in names if n not in STAGES]
         if unknown or not names:

@@ -62,7 +62,7 @@ def _fit_line(points: np.ndarray) -> tuple[np.ndarray, float] | None:
     if len(points) < 3:
         return None
     centre = points.mean(axis=0)
-    *_, vt = np.linalg.svd(points - centre)
+    *_, vt = np.linalg.svd(points - centre, full_matrices=False)
     normal = vt[-1]
     return normal, float(normal @ centre)
 
