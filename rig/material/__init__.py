@@ -18,8 +18,10 @@ from rig.material._live import LiveAppender, LiveResults, live_rows, read_live
 from rig.material._material import Material, read_material
 from rig.material._mdf import UNSEEN, Mdf, read_mdf, write_mdf
 from rig.material._ps import PsView, read_ps, write_ps
+from rig.material._radiometry import NOT_RECORDED, Radiometry
 
 __all__ = [
+    "NOT_RECORDED",
     "UNSEEN",
     "BtfGroup",
     "CompressedBTF",
@@ -31,6 +33,7 @@ __all__ = [
     "MaterialError",
     "Mdf",
     "PsView",
+    "Radiometry",
     "btf_from_arrays",
     "btf_to_arrays",
     "check_directions",
