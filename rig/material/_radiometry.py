@@ -64,8 +64,7 @@ class Radiometry:
         keys = {"linearised", "flat_fielded", "calibration_version", "sources", "skipped"}
         if not isinstance(value, dict) or set(value) != keys:
             raise MaterialError(
-                f"{where}: attribute radiometry = {value!r}; expected an object with "
-                f"{sorted(keys)}"
+                f"{where}: attribute radiometry = {value!r}; expected an object with {sorted(keys)}"
             )
         lists = [value["linearised"], value["flat_fielded"]]
         maps = [value["sources"], value["skipped"]]
