@@ -58,6 +58,7 @@ AREAS: dict[str, tuple[str, Callable]] = {
     "btf": ("processing.btf.bench", _btf),
     "mdf": ("processing.mdf.bench", _plain),
     "calibration": ("orchestrator.calibration_bench", _plain),
+    "radiometry": ("orchestrator.radiometry_bench", _plain),
     "render": ("render.bench", _plain),
     "render-loop": ("orchestrator.render_loop", _plain),
     "environment": ("render.env_bench", _plain),

@@ -42,11 +42,23 @@ from rig.material import (
     read_flat_field,
 )
 
-__all__ = ["FLAT_FLOOR", "FrameCorrections", "frame_corrections", "point_falloff"]
+__all__ = [
+    "FLAT_FLOOR",
+    "FLAT_MARGIN",
+    "FLAT_SMOOTHING",
+    "FrameCorrections",
+    "frame_corrections",
+    "point_falloff",
+]
 
 #: A flat-field value below this (of the centre's) is a texel the lamp barely
 #: lights: it is divided by this floor, not by a value dominated by noise.
 FLAT_FLOOR = 0.05
+#: σ of the Gaussian that averages a flat-field map's pixel noise out, as a
+#: fraction of the map's width (fall-off changes over tens of percent of it).
+FLAT_SMOOTHING = 0.01
+#: The flat field is read this fraction of the sample's side inside its edges.
+FLAT_MARGIN = 0.05
 
 
 @dataclass(frozen=True)
@@ -116,13 +128,24 @@ class FrameCorrections:
             arc_deg=step.actuators.get("arc_deg", 0.0),
             turntable_deg=step.actuators.get("turntable_deg", 0.0),
         )  # fmt: skip
-        pixels, _ = self.flat_camera.project(points.reshape(-1, 3))
+        # Turned texels leave the white square at its corners, and its rim blurs
+        # with the holder: the map is read inside, as its part the lamp model does
+        # not explain (smooth), and carried out with the model.
+        limit = sample_mm / 2 * (1.0 - 2 * FLAT_MARGIN)
+        inside = points.copy()
+        inside[..., :2] = np.clip(points[..., :2], -limit, limit)
+        pixels, _ = self.flat_camera.project(inside.reshape(-1, 3))
         falloff = self.flat_field.falloff[self.flat_field.lamps.index(step.lamp)]
-        flat = ndimage.map_coordinates(
-            falloff.astype(np.float64), [pixels[:, 1], pixels[:, 0]], order=1, mode="nearest"
+        # The fall-off is smooth and the white frame noisy: average the noise out
+        # before sampling, or each texel inherits one pixel's shot noise.
+        sigma = FLAT_SMOOTHING * falloff.shape[1]
+        smooth = ndimage.gaussian_filter(falloff.astype(np.float64), sigma, mode="nearest")
+        measured = ndimage.map_coordinates(
+            smooth, [pixels[:, 1], pixels[:, 0]], order=1, mode="nearest"
         ).reshape(size, size)
-        if lamp_model:
-            flat = flat / point_falloff(config, step.lamp, points, self.target_z_mm)
+        flat = measured / point_falloff(config, step.lamp, inside, self.target_z_mm)
+        if not lamp_model:
+            flat = flat * point_falloff(config, step.lamp, points, self.target_z_mm)
         return texture / np.maximum(flat, FLAT_FLOOR)[..., None]
 
     def record(self, *, cameras, lamps) -> Radiometry:

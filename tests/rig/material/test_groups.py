@@ -7,9 +7,9 @@ import pytest
 import zarr
 
 from rig.material import (
+    NOT_RECORDED,
     FlatFieldMaps,
     LiveAppender,
-    NOT_RECORDED,
     MaterialError,
     Radiometry,
     live_rows,
