@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["compare", "run_bench"]
+__all__ = ["FULL", "QUICK", "measure", "record", "run_bench"]
 
 _PLAN = """
 [sample]
@@ -35,58 +35,64 @@ exposure_s = 0.05
 """
 #: the zenith camera (ps, btf at θ = 0, the white target) and the 30° one (btf)
 _CAMERAS = ("cam0", "cam2")
+_BUMPS = Path(__file__).resolve().parents[1] / "examples" / "scenes" / "bumps.toml"
 
 
 def run_bench(*, quick: bool = False) -> list[dict]:
     """Rows ``raw`` and ``corrected``: PS mean and 95th-percentile angular error
     (degrees), albedo non-uniformity (relative spread of measured over true albedo
-    on the texels of one material), BTF relative RMSE against the ray-cast BTF
-    (one scale fitted over all slots), on the texel grid."""
+    within one material) and contrast error (the checker's two materials), BTF
+    relative RMSE against the ray-cast BTF (one scale fitted over all slots)."""
+    setting = QUICK if quick else FULL
     with tempfile.TemporaryDirectory(prefix="rig-bench-radiometry-") as tmp:
-        if quick:
-            return compare(Path(tmp), size=32, scale=0.25, ps_lights=8, btf_lights=4)
-        return compare(Path(tmp), size=64, scale=0.5, ps_lights=12, btf_lights=6)
+        archive = record(Path(tmp), **setting)
+        return [measure(archive, raw=raw, **setting) for raw in (True, False)]
 
 
-def compare(
-    workdir: Path, *, size: int, scale: float, ps_lights: int, btf_lights: int
-) -> list[dict]:
-    """The bench in ``workdir`` (sessions, calibration, archive): one row per mode."""
+#: texels, image scale, lamps of the PS set and of the BTF's light set
+FULL = {"size": 64, "scale": 0.5, "ps_lights": 12, "btf_lights": 6}
+QUICK = {"size": 32, "scale": 0.5, "ps_lights": 8, "btf_lights": 4}
+
+
+def record(workdir: Path, *, scale: float, ps_lights: int, btf_lights: int, **_) -> Path:
+    """The calibration sessions, the calibration file and the sample's archive in
+    ``workdir``; the archive's path (its calibration is version 1)."""
+    calibration = _calibrate(workdir, _sample_scene(scale), scale)
+    plan = _PLAN.format(ps_lights=ps_lights, btf_lights=btf_lights)
+    update = {"calibration": str(calibration)}
+    return _session(plan, _sample_scene(scale), workdir / "sample.zarr", update)
+
+
+def measure(archive: Path, *, raw: bool, size: int, scale: float, btf_lights: int, **_) -> dict:
+    """``ps`` and ``btf`` over ``archive`` (``raw``: without corrections), and their
+    errors against the truth of the scene it was recorded from (one row)."""
     from processing.offline import BtfStage, PsStage, run_stages
     from rig.archive import Archive
     from rig.material import read_btf, read_material
     from sim import Simulator
 
-    scene = _sample_scene(scale)
-    calibration = _calibrate(workdir, scene, scale)
-    archive = _record(workdir, scene, calibration, ps_lights, btf_lights)
-    with Simulator(scene) as sim:
-        truth = sim.texel_truth(size)
-        rows = []
-        for raw in (True, False):
-            stages = [
-                PsStage(size=size, raw=raw),
-                BtfStage(size=size, components=btf_lights, raw=raw),  # full rank: no PCA error
-            ]
-            run_stages(archive, stages, workers=1)
-            material = read_material(archive)
-            view = material.frontal_ps()
-            with Archive.open(archive) as recorded:
-                btf = read_btf(recorded.material["btf"])
-            rows.append({
-                "mode": "raw (--raw)" if raw else "corrected",
-                "corrections": _applied(btf.radiometry),
-                **_ps_errors(view, truth),
-                "btf_slots": int(btf.slot_valid.sum()),
-                "btf_rel_rmse": _btf_error(btf, sim, size),
-            })  # fmt: skip
-    return rows
+    stages = [
+        PsStage(size=size, raw=raw),
+        BtfStage(size=size, components=btf_lights, raw=raw),  # full rank: no PCA error
+    ]
+    run_stages(archive, stages, workers=1)
+    view = read_material(archive).frontal_ps()
+    with Archive.open(archive) as recorded:
+        btf = read_btf(recorded.material["btf"])
+    with Simulator(_sample_scene(scale)) as sim:
+        return {
+            "mode": "raw (--raw)" if raw else "corrected",
+            "corrections": _applied(btf.radiometry),
+            **_ps_errors(view, sim.texel_truth(size)),
+            "btf_slots": int(btf.slot_valid.sum()),
+            "btf_rel_rmse": _btf_error(btf, sim, size),
+        }
 
 
 def _sample_scene(scale: float):
     from sim.scene import scene_from_dict
 
-    data = tomllib.loads(Path("examples/scenes/bumps.toml").read_text())
+    data = tomllib.loads(_BUMPS.read_text())
     data["render"] = {"scale": scale, "supersample": 2}
     data["effects"] = ["response", "vignetting"]
     return scene_from_dict(data)
@@ -146,11 +152,6 @@ def _calibrate(workdir: Path, scene, scale: float) -> Path:
         lamps_provenance=Provenance.now(white),
     )
     return write_calibration(calibration, path)
-
-
-def _record(workdir: Path, scene, calibration: Path, ps_lights: int, btf_lights: int) -> Path:
-    plan = _PLAN.format(ps_lights=ps_lights, btf_lights=btf_lights)
-    return _session(plan, scene, workdir / "sample.zarr", {"calibration": str(calibration)})
 
 
 def _applied(radiometry) -> str:
