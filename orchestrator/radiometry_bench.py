@@ -39,31 +39,43 @@ _BUMPS = Path(__file__).resolve().parents[1] / "examples" / "scenes" / "bumps.to
 
 
 def run_bench(*, quick: bool = False) -> list[dict]:
-    """Rows ``raw`` and ``corrected``: PS mean and 95th-percentile angular error
+    """Rows: the sample with the effects, processed ``raw`` and ``corrected``, and the
+    same sample without them (``no effects``: what the stages reach when the camera is
+    linear and nothing vignettes). Columns: PS mean and 95th-percentile angular error
     (degrees), albedo non-uniformity (relative spread of measured over true albedo
     within one material) and contrast error (the checker's two materials), BTF
     relative RMSE against the ray-cast BTF (one scale fitted over all slots)."""
     setting = QUICK if quick else FULL
     with tempfile.TemporaryDirectory(prefix="rig-bench-radiometry-") as tmp:
         archive = record(Path(tmp), **setting)
-        return [measure(archive, raw=raw, **setting) for raw in (True, False)]
+        rows = [measure(archive, raw=raw, **setting) for raw in (True, False)]
+        plain = record(Path(tmp) / "plain", effects=(), **setting)
+        rows.append({**measure(plain, raw=True, effects=(), **setting), "mode": "no effects"})
+    return rows
 
 
 #: texels, image scale, lamps of the PS set and of the BTF's light set
 FULL = {"size": 64, "scale": 0.5, "ps_lights": 12, "btf_lights": 6}
 QUICK = {"size": 32, "scale": 0.5, "ps_lights": 8, "btf_lights": 4}
+#: what the sample's camera and lamps do to its frames (the near lamps' fall-off is always there)
+EFFECTS = ("response", "vignetting")
 
 
-def record(workdir: Path, *, scale: float, ps_lights: int, btf_lights: int, **_) -> Path:
+def record(
+    workdir: Path, *, scale: float, ps_lights: int, btf_lights: int, effects=EFFECTS, **_
+) -> Path:
     """The calibration sessions, the calibration file and the sample's archive in
     ``workdir``; the archive's path (its calibration is version 1)."""
-    calibration = _calibrate(workdir, _sample_scene(scale), scale)
+    workdir.mkdir(parents=True, exist_ok=True)
+    calibration = _calibrate(workdir, _sample_scene(scale, effects), scale)
     plan = _PLAN.format(ps_lights=ps_lights, btf_lights=btf_lights)
     update = {"calibration": str(calibration)}
-    return _session(plan, _sample_scene(scale), workdir / "sample.zarr", update)
+    return _session(plan, _sample_scene(scale, effects), workdir / "sample.zarr", update)
 
 
-def measure(archive: Path, *, raw: bool, size: int, scale: float, btf_lights: int, **_) -> dict:
+def measure(
+    archive: Path, *, raw: bool, size: int, scale: float, btf_lights: int, effects=EFFECTS, **_
+) -> dict:
     """``ps`` and ``btf`` over ``archive`` (``raw``: without corrections), and their
     errors against the truth of the scene it was recorded from (one row)."""
     from processing.offline import BtfStage, PsStage, run_stages
@@ -79,7 +91,7 @@ def measure(archive: Path, *, raw: bool, size: int, scale: float, btf_lights: in
     view = read_material(archive).frontal_ps()
     with Archive.open(archive) as recorded:
         btf = read_btf(recorded.material["btf"])
-    with Simulator(_sample_scene(scale)) as sim:
+    with Simulator(_sample_scene(scale, effects)) as sim:
         return {
             "mode": "raw (--raw)" if raw else "corrected",
             "corrections": _applied(btf.radiometry),
@@ -89,12 +101,12 @@ def measure(archive: Path, *, raw: bool, size: int, scale: float, btf_lights: in
         }
 
 
-def _sample_scene(scale: float):
+def _sample_scene(scale: float, effects):
     from sim.scene import scene_from_dict
 
     data = tomllib.loads(_BUMPS.read_text())
     data["render"] = {"scale": scale, "supersample": 2}
-    data["effects"] = ["response", "vignetting"]
+    data["effects"] = list(effects)
     return scene_from_dict(data)
 
 
