@@ -12,6 +12,8 @@ from rig.material import (
     LiveAppender,
     MaterialError,
     Radiometry,
+    archive_flat_field_path,
+    copy_flat_field,
     live_rows,
     read_btf,
     read_flat_field,
@@ -301,6 +303,21 @@ def test_flat_field_round_trip_replaces_and_reads_the_old_npz(tmp_path):
     old = tmp_path / "cal.flatfield.npz"
     np.savez_compressed(old, camera="cam2", lamps=["near30", "sun45"], falloff=falloff)
     np.testing.assert_array_equal(read_flat_field(old).falloff, falloff)
+
+
+def test_an_archive_keeps_its_copy_of_the_flat_fields(tmp_path):
+    falloff = np.random.default_rng(1).uniform(0.5, 1.0, (2, 6, 5)).astype(np.float32)
+    write_flat_field(tmp_path / "cal.flatfield.zarr", FlatFieldMaps("cam0", ("a", "b"), falloff))
+    archive = tmp_path / "s.zarr"
+    (archive / "calibration").mkdir(parents=True)
+    copy = copy_flat_field(tmp_path / "cal.toml", "cal.flatfield.zarr", archive)
+    assert copy == archive_flat_field_path(archive, "cal.flatfield.zarr")
+    assert copy == archive / "calibration" / "cal.flatfield.zarr"
+    np.testing.assert_array_equal(read_flat_field(copy).falloff, falloff)
+    with pytest.raises(MaterialError, match=r"lamps_flat_field = '../x.zarr': .* not a path"):
+        archive_flat_field_path(archive, "../x.zarr")
+    with pytest.raises(MaterialError, match="no flat fields here"):
+        copy_flat_field(tmp_path / "cal.toml", "other.flatfield.zarr", archive)
 
 
 def test_bad_flat_fields_are_named(tmp_path):
