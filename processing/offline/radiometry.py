@@ -155,8 +155,8 @@ class FrameCorrections:
         flat_fielded = tuple(sorted(x for x in set(lamps) if flat is not None and x in flat.lamps))
         skipped = dict(self.skipped)
         for camera in sorted(set(cameras) - set(linearised)):
-            if self.curves and "response" not in skipped:
-                skipped[camera] = "no response curve for this camera: frames as recorded"
+            if "response" not in skipped:
+                skipped.setdefault(camera, "no response curve for this camera: frames as recorded")
         for lamp in sorted(set(lamps) - set(flat_fielded)):
             if flat is not None:
                 skipped[lamp] = "the flat fields have no map of this lamp"
@@ -174,6 +174,15 @@ def frame_corrections(archive: Archive, config: RigConfig, *, raw: bool = False)
         return FrameCorrections(skipped={"all": "the archive holds no calibration"})
     sources, skipped = {}, {}
     curves = {cam: np.asarray(r.curve, np.float32) for cam, r in calibration.response.items()}
+    for camera in sorted(curves):
+        bits = _bit_depth(config, camera)
+        if bits != 8:
+            del curves[camera]
+            skipped[camera] = (
+                f"{bits}-bit frames, an 8-bit response curve: frames as recorded"
+                if bits
+                else "a response curve for a camera this rig does not have"
+            )
     if curves:
         sources["response"] = _source(calibration, "response")
     else:
@@ -212,6 +221,13 @@ def point_falloff(config: RigConfig, lamp: str, points: np.ndarray, z_mm: float)
         return to_lamp[..., 2] / r**3
 
     return irradiance(points) / irradiance(np.array([0.0, 0.0, z_mm]))
+
+
+def _bit_depth(config: RigConfig, camera: str) -> int | None:
+    try:
+        return config.camera(camera).bit_depth
+    except ConfigError:
+        return None
 
 
 def _source(calibration: CalibrationFile, section: str) -> str:

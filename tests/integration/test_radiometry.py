@@ -65,6 +65,21 @@ def test_the_material_records_what_was_applied_and_raw_switches_it_off(archive):
     assert (archive_flat_field_path(archive, name) / "zarr.json").is_file()
 
 
+def test_a_deeper_camera_keeps_its_frames_and_says_why(tmp_path):
+    rig = default_rig_config().model_dump(mode="json")
+    rig["camera_arc"]["cameras"][0]["bit_depth"] = 12
+    curve = [[float(v / 128)] * 3 for v in range(256)]
+    calibration = {"format_version": 1, "response": {"cam0": {"curve": curve, "exposures": 6}}}
+    cameras = {"cam0": FrameFormat(4, 4, 3, "uint16")}
+    with Archive.create(
+        tmp_path / "a.zarr", plan={}, rig_config=rig, cameras=cameras, calibration=calibration
+    ) as archive:
+        corrections = frame_corrections(archive, RigConfig.model_validate(rig))
+    assert not corrections.curves
+    record = corrections.record(cameras=["cam0"], lamps=[])
+    assert record.linearised == () and "12-bit frames" in record.skipped["cam0"]
+
+
 def test_missing_flat_fields_and_curves_are_named(tmp_path):
     config = default_rig_config()
     calibration = {"format_version": 1, "lamps_flat_field": "cal.flatfield.zarr"}
