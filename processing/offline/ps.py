@@ -8,7 +8,10 @@ the grid of the normtextures and the MDF (``rig.geometry.texel_centers_mm``)
 and are in the sample frame. The lamps are near: their positions come from
 the archive's rig config and each step's recorded arc and turntable angles
 (``rig.kinematics.lamp_position_mm``), and the solve is refined with the
-integrated height (seed 004: Woodham's method, then integration).
+integrated height (seed 004: Woodham's method, then integration). Frames are
+linearised by the archive's response curve and divided by the part of their
+lamp's flat field the near-lamp model does not explain before they reach the
+solver (``processing.offline.radiometry``; ``raw`` keeps them as recorded).
 """
 
 from __future__ import annotations
