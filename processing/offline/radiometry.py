@@ -123,7 +123,7 @@ class FrameCorrections:
             ).texture.astype(np.float64)
         if self.flat_field is None or step.lamp not in self.flat_field.lamps:
             return texture
-        points = calibration_points(
+        points = _texel_points(
             sample_mm, size, self.target_z_mm,
             arc_deg=step.actuators.get("arc_deg", 0.0),
             turntable_deg=step.actuators.get("turntable_deg", 0.0),
@@ -196,7 +196,7 @@ def frame_corrections(archive: Archive, config: RigConfig, *, raw: bool = False)
     )  # fmt: skip
 
 
-def calibration_points(
+def _texel_points(
     sample_mm: float, size: int, z_mm: float, *, arc_deg: float, turntable_deg: float
 ) -> np.ndarray:
     """(size, size, 3) where the texels of a step at ``arc_deg``/``turntable_deg`` lie
