@@ -18,7 +18,7 @@ from rig.config import default_rig_config
 from rig.plan import parse_plan
 from rig.schedule import compile_plan
 
-__all__ = ["app"]
+__all__ = ["app", "markdown_table"]
 
 
 def _archive(module, quick: bool) -> list[dict]:
@@ -64,6 +64,7 @@ AREAS: dict[str, tuple[str, Callable]] = {
     "btf": ("processing.btf.bench", _btf),
     "mdf": ("processing.mdf.bench", _plain),
     "calibration": ("orchestrator.calibration_bench", _plain),
+    "radiometry": ("orchestrator.radiometry_bench", _plain),
     "render": ("render.bench", _plain),
     "render-loop": ("orchestrator.render_loop", _plain),
     "silhouettes": ("orchestrator.silhouettes", _plain),
@@ -95,17 +96,27 @@ def print_rows(title: str, rows: list[dict]) -> None:
     _print_table(title, rows)
 
 
+def markdown_table(rows: list[dict]) -> str:
+    """The rows as one Markdown table (floats to 4 significant digits), for the docs."""
+    columns = list(dict.fromkeys(k for row in rows for k in row))
+    lines = ["| " + " | ".join(columns) + " |", "|" + "---|" * len(columns)]
+    for row in rows:
+        cells = [_cell(row.get(col, "")) for col in columns]
+        lines.append("| " + " | ".join(cells) + " |")
+    return "\n".join(lines) + "\n"
+
+
+def _cell(value) -> str:
+    return f"{value:.4g}" if isinstance(value, float) else str(value)
+
+
 def _print_table(title: str, rows: list[dict]) -> None:
     table = Table(title=title)
     columns = list(dict.fromkeys(k for row in rows for k in row))
     for col in columns:
         table.add_column(col)
     for row in rows:
-        cells = []
-        for col in columns:
-            value = row.get(col, "")
-            cells.append(f"{value:.4g}" if isinstance(value, float) else str(value))
-        table.add_row(*cells)
+        table.add_row(*(_cell(row.get(col, "")) for col in columns))
     console.print(table)
 
 
@@ -117,11 +128,16 @@ def _make(area: str):
             Path | None, typer.Option("--json", help="also write the rows as JSON")
         ] = None,
         quick: Annotated[bool, typer.Option("--quick", help="smaller sizes, fewer runs")] = False,
+        markdown: Annotated[
+            Path | None, typer.Option("--markdown", help="also write the rows as a Markdown table")
+        ] = None,
     ) -> None:
         rows = call(importlib.import_module(module_name), quick)
         print_rows(f"rig bench {area}", rows)
         if json_out is not None:
             json_out.write_text(json.dumps(rows, indent=2, default=float))
+        if markdown is not None:
+            markdown.write_text(markdown_table(rows))
 
     command.__doc__ = HELP.get(
         area, f"Run the {area} benchmark (against baselines measured in the same run)."

@@ -138,6 +138,7 @@ def _compute(target: str, source: Path, rig, out: Path | None, apply: list[Path]
     """Compute ``target`` from ``source``, update the calibration file; what failed."""
     from rig.archive import Archive, software_versions
     from rig.calfile import CalibrationFile, Provenance, load_calibration, write_calibration
+    from rig.material import copy_flat_field
 
     path = out or Path(rig.calibration or "calibrations/calibration.toml")
     compute = {"cameras": _cameras, "laser": _laser, "response": _response, "lamps": _lamps}
@@ -151,6 +152,8 @@ def _compute(target: str, source: Path, rig, out: Path | None, apply: list[Path]
     for session in apply:
         with Archive.open(session, mode="a") as recorded:
             version = recorded.set_calibration(updated.model_dump(mode="json", exclude_none=True))
+            if updated.lamps_flat_field is not None:
+                copy_flat_field(path, updated.lamps_flat_field, recorded.path)
         console.print(escape(f"{session}: calibration version {version}"))
     return failed
 

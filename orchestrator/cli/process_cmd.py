@@ -90,6 +90,14 @@ def register(app: typer.Typer) -> None:
             Path | None,
             typer.Option("--previews", help="folder for preview PNGs (default: ARCHIVE_previews)"),
         ] = None,
+        raw: Annotated[
+            bool,
+            typer.Option(
+                "--raw",
+                help="ps, btf: frames as recorded, without the calibration's response "
+                "linearisation and lamp flat fields",
+            ),
+        ] = False,
     ) -> None:
         """Run processing stages over a recorded archive into its material/ group.
 
@@ -100,6 +108,9 @@ def register(app: typer.Typer) -> None:
         mdf (the mesostructure distance function of the laser scans, with previews).
         A stage that can use none of its frames (all flagged: saturated, black…) is
         skipped with the reason, the others still run, and the exit code is 1.
+        When the archive's calibration has them, ps and btf frames are linearised
+        by the camera's response curve and divided by their lamp's flat field
+        (--raw: not); the material records what was applied.
         """
         quiet_dask_logs()
         from processing.offline import STAGES, run_stages
@@ -113,7 +124,7 @@ def register(app: typer.Typer) -> None:
         writers = {"ps": write_ps_previews, "mdf": write_mdf_previews}
         if previews is not None and any(n in writers for n in names):
             prepare_folder(previews, f"--previews {previews}")
-        options = {"btf": {"components": components}}
+        options = {"btf": {"components": components, "raw": raw}, "ps": {"raw": raw}}
         chosen = [STAGES[n](size=size, **options.get(n, {})) for n in names]
         columns = (
             TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),

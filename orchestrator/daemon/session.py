@@ -45,6 +45,7 @@ from rig.calfile import load_calibration
 from rig.clock import Clock
 from rig.config import RigConfig
 from rig.kinematics import forward
+from rig.material import copy_flat_field
 from rig.plan import Plan, parse_plan
 from rig.schedule import Schedule, Step, compile_plan
 
@@ -157,6 +158,7 @@ class Session:
             calibration=calibration,
         )
         try:
+            _copy_flat_field(config, calibration, archive)
             return cls(plan=plan, config=config, schedule=schedule, archive=archive, **kw)
         except BaseException:
             archive.close()
@@ -476,6 +478,13 @@ def _per_step_estimate(schedule: Schedule) -> dict[str, float]:
     for step in schedule.steps:
         counts[step.kind] = counts.get(step.kind, 0) + 1
     return {k: schedule.estimate.by_kind_s.get(k, 0.0) / n for k, n in counts.items()}
+
+
+def _copy_flat_field(config: RigConfig, calibration: dict | None, archive: Archive) -> None:
+    """The lamps' flat fields the calibration names go into the archive with it."""
+    name = (calibration or {}).get("lamps_flat_field")
+    if name is not None:
+        copy_flat_field(config.calibration, name, archive.path)
 
 
 def _calibration_of(config: RigConfig) -> dict | None:

@@ -3,10 +3,20 @@
 Seed ``000_…`` §4.1–4.2 (per-view-slot PCA, 4-nearest light interpolation,
 view-slot blending) and seed ``001_…`` §5 (one SVD with views as columns).
 The models :class:`CompressedBTF` and :class:`GlobalSVD` are the material format's
-(``rig.material``, ``docs/material.md``), re-exported here;
+(``rig.material``, ``docs/material.md``), re-exported here; normtextures
+stored in sRGB are decoded with :func:`to_linear` (and encoded back with
+:func:`from_linear`); a single view slot reconstructs and interpolates on
+its own (:meth:`ViewSlot.reconstruct`, :meth:`ViewSlot.interpolate`);
 ``rig bench btf`` runs :func:`processing.btf.bench.run_bench`.
 """
 
+from processing.btf._colour import (
+    COLOUR_SPACES,
+    ColourSpace,
+    from_linear,
+    linear_units,
+    to_linear,
+)
 from processing.btf._compress import compress_btf, compress_global_svd
 from processing.btf._errors import BtfError
 from processing.btf._interpolate import Method, direction_weights, interpolate, reconstruct
@@ -16,7 +26,9 @@ from processing.btf._slots import SlotTable, view_slots
 from rig.material import CompressedBTF, GlobalSVD
 
 __all__ = [
+    "COLOUR_SPACES",
     "BtfError",
+    "ColourSpace",
     "CompressedBTF",
     "GlobalSVD",
     "Method",
@@ -27,9 +39,12 @@ __all__ = [
     "compress_view",
     "compress_view_svd",
     "direction_weights",
+    "from_linear",
     "interpolate",
+    "linear_units",
     "psnr_db",
     "reconstruct",
     "rmse",
+    "to_linear",
     "view_slots",
 ]

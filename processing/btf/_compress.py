@@ -28,10 +28,17 @@ _STRIP_VALUES = 1 << 22  # float64 values per strip of the global SVD (32 MiB)
 
 def _shape(btf) -> tuple[int, int, int, int]:
     shape = tuple(getattr(btf, "shape", ()))
-    if len(shape) != 5 or shape[2] != shape[3] or shape[4] not in (1, 3) or 0 in shape:
+    if len(shape) != 5 or shape[4] not in (1, 3) or 0 in shape:
         raise BtfError(
             f"btf: expected an indexable (n_views, n_lights, N, N, C) array, C = 1 or 3, "
             f"got shape {shape}"
+        )
+    if shape[2] != shape[3]:
+        raise BtfError(
+            f"btf: normtextures of {shape[2]} × {shape[3]} texels; a material's BTF lies on "
+            "the square N × N texel grid of the sample (rig.geometry.texel_centers_mm): crop "
+            "or resample each normtexture to N × N first (compress_view takes one view slot "
+            "of any H × W)"
         )
     return shape[0], shape[1], shape[2], shape[4]
 

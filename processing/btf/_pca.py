@@ -26,6 +26,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from processing.btf._errors import BtfError
+from processing.btf._interpolate import Method, direction_weights
+from rig.geometry import direction_vector
+from rig.material import CompressedBTF, check_directions
 
 __all__ = ["ViewSlot", "compress_view", "compress_view_svd"]
 
@@ -40,9 +43,9 @@ class ViewSlot:
 
     Attributes
     ----------
-    mean : (N, N, 3) storage dtype
-        Mean normtexture over the lights.
-    basis : (c, N, N, 3) storage dtype
+    mean : (H, W, C) storage dtype
+        Mean normtexture over the lights (H = W = N for a material's slot).
+    basis : (c, H, W, C) storage dtype
         Eigennormtextures, each scaled to max |B_k| = 1; zero beyond ``rank``.
     weights : (n_lights, c) float32
         p_ik: normtexture i ≈ mean + Σ_k weights[i, k] · basis[k].
@@ -59,12 +62,42 @@ class ViewSlot:
     singular_values: np.ndarray
     rank: int
 
+    def reconstruct(self, light: int) -> np.ndarray:
+        """The compressed normtexture of measured light ``light``: (H, W, C) float32."""
+        n_lights = len(self.weights)
+        if not 0 <= light < n_lights:
+            raise BtfError(f"light = {light}: valid are 0 ≤ light < {n_lights}")
+        return self._slot().blend([0], [1.0], [light], [1.0])
+
+    def interpolate(self, light_deg, *, light_dirs_deg, method: Method = "nearest4") -> np.ndarray:
+        """The normtexture for any light direction (θ, φ) degrees: (H, W, C) float32.
+
+        ``light_dirs_deg`` (n_lights, 2): the measured lights, in the order of the
+        stack this slot compresses. The lights blend as in
+        :func:`processing.btf.interpolate` (exactly :meth:`reconstruct` at a
+        measured direction), without a whole :class:`CompressedBTF`.
+        """
+        lights = check_directions(
+            "light_dirs_deg", light_dirs_deg, len(self.weights), error=BtfError
+        )
+        vectors = direction_vector(lights[:, 0], lights[:, 1])
+        index, weight = direction_weights(vectors, light_deg, method=method)
+        return self._slot().blend([0], [1.0], index, weight)
+
+    def _slot(self) -> CompressedBTF:
+        # This slot as a one-view model (views of the arrays, no copy): one blend for both.
+        n_lights = len(self.weights)
+        return CompressedBTF(
+            np.zeros((1, 2)), np.zeros((n_lights, 2)), self.mean[None], self.basis[None],
+            self.weights[None], self.singular_values[None], np.array([self.rank], np.int32),
+        )  # fmt: skip
+
 
 def _check_stack(stack) -> np.ndarray:
     x = np.asarray(stack)
-    if x.ndim != 4 or x.shape[3] not in (1, 3) or x.shape[1] != x.shape[2] or x.shape[0] < 1:
+    if x.ndim != 4 or x.shape[3] not in (1, 3) or x.shape[0] < 1 or 0 in x.shape:
         raise BtfError(
-            f"view stack: expected (n_lights, N, N, C) with C = 1 or 3, got shape {x.shape}"
+            f"view stack: expected (n_lights, H, W, C) with C = 1 or 3, got shape {x.shape}"
         )
     if not (np.issubdtype(x.dtype, np.floating) or np.issubdtype(x.dtype, np.integer)):
         raise BtfError(f"view stack: expected a real-valued array, got dtype {x.dtype}")
@@ -120,8 +153,10 @@ def compress_view(stack, *, components: int, storage=np.float16) -> ViewSlot:
 
     Parameters
     ----------
-    stack : (n_lights, N, N, C) array, C ∈ {1, 3}, float or integer
-        The normtextures of one view slot, one per light direction.
+    stack : (n_lights, H, W, C) array, C ∈ {1, 3}, float or integer
+        The normtextures of one view slot, one per light direction; H ≠ W is
+        fine here (a material's slots are N × N: :func:`compress_btf`). Values
+        as they are: decode 8-bit sRGB to linear first (:func:`to_linear`).
     components : int
         c, eigennormtextures kept (the seed uses ≤ 16).
     storage : float16 or float32
@@ -136,8 +171,7 @@ def compress_view(stack, *, components: int, storage=np.float16) -> ViewSlot:
     --------
     >>> stack = np.random.default_rng(0).random((8, 4, 4, 3), dtype=np.float32)
     >>> slot = compress_view(stack, components=7, storage=np.float32)
-    >>> recon = slot.mean + np.einsum("k,kyxc->yxc", slot.weights[2], slot.basis)
-    >>> bool(np.allclose(recon, stack[2], atol=1e-5))
+    >>> bool(np.allclose(slot.reconstruct(2), stack[2], atol=1e-5))
     True
     """
     x = _check_stack(stack)

@@ -25,12 +25,13 @@ from dataclasses import dataclass
 import numpy as np
 
 from processing.btf import CompressedBTF, compress_view, view_slots
+from processing.offline.radiometry import FrameCorrections, frame_corrections
 from processing.offline.runner import StageSkipped, frame_camera
 from processing.registration import register_capture
 from rig.archive import Archive
 from rig.config import RigConfig
 from rig.interchange import imported_normtextures
-from rig.material import write_btf
+from rig.material import Radiometry, write_btf
 
 __all__ = ["BtfSlot", "BtfStage", "slot_normtextures"]
 
@@ -46,10 +47,12 @@ class BtfSlot:
 
 @dataclass(frozen=True)
 class BtfStage:
-    """Per-view PCA of the registered BTF. ``size``: texels per side; ``components``: c."""
+    """Per-view PCA of the registered BTF. ``size``: texels per side; ``components``: c;
+    ``raw``: frames as recorded, without the calibration's radiometric corrections."""
 
     size: int = 128
     components: int = 8
+    raw: bool = False
     name: str = "btf"
 
     def plan(self, archive: Archive) -> list[BtfSlot]:
@@ -63,12 +66,18 @@ class BtfStage:
 
     def compute(self, archive_path: str, item: BtfSlot) -> dict:
         with Archive.open(archive_path, mode="r") as archive:
-            textures, flagged = slot_normtextures(archive, item, size=self.size)
+            config = RigConfig.model_validate(archive.rig_config)
+            corrections = frame_corrections(archive, config, raw=self.raw)
+            textures, flagged = slot_normtextures(
+                archive, item, size=self.size, corrections=corrections
+            )
+            lamps = [r.lamp for r in archive.step_table() if r.index in dict(item.captures)]
+        record = corrections.record(cameras=[c for _, c in item.captures], lamps=lamps)
         if flagged:
-            return {"slot": item, "flagged": flagged, "compressed": None}
+            return {"slot": item, "flagged": flagged, "compressed": None, "radiometry": record}
         stack = np.stack(textures).astype(np.float32)
         slot = compress_view(stack, components=self.components)
-        return {"slot": item, "flagged": [], "compressed": slot}
+        return {"slot": item, "flagged": [], "compressed": slot, "radiometry": record}
 
     def write(self, group, archive: Archive, results) -> dict:
         results = sorted(results, key=lambda r: r["slot"].index)
@@ -95,9 +104,10 @@ class BtfStage:
             np.array([s.rank if s else 0 for s in slots], np.int32),
         )
         flagged = [f for r in results for f in r["flagged"]]
+        radiometry = _merged([r["radiometry"] for r in results])
         write_btf(
-            group, model, units=_units(archive),
-            slot_valid=np.array([s is not None for s in slots]),
+            group, model, units=_units(archive, radiometry),
+            slot_valid=np.array([s is not None for s in slots]), radiometry=radiometry,
             attrs={"flagged": [list(f) for f in flagged],
                    "flagged_columns": ["slot", "light", "step", "camera", "reason"]},
         )  # fmt: skip
@@ -105,16 +115,19 @@ class BtfStage:
 
 
 def slot_normtextures(
-    archive: Archive, item: BtfSlot, *, size: int
+    archive: Archive, item: BtfSlot, *, size: int, corrections: FrameCorrections | None = None
 ) -> tuple[list[np.ndarray], list[tuple]]:
     """The (size, size, C) float32 normtextures of a view slot, one per light, in
     relative radiance per second of exposure; and the flagged captures.
 
-    Camera frames are registered onto the texel grid; an imported archive's
-    frames already are normtextures (``rig.interchange.imported_normtextures``)
-    and are only resampled to ``size`` (area averaging). A flagged capture is
-    ``(slot, light, step, camera, reason)`` and gives no texture.
+    Camera frames are registered onto the texel grid, linearised and divided by
+    their lamp's flat field where ``corrections`` (default none) say so; an
+    imported archive's frames already are normtextures
+    (``rig.interchange.imported_normtextures``) and are only resampled to
+    ``size`` (area averaging). A flagged capture is ``(slot, light, step,
+    camera, reason)`` and gives no texture.
     """
+    corrections = FrameCorrections() if corrections is None else corrections
     records = {s.index: s for s in archive.step_table()}
     textures, flagged = [], []
     if imported_normtextures(archive.plan):
@@ -132,15 +145,33 @@ def slot_normtextures(
         if not reg.valid:
             flagged.append((item.index, light, step, camera, reg.reason.name))
             continue
-        full_scale = float(2 ** config.camera(camera).bit_depth - 1)
-        textures.append(reg.normtexture.texture / (full_scale * record.exposures_s[0]))
+        texture = corrections.normtexture(
+            frame, reg, record, camera, config, lens=lens, size=size, lamp_model=False
+        )
+        textures.append((texture / record.exposures_s[0]).astype(np.float32))
     return textures, flagged
 
 
-def _units(archive: Archive) -> str:
+def _merged(records: list[Radiometry]) -> Radiometry:
+    """One record for the whole BTF from each slot's."""
+    first = records[0]
+    return Radiometry(
+        tuple(sorted({c for r in records for c in r.linearised})),
+        tuple(sorted({x for r in records for x in r.flat_fielded})),
+        first.calibration_version, first.sources,
+        {k: v for r in records for k, v in r.skipped.items()},
+    )  # fmt: skip
+
+
+def _units(archive: Archive, radiometry: Radiometry) -> str:
     if imported_normtextures(archive.plan):
         return f"{archive.plan['frames']['units']} ({archive.plan['frames']['colour_space']})"
-    return "relative radiance per second of exposure"
+    if radiometry.linearised:
+        values = "linear relative exposure (1 at camera value 128)"
+    else:
+        values = "camera value over full scale (as recorded, not linearised)"
+    flat = ", lamp fall-off divided out" if radiometry.flat_fielded else ""
+    return f"{values} per second of exposure{flat}"
 
 
 def _resampled(frame: np.ndarray, size: int) -> np.ndarray:

@@ -8,7 +8,10 @@ the grid of the normtextures and the MDF (``rig.geometry.texel_centers_mm``)
 and are in the sample frame. The lamps are near: their positions come from
 the archive's rig config and each step's recorded arc and turntable angles
 (``rig.kinematics.lamp_position_mm``), and the solve is refined with the
-integrated height (seed 004: Woodham's method, then integration).
+integrated height (seed 004: Woodham's method, then integration). Frames are
+linearised by the archive's response curve and divided by the part of their
+lamp's flat field the near-lamp model does not explain before they reach the
+solver (``processing.offline.radiometry``; ``raw`` keeps them as recorded).
 """
 
 from __future__ import annotations
@@ -17,6 +20,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from processing.offline.radiometry import FrameCorrections, frame_corrections
 from processing.offline.runner import View, frame_camera, views_of
 from processing.photometric import (
     DistantLights,
@@ -43,11 +47,13 @@ SATURATION = 0.98
 
 @dataclass(frozen=True)
 class PsStage:
-    """Photometric stereo per view. ``size``: texels per side; ``method``: the solver's."""
+    """Photometric stereo per view. ``size``: texels per side; ``method``: the solver's;
+    ``raw``: frames as recorded, without the calibration's radiometric corrections."""
 
     size: int = 128
     method: str = "irls"
     refine_iterations: int = 2
+    raw: bool = False
     name: str = "ps"
 
     def plan(self, archive: Archive) -> list[View]:
@@ -61,17 +67,22 @@ class PsStage:
             frames = [archive.read_frame(s.index, item.camera, 0) for s in steps]
             # only K and dist are used: the frame's intrinsics, at the plan's resolution
             lens = frame_camera(archive, config, item.camera, item.turntable_deg)
-        return self.solve(item, config, lens, steps, frames)
+            corrections = frame_corrections(archive, config, raw=self.raw)
+        return self.solve(item, config, lens, steps, frames, corrections=corrections)
 
-    def solve(self, item: View, config: RigConfig, lens, steps, frames) -> dict:
+    def solve(
+        self, item: View, config: RigConfig, lens, steps, frames, *, corrections=None
+    ) -> dict:
         """The view's photometric stereo from its frames in memory.
 
         ``steps``: the view's committed step records; ``frames``: each step's frame of
         ``item.camera`` (sub 0), as archived; ``lens``: the camera of those frames
-        (:func:`processing.offline.frame_camera`). What :meth:`compute` returns.
+        (:func:`processing.offline.frame_camera`); ``corrections``: the archive's
+        radiometric corrections (:func:`~processing.offline.radiometry.frame_corrections`),
+        none when not given. What :meth:`compute` returns.
         """
-        bits = config.camera(item.camera).bit_depth
-        full_scale = float(2**bits - 1)
+        corrections = FrameCorrections() if corrections is None else corrections
+        full_scale = float(2 ** config.camera(item.camera).bit_depth - 1)
         images, usable, lamps, registered = [], None, [], 0
         for step, frame in zip(steps, frames, strict=True):
             capture = register_capture(
@@ -81,8 +92,11 @@ class PsStage:
             if not reg.valid:
                 continue  # flagged (too few markers…): that lamp is left out, never warped
             registered += 1
-            texture = reg.normtexture.texture.astype(np.float64) / full_scale
-            clipped = texture >= SATURATION
+            clipped = reg.normtexture.texture >= SATURATION * full_scale
+            # near lamps: the solver models cos θ / r², the flat field the rest
+            texture = corrections.normtexture(
+                frame, reg, step, item.camera, config, lens=lens, size=self.size, lamp_model=True
+            )
             # Exposures may differ between lamps: radiance ∝ value / exposure.
             images.append(np.where(clipped, np.inf, texture / step.exposures_s[0]))
             valid = reg.normtexture.valid
@@ -92,7 +106,8 @@ class PsStage:
         theta, phi = direction_angles(lens.center)
         view_deg = (float(theta), float(phi))
         if len(images) < 3:
-            return _empty(item, self.size, registered, len(steps), view_deg)
+            empty = _empty(item, self.size, registered, len(steps), view_deg)
+            return {**empty, "radiometry": corrections.record(cameras=[item.camera], lamps=[])}
         stack = np.stack(images)
         # Clipped observations: one above any real value, so the solver's saturation
         # test drops exactly them.
@@ -123,6 +138,7 @@ class PsStage:
             "lamps": [s.lamp for s in lamps],
             "registered": registered,
             "frames": len(steps),
+            "radiometry": corrections.record(cameras=[item.camera], lamps=[s.lamp for s in lamps]),
         }
 
     def write(self, group, archive: Archive, results) -> dict:
@@ -144,6 +160,7 @@ def _ps_view(result: dict, stage: PsStage) -> PsView:
             "registered": result["registered"], "method": stage.method,
             "grid": "rig.geometry.texel_centers_mm",
         },
+        radiometry=result["radiometry"],
     )  # fmt: skip
 
 

@@ -13,13 +13,21 @@ from rig.material._btf import BtfGroup, btf_from_arrays, btf_to_arrays, read_btf
 from rig.material._btf_model import CompressedBTF, GlobalSVD, check_directions
 from rig.material._errors import MaterialError
 from rig.material._export import export_material
-from rig.material._flatfield import FlatFieldMaps, read_flat_field, write_flat_field
+from rig.material._flatfield import (
+    FlatFieldMaps,
+    archive_flat_field_path,
+    copy_flat_field,
+    read_flat_field,
+    write_flat_field,
+)
 from rig.material._live import LiveAppender, LiveResults, live_rows, read_live
 from rig.material._material import Material, read_material
 from rig.material._mdf import UNSEEN, Mdf, read_mdf, write_mdf
 from rig.material._ps import PsView, read_ps, write_ps
+from rig.material._radiometry import NOT_RECORDED, Radiometry
 
 __all__ = [
+    "NOT_RECORDED",
     "UNSEEN",
     "BtfGroup",
     "CompressedBTF",
@@ -31,9 +39,12 @@ __all__ = [
     "MaterialError",
     "Mdf",
     "PsView",
+    "Radiometry",
+    "archive_flat_field_path",
     "btf_from_arrays",
     "btf_to_arrays",
     "check_directions",
+    "copy_flat_field",
     "export_material",
     "live_rows",
     "read_btf",

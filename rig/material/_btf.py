@@ -3,7 +3,8 @@
 :func:`btf_to_arrays` gives the arrays and JSON-able attributes of the group,
 :func:`btf_from_arrays` rebuilds the model; :func:`write_btf` and
 :func:`read_btf` put them into and take them from a zarr group, with the
-per-slot ``slot_valid`` flags.
+per-slot ``slot_valid`` flags and the ``radiometry`` record (version 2; version 1
+groups have none and read as ``NOT_RECORDED``).
 """
 
 from __future__ import annotations
@@ -22,10 +23,13 @@ from rig.material._groups import (
     read_arrays,
     write_arrays,
 )
+from rig.material._radiometry import NOT_RECORDED, Radiometry
 
 __all__ = ["BtfGroup", "btf_from_arrays", "btf_to_arrays", "read_btf", "write_btf"]
 
-VERSION = 1
+VERSION = 2
+#: versions read: 1 lacks ``radiometry``
+_READABLE = (1, VERSION)
 _TEXTURE = np.float16
 
 
@@ -107,9 +111,9 @@ def btf_from_arrays(
     """Rebuild the model written by :func:`btf_to_arrays` (float16 textures stay float16).
 
     MaterialError naming ``where`` and the attribute or array at fault for a
-    group that is not a btf group of version 1, or whose arrays do not fit.
+    group that is not a btf group of version 1 or 2, or whose arrays do not fit.
     """
-    check_version(attrs, "btf", (VERSION,), where=where)
+    check_version(attrs, "btf", _READABLE, where=where)
     kind = attrs.get("kind")
     needed = {
         "pca": ("mean", "basis", "weights", "singular_values", "rank"),
@@ -159,13 +163,15 @@ class BtfGroup:
 
     ``slot_valid`` (n_views,) bool: False for a slot stored empty (its frames
     could not be registered); all True when the group has no ``slot_valid``.
-    ``attrs``: the group's other attributes (``flagged``…).
+    ``radiometry``: the corrections applied to the frames (``NOT_RECORDED`` for
+    version 1). ``attrs``: the group's other attributes (``flagged``…).
     """
 
     model: CompressedBTF | GlobalSVD
     slot_valid: np.ndarray
     units: str
     attrs: dict[str, Any]
+    radiometry: Radiometry = NOT_RECORDED
 
 
 def write_btf(
@@ -174,12 +180,15 @@ def write_btf(
     *,
     units: str,
     slot_valid=None,
+    radiometry: Radiometry = Radiometry(),
     attrs: dict[str, Any] | None = None,
 ) -> None:
     """Write ``model`` into the empty zarr ``group`` (the material's ``btf``).
 
     ``slot_valid`` (n_views,) bool marks the slots that hold data (default:
-    all); ``attrs`` are extra JSON-able attributes (e.g. the frames flagged).
+    all); ``radiometry`` records the corrections applied to the frames
+    (default: none); ``attrs`` are extra JSON-able attributes (e.g. the frames
+    flagged).
     """
     arrays, own = btf_to_arrays(model, units=units)
     n_views = len(arrays["view_dirs_deg"])
@@ -188,6 +197,7 @@ def write_btf(
         raise MaterialError(
             f"btf slot_valid: shape {valid.shape} dtype {valid.dtype}, expected ({n_views},) bool"
         )
+    own["radiometry"] = radiometry.to_attrs()
     clash = sorted(set(attrs or {}) & set(own))
     if clash:
         raise MaterialError(f"btf attrs {clash}: the format's own attributes; use other names")
@@ -207,4 +217,12 @@ def read_btf(group, *, where: str = "material/btf") -> BtfGroup:
             f"{where}: slot_valid has shape {valid.shape} dtype {valid.dtype}, "
             f"expected ({n_views},) bool"
         )
-    return BtfGroup(model, valid, str(attrs.get("units", "relative radiance")), other_attrs(attrs))
+    version = check_version(attrs, "btf", _READABLE, where=where)
+    radiometry = (
+        Radiometry.from_attrs(attrs.get("radiometry"), where=where) if version >= 2
+        else NOT_RECORDED
+    )  # fmt: skip
+    return BtfGroup(
+        model, valid, str(attrs.get("units", "relative radiance")),
+        other_attrs(attrs, "radiometry"), radiometry,
+    )  # fmt: skip

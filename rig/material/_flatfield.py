@@ -4,6 +4,10 @@
 ``format = "btfrig.material.flatfield"``, ``version``, ``camera`` and
 ``lamps``, and one array ``falloff`` (L, H, W) float32. Version 0 is the
 ``CAL.flatfield.npz`` written before (arrays ``camera``, ``lamps``, ``falloff``).
+
+A session archive keeps its own copy under ``calibration/`` with the name the
+calibration file gives it (:func:`archive_flat_field_path`), so that
+re-processing finds it wherever the archive is moved.
 """
 
 from __future__ import annotations
@@ -18,7 +22,13 @@ from rig.archive._material import replace_result
 from rig.material._errors import MaterialError
 from rig.material._groups import check_version, format_attrs
 
-__all__ = ["FlatFieldMaps", "read_flat_field", "write_flat_field"]
+__all__ = [
+    "FlatFieldMaps",
+    "archive_flat_field_path",
+    "copy_flat_field",
+    "read_flat_field",
+    "write_flat_field",
+]
 
 VERSION = 1
 
@@ -78,6 +88,26 @@ def read_flat_field(path: str | os.PathLike) -> FlatFieldMaps:
             "(rig calibrate lamps) or an older CAL.flatfield.npz"
         )
     return FlatFieldMaps(maps.camera, maps.lamps, _checked(maps, where=str(path)))
+
+
+def archive_flat_field_path(archive_path: str | os.PathLike, name: str) -> Path:
+    """Where the archive at ``archive_path`` keeps its copy of the flat fields ``name``
+    (the calibration's ``lamps_flat_field``)."""
+    if Path(name).name != name or name in ("", ".", "..", "zarr.json"):
+        raise MaterialError(
+            f"lamps_flat_field = {name!r}: expected a store name beside the calibration "
+            "file (e.g. calibration.flatfield.zarr), not a path"
+        )
+    return Path(archive_path) / "calibration" / name
+
+
+def copy_flat_field(
+    calibration_path: str | os.PathLike, name: str, archive_path: str | os.PathLike
+) -> Path:
+    """Copy the flat fields ``name`` beside the calibration file into the archive;
+    returns the copy's path. MaterialError naming the store when it does not read."""
+    maps = read_flat_field(Path(calibration_path).parent / name)
+    return write_flat_field(archive_flat_field_path(archive_path, name), maps)
 
 
 def _checked(maps: FlatFieldMaps, *, where: str) -> np.ndarray:

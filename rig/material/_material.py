@@ -20,6 +20,7 @@ from rig.material._btf_model import CompressedBTF, GlobalSVD
 from rig.material._errors import MaterialError
 from rig.material._mdf import Mdf, read_mdf
 from rig.material._ps import PsView, read_ps
+from rig.material._radiometry import Radiometry
 
 __all__ = [
     "GROUPS",
@@ -55,6 +56,8 @@ class Material:
         False for view slots stored empty; all True when the store does not say.
     btf_units : str or None
         What the BTF's texel values measure.
+    btf_radiometry : Radiometry or None
+        The radiometric corrections its frames had (each PS view has its own).
     ps : dict[str, PsView]
         Photometric-stereo maps per view (empty when none).
     mdf : Mdf or None
@@ -71,6 +74,7 @@ class Material:
     btf: CompressedBTF | GlobalSVD | None = None
     btf_slot_valid: np.ndarray | None = None
     btf_units: str | None = None
+    btf_radiometry: Radiometry | None = None
     ps: dict[str, PsView] = field(default_factory=dict)
     mdf: Mdf | None = None
     provenance: dict[str, Any] = field(default_factory=dict)
@@ -217,6 +221,7 @@ def _material(
         btf=None if btf is None else btf.model,
         btf_slot_valid=None if btf is None else btf.slot_valid,
         btf_units=None if btf is None else btf.units,
+        btf_radiometry=None if btf is None else btf.radiometry,
         ps=ps, mdf=mdf, provenance=provenance,
     )  # fmt: skip
 
@@ -233,5 +238,5 @@ def _with_view(view: PsView, config: RigConfig) -> PsView:
     theta, phi = direction_angles(model.center)
     return PsView(
         view.name, view.normals, view.albedo, view.valid, view.reason, view.height_mm,
-        view_deg=(float(theta), float(phi)), attrs=view.attrs,
+        view_deg=(float(theta), float(phi)), attrs=view.attrs, radiometry=view.radiometry,
     )  # fmt: skip

@@ -2,8 +2,10 @@
 
 ``ps/<view>/`` holds ``normals``, ``albedo``, ``valid``, ``reason`` and
 ``height_mm`` on the texel grid, and the view's attributes (``view_deg``, the
-camera, the steps…). Version 0 is the layout written before the group carried
-``format``/``version``: the same arrays, no ``view_deg``.
+camera, the steps…) with the radiometric corrections its frames had
+(``radiometry``, from version 2). Version 0 is the layout written before the
+group carried ``format``/``version``: the same arrays, no ``view_deg``; versions
+0 and 1 have no ``radiometry`` and read as ``NOT_RECORDED``.
 """
 
 from __future__ import annotations
@@ -25,10 +27,11 @@ from rig.material._groups import (
     require_arrays,
     write_arrays,
 )
+from rig.material._radiometry import NOT_RECORDED, Radiometry
 
 __all__ = ["PsView", "read_ps", "write_ps"]
 
-VERSION = 1
+VERSION = 2
 _ARRAYS = ("normals", "albedo", "valid", "reason", "height_mm")
 #: how far from 1 a valid texel's normal may be (float32 storage of a unit vector)
 _UNIT_TOL = 1e-3
@@ -58,6 +61,9 @@ class PsView:
         the group does not record it (version 0).
     attrs : dict
         The view's other attributes (camera, turntable_deg, steps, lamps…).
+    radiometry : Radiometry
+        The corrections its frames had before the solve (``NOT_RECORDED`` for
+        groups of version 0 and 1).
     """
 
     name: str
@@ -68,6 +74,7 @@ class PsView:
     height_mm: np.ndarray
     view_deg: tuple[float, float] | None = None
     attrs: dict[str, Any] = field(default_factory=dict)
+    radiometry: Radiometry = field(default_factory=Radiometry)
 
     @property
     def size(self) -> int:
@@ -99,21 +106,28 @@ def write_ps(group, views: Sequence[PsView], *, attrs: dict[str, Any] | None = N
         view_deg = _view_deg(view.view_deg, where=where)
         sub = group.create_group(view.name)
         write_arrays(sub, arrays)
-        sub.attrs.update({**view.attrs, "view_deg": None if view_deg is None else list(view_deg)})
+        sub.attrs.update({
+            **view.attrs, "view_deg": None if view_deg is None else list(view_deg),
+            "radiometry": view.radiometry.to_attrs(),
+        })  # fmt: skip
     group.attrs.update({**(attrs or {}), **format_attrs("ps", VERSION), "size": sizes.pop()})
 
 
 def read_ps(group, *, where: str = "material/ps") -> dict[str, PsView]:
-    """The views of a ``ps`` group (version 0 or 1), by name."""
-    check_version(dict(group.attrs), "ps", (0, VERSION), where=where)
+    """The views of a ``ps`` group (version 0, 1 or 2), by name."""
+    version = check_version(dict(group.attrs), "ps", (0, 1, VERSION), where=where)
     views = {}
     for name, sub in sorted(group.groups()):
         here = f"{where}/{name}"
         arrays = _checked(read_arrays(sub), where=here)
         attrs = dict(sub.attrs)
+        radiometry = (
+            Radiometry.from_attrs(attrs.get("radiometry"), where=here) if version >= 2
+            else NOT_RECORDED
+        )  # fmt: skip
         views[name] = PsView(
             name, **arrays, view_deg=_view_deg(attrs.get("view_deg"), where=here),
-            attrs=other_attrs(attrs, "view_deg"),
+            attrs=other_attrs(attrs, "view_deg", "radiometry"), radiometry=radiometry,
         )  # fmt: skip
     if not views:
         raise MaterialError(f"{where}: holds no views")

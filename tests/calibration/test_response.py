@@ -62,3 +62,13 @@ def test_one_exposure_is_a_clear_error(bracket):
         calibrate_response(images[:2], [1.0, 1.0])
     with pytest.raises(ResponseError, match="uint8"):
         calibrate_response([im.astype(np.float32) for im in images], TIMES)
+
+
+def test_bad_sampling_options_are_named(bracket):
+    _, images = bracket
+    with pytest.raises(
+        ResponseError, match=r"per_level = 0, smoothness = 100.0: need per_level ≥ 1"
+    ):
+        calibrate_response(images, TIMES, per_level=0)
+    with pytest.raises(ResponseError, match="smoothness > 0"):
+        calibrate_response(images, TIMES, smoothness=0.0)

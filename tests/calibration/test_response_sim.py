@@ -21,8 +21,10 @@ from sim.rig import SimulatedRig
 from sim.sensor import inverse_response
 
 VALUES = slice(32, 241)  # 8-bit values where one step is < 7 % of the linear signal
-# The issue asks for 1 %: met by the median, not by the worst value (docs/calibration.md).
-MEDIAN_TOLERANCE, MAX_TOLERANCE = 0.01, 0.03
+# The issue's 1 % for every value; measured median ≤ 0.3 %, worst ≤ 0.8 % (docs/calibration.md).
+MEDIAN_TOLERANCE, MAX_TOLERANCE = 0.004, 0.01
+# One exposure linearised alone against the merge: noise biases both (hat weights, clipping).
+MERGE_TOLERANCE = 0.03
 
 
 @pytest.fixture(scope="module")
@@ -71,7 +73,7 @@ def test_merged_radiance_is_linear_and_flags_saturation(session):
     for image, t in zip(images, step.exposures_s, strict=True):
         ok = merged.valid & np.all((image > 40) & (image < 220), axis=-1)
         alone = curves["cam0"].linearize(image)[ok] / t
-        assert abs(np.median(alone / merged.radiance[ok]) - 1) < MAX_TOLERANCE  # noise aside
+        assert abs(np.median(alone / merged.radiance[ok]) - 1) < MERGE_TOLERANCE
     # The brightest exposures clip the white board; the shortest do not.
     assert (images[-1] == 255).any() and not (images[0] == 255).any()
 

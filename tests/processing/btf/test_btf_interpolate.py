@@ -102,7 +102,7 @@ def test_material_arrays_round_trip(btf, model, kind):
         model = compress_global_svd(reference, view_dirs_deg=views, light_dirs_deg=H2, components=4)
     arrays, attrs = btf_to_arrays(model)
     assert attrs["kind"] == kind
-    assert attrs["version"] == 1
+    assert attrs["version"] == 2
     texture = "basis" if kind == "pca" else "eigenmaps"
     assert arrays[texture].dtype == np.float16
     assert arrays["weights"].dtype == np.float32

@@ -7,9 +7,13 @@ import pytest
 import zarr
 
 from rig.material import (
+    NOT_RECORDED,
     FlatFieldMaps,
     LiveAppender,
     MaterialError,
+    Radiometry,
+    archive_flat_field_path,
+    copy_flat_field,
     live_rows,
     read_btf,
     read_flat_field,
@@ -44,7 +48,55 @@ def test_btf_round_trip_keeps_model_slots_and_extra_attributes(make):
     np.testing.assert_array_equal(back.slot_valid, slots)
     assert back.units == "relative radiance per second"
     assert back.attrs["flagged"] == [[1, 0, 7, "cam2", "TOO_FEW_MARKERS"]]
-    assert g.attrs["format"] == "btfrig.material.btf" and g.attrs["version"] == 1
+    assert g.attrs["format"] == "btfrig.material.btf" and g.attrs["version"] == 2
+    assert back.radiometry == Radiometry() and not back.radiometry.applied
+
+
+RECORD = Radiometry(
+    linearised=("cam0",), flat_fielded=("L0", "L1"), calibration_version=3,
+    sources={"response": "calibrations/response.zarr (2026-01-02T03:04:05+00:00)"},
+    skipped={"cam2": "no response curve in the archive's calibration"},
+)  # fmt: skip
+
+
+def test_btf_records_its_radiometry_and_reads_version_1_as_not_recorded():
+    g = group()
+    write_btf(g, pca_model(), units="x", radiometry=RECORD)
+    assert read_btf(g).radiometry == RECORD and RECORD.applied
+    assert "radiometry" not in read_btf(g).attrs
+    # version 1: the group as written before the record existed
+    del g.attrs["radiometry"]
+    g.attrs["version"] = 1
+    back = read_btf(g)
+    assert back.radiometry is NOT_RECORDED and not back.radiometry.applied
+    assert back.model.weights.shape == pca_model().weights.shape
+
+
+def test_ps_records_its_radiometry_per_view_and_reads_version_1_as_not_recorded():
+    from dataclasses import replace
+
+    g = group()
+    write_ps(g, [replace(ps_view("a"), radiometry=RECORD), ps_view("b")])
+    back = read_ps(g)
+    assert back["a"].radiometry == RECORD and back["b"].radiometry == Radiometry()
+    assert "radiometry" not in back["a"].attrs
+    for name in ("a", "b"):
+        del g[name].attrs["radiometry"]
+    g.attrs["version"] = 1
+    assert all(v.radiometry is NOT_RECORDED for v in read_ps(g).values())
+
+
+@pytest.mark.parametrize(
+    "value",
+    [None, {"linearised": "cam0"}, {**RECORD.to_attrs(), "calibration_version": -1},
+     {**RECORD.to_attrs(), "linearised": [3]}],
+)  # fmt: skip
+def test_a_bad_radiometry_record_is_named(value):
+    g = group()
+    write_btf(g, pca_model(), units="x")
+    g.attrs["radiometry"] = value
+    with pytest.raises(MaterialError, match="material/btf: attribute radiometry"):
+        read_btf(g)
 
 
 def test_btf_without_slot_valid_has_every_slot_valid():
@@ -62,9 +114,9 @@ def test_btf_errors_name_the_array_or_attribute():
         write_btf(group(), pca_model(), units="x", attrs={"kind": "mine"})
     write_btf(g, pca_model(), units="x")
     g.attrs["version"] = 7
-    with pytest.raises(MaterialError, match=r"material/btf: btf group has version 7; .* 1"):
+    with pytest.raises(MaterialError, match=r"material/btf: btf group has version 7; .* 1, 2"):
         read_btf(g)
-    g.attrs["version"] = 1
+    g.attrs["version"] = 2
     del g["weights"]
     g.create_array("weights", data=np.zeros((3, 4, 5), np.float32))
     with pytest.raises(MaterialError, match=r"weights has shape \(3, 4, 5\), expected \(3, 4, 2\)"):
@@ -251,6 +303,21 @@ def test_flat_field_round_trip_replaces_and_reads_the_old_npz(tmp_path):
     old = tmp_path / "cal.flatfield.npz"
     np.savez_compressed(old, camera="cam2", lamps=["near30", "sun45"], falloff=falloff)
     np.testing.assert_array_equal(read_flat_field(old).falloff, falloff)
+
+
+def test_an_archive_keeps_its_copy_of_the_flat_fields(tmp_path):
+    falloff = np.random.default_rng(1).uniform(0.5, 1.0, (2, 6, 5)).astype(np.float32)
+    write_flat_field(tmp_path / "cal.flatfield.zarr", FlatFieldMaps("cam0", ("a", "b"), falloff))
+    archive = tmp_path / "s.zarr"
+    (archive / "calibration").mkdir(parents=True)
+    copy = copy_flat_field(tmp_path / "cal.toml", "cal.flatfield.zarr", archive)
+    assert copy == archive_flat_field_path(archive, "cal.flatfield.zarr")
+    assert copy == archive / "calibration" / "cal.flatfield.zarr"
+    np.testing.assert_array_equal(read_flat_field(copy).falloff, falloff)
+    with pytest.raises(MaterialError, match=r"lamps_flat_field = '../x.zarr': .* not a path"):
+        archive_flat_field_path(archive, "../x.zarr")
+    with pytest.raises(MaterialError, match="no flat fields here"):
+        copy_flat_field(tmp_path / "cal.toml", "other.flatfield.zarr", archive)
 
 
 def test_bad_flat_fields_are_named(tmp_path):
