@@ -333,7 +333,7 @@ def build_devices(
     try:
         turntable = opening("turntable", config.turntable)
         arc = opening("light_arc", config.light_arc)
-        lamp_ids = [lamp.id for lamp in config.light_arc.lamps]
+        lamp_ids = [lamp.id for lamp in config.lamps]
         lamps = opening("lamp_bank", config.lamp_bank, lamp_ids=lamp_ids)
         unit = opening("laser", config.laser) if laser else None
         cameras = {}

@@ -285,7 +285,7 @@ class LampBankPeer(_ModbusPeer):
         faults: Mapping[str, Any] | None = None,
     ):
         self.world = world
-        self.lamp_ids = tuple(lamp_ids or (lamp.id for lamp in world.config.light_arc.lamps))
+        self.lamp_ids = tuple(lamp_ids or (lamp.id for lamp in world.config.lamps))
         self.registers = registers or LampBankRegisters()
         super().__init__(
             SimDevice(id=unit_id, simdata=self._simdata(), action=self._action),
