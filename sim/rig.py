@@ -1,8 +1,9 @@
 """The whole simulated rig: every device peer on one world, and the camera server.
 
 ``SimulatedRig`` is what ``rig sim SCENE`` serves. It starts, through
-``sim.peers.start_peer``, the peer of every device section's ``kind`` (with
-the default rig: the turntable drive and lamp bank on Modbus, the light-arc
+``sim.peers.start_peer``, the peer of every device section's ``kind`` of the
+rig's kind (``RigConfig.device_roles``; a VirTex stage: its lamp bank only;
+with the default Wang rig: the turntable drive and lamp bank on Modbus, the light-arc
 bus on Dynamixel 2.0 on a pty, the laser brick speaking NXT direct commands on
 a pty as Bluetooth SPP) and the camera server (frames rendered by the
 ``Simulator`` from the world's state, for every camera whatever its kind), and
@@ -76,10 +77,10 @@ class SimulatedRig:
     def start(self) -> SimulatedRig:
         try:
             self.simulator = Simulator(self.scene)
-            for role in DEVICE_ROLES:
+            for role in self.scene.rig.device_roles:
                 self.peers[role] = start_peer(
                     role,
-                    getattr(self.scene.rig, role),
+                    self.scene.rig.device_section(role),
                     self.world,
                     faults=self._faults.get(role),
                     serial=self._transport == "rtu",

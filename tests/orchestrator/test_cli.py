@@ -327,3 +327,9 @@ def test_resume_of_a_finished_session_is_refused(saturated):
     # refused before any daemon is asked: none listens on port 1
     result = runner.invoke(app, ["resume", str(saturated), "--connect", "tcp://127.0.0.1:1"])
     _fails_cleanly(result, 1, str(saturated), "finished", "nothing to resume")
+
+
+def test_sim_serve_rejects_an_unknown_rig_kind():
+    result = runner.invoke(app, ["sim", "examples/scenes/bumps.toml", "--config-kind", "tripod"])
+    assert result.exit_code == 2
+    assert "tripod" in result.output and "'virtex'" in result.output

@@ -58,3 +58,57 @@ def test_bad_kind_configs_name_the_field_and_what_is_valid(tmp_path, text, messa
 def test_a_wang_rig_has_no_rail():
     with pytest.raises(ConfigError, match=r"a 'wang' rig has no rail; its devices are"):
         RigConfig().device_section("rail")
+
+
+def _virtex(count=3, **stage):
+    return RigConfig.model_validate({"kind": "virtex", "virtex": {"lamp_count": count, **stage}})
+
+
+def test_virtex_forward_and_inverse_meet_at_every_lamp():
+    from rig.kinematics import forward, inverse, lamp_position_mm
+
+    config = _virtex(6, phi0_deg=15.0, lamp_theta_deg=40.0, radius_mm=500.0)
+    for i, lamp in enumerate(config.lamps):
+        view, light = forward(config, turntable_deg=0, arc_deg=0, camera="cam0", lamp=lamp.id)
+        np.testing.assert_allclose(view[0], 0.0, atol=1e-9)
+        np.testing.assert_allclose(light, [40.0, 15.0 + 60.0 * i], atol=1e-9)
+        pose = inverse(config, (0.0, 0.0), (40.0, 15.0 + 60.0 * i + 5.0))
+        assert pose.lamp == lamp.id and (pose.turntable_deg, pose.arc_deg) == (0.0, 0.0)
+        np.testing.assert_allclose(pose.light_residual_deg, 5.0 * np.sin(np.deg2rad(40)), rtol=0.01)
+        position = lamp_position_mm(config, lamp.id, arc_deg=0.0, turntable_deg=0.0)
+        np.testing.assert_allclose(np.linalg.norm(position), 500.0)
+
+
+def test_a_virtex_plan_compiles_to_lamp_steps_without_motion():
+    from rig.plan import parse_plan
+    from rig.schedule import compile_plan
+
+    plan = parse_plan('[sample]\nname = "s"\n[captures.ps]\nlights = {theta_deg = 45, count = 3}\n')
+    schedule = compile_plan(plan, _virtex(3))
+    assert [s.source for s in schedule.steps] == ["lamp0", "lamp1", "lamp2"]
+    assert schedule.estimate.motion_s == 0.0 and schedule.estimate.frames == 3
+    assert schedule.max_light_residual_deg < 1e-9
+
+
+@pytest.mark.parametrize(
+    ("captures", "message"),
+    [
+        ("[captures.btf]\nviews = 'H1'\nlights = 'H1'", r"captures.btf: a VirTex stage captures "
+         r"photometric stereo only \(captures.ps\): its one camera looks straight down"),
+        ("[captures.mdf]\nviews = [[0, 0]]\nlaser_locations = [[45, 0]]",
+         r"captures.mdf: .* it has no laser unit"),
+        ("[captures.ps]\nlights = {theta_deg = 30, count = 3}",
+         r"captures.ps.lights: light \(30.0, 0.0\) is 15.0° from the nearest lamp \(lamp0\); "
+         r"the stage's lamps are at theta_deg 45, phi_deg 0, 120, 240"),
+        ("[captures.ps]\nviews = [[20, 0]]\nlights = {theta_deg = 45, count = 3}",
+         r"captures.ps.views: view \(20.0, 0.0\) is 20.0° from the stage camera's view"),
+    ],
+)  # fmt: skip
+def test_a_virtex_stage_refuses_what_it_cannot_capture(captures, message):
+    from rig.errors import PlanError
+    from rig.plan import parse_plan
+    from rig.schedule import compile_plan
+
+    plan = parse_plan(f'[sample]\nname = "s"\n{captures}\n')
+    with pytest.raises(PlanError, match=message):
+        compile_plan(plan, _virtex(3))
