@@ -9,11 +9,12 @@ Drivers are synchronous; time is an injected ``rig.clock.Clock``.
 from drivers.camera import Camera, Frame, OpenCvCamera, SimCamera
 from drivers.dynamixel import DynamixelArc, DynamixelBus
 from drivers.errors import DeviceError, DeviceFault, DeviceTimeout, MotionStalled, ProtocolError
-from drivers.interfaces import Axis, LampBank, LaserUnit
+from drivers.interfaces import Axis, LampBank, LaserUnit, Positioner
 from drivers.modbus import ModbusLampBank, ModbusTurntable
 from drivers.nxt import NxtBrick, NxtLaser, NxtTilt
 from drivers.registry import open_device, register
 from drivers.retry import with_retries
+from drivers.ur import UrArm
 
 __all__ = [
     "Axis",
@@ -33,8 +34,10 @@ __all__ = [
     "NxtLaser",
     "NxtTilt",
     "OpenCvCamera",
+    "Positioner",
     "ProtocolError",
     "SimCamera",
+    "UrArm",
     "open_device",
     "register",
     "with_retries",

@@ -3,7 +3,8 @@
 One small synchronous interface per role; each family's driver satisfies it
 (``drivers.modbus``, ``drivers.dynamixel``, ``drivers.nxt``) and talks to the
 real device or to the simulator's peer on the same wire. Every rotary axis —
-turntable, light arc, the laser unit's tilt — is an ``Axis``. Failures raise
+turntable, light arc, the laser unit's tilt — is an ``Axis``; the robot arm
+holding the sample is a ``Positioner`` (``drivers.ur``). Failures raise
 ``drivers.errors.DeviceError`` subclasses naming device, operation and value.
 Angles are in degrees. Cameras: ``drivers.camera.Camera``.
 """
@@ -12,7 +13,11 @@ from __future__ import annotations
 
 from typing import Protocol, runtime_checkable
 
-__all__ = ["Axis", "LampBank", "LaserUnit"]
+import numpy as np
+
+from rig.ur_kinematics import Pose
+
+__all__ = ["Axis", "LampBank", "LaserUnit", "Positioner"]
 
 
 @runtime_checkable
@@ -96,3 +101,43 @@ class LaserUnit(Protocol):
 
     def close(self) -> None:
         """Diode off (best effort), release the connection; idempotent."""
+
+
+@runtime_checkable
+class Positioner(Protocol):
+    """An arm that puts a tool — the sample plate — at a pose (``rig.ur_kinematics.Pose``).
+
+    The sample's orientation is the tool's. Poses are checked against the
+    arm's reach and joint limits before anything moves.
+    """
+
+    name: str
+    settle_s: float
+
+    def home(self) -> None:
+        """Power the arm, release its brakes and wait until it can move."""
+
+    def check_reachable(self, pose: Pose) -> np.ndarray:
+        """The joint angles (rad) for ``pose``; ``KinematicsError`` naming it when unreachable."""
+
+    def move_to(self, pose: Pose) -> None:
+        """Check ``pose``, then start the move; returns at once."""
+
+    def wait_until_settled(self, timeout_s: float | None = None) -> Pose:
+        """Wait until the move ends; return the pose reached.
+
+        Raises ``DeviceFault`` on a protective stop (naming the arm),
+        ``MotionStalled`` when it ends short, ``DeviceTimeout`` after ``timeout_s``.
+        """
+
+    def pose(self) -> Pose:
+        """The tool pose the arm reports."""
+
+    def unlock_protective_stop(self) -> None:
+        """Clear a protective stop so the interrupted move can be sent again."""
+
+    def stop(self) -> None:
+        """Decelerate and stop now."""
+
+    def close(self) -> None:
+        """Release the connections; idempotent."""

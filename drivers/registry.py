@@ -10,7 +10,8 @@ Each driver family registers an opener per (role, kind) it serves, at import::
 public module under ``drivers/``, so a new family registers itself without
 being listed anywhere. Roles: ``turntable``, ``light_arc`` (axes: return a
 ``drivers.interfaces.Axis``), ``lamp_bank`` (a ``LampBank``), ``laser`` (a
-``LaserUnit``), ``camera`` (a ``drivers.camera.Camera``).
+``LaserUnit``), ``arm`` (a ``Positioner``: the arm holding the sample),
+``camera`` (a ``drivers.camera.Camera``).
 """
 
 from __future__ import annotations
@@ -20,12 +21,12 @@ from typing import Any
 
 from drivers.errors import DeviceError
 from rig.clock import Clock
-from rig.devices import DEVICE_ROLES
+from rig.devices import ARM_ROLE, DEVICE_ROLES
 from rig.registry import KindRegistry
 
 __all__ = ["ROLES", "open_device", "register"]
 
-ROLES = (*DEVICE_ROLES, "camera")
+ROLES = (*DEVICE_ROLES, ARM_ROLE, "camera")
 
 _REGISTRY = KindRegistry("drivers", ROLES)
 
@@ -50,4 +51,3 @@ def open_device(role: str, section: Any, *, clock: Clock, **options: Any) -> Any
             role, "open", f"no driver for kind {kind!r}; the installed drivers serve {served}"
         )
     return opener(section, clock=clock, **options)
-

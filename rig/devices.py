@@ -1,8 +1,9 @@
 """Device sections of a rig config: one tagged union per role, one model per family.
 
-Each role (turntable, light arc, lamp bank, laser unit, camera) has a device
-section whose ``kind`` names the family that drives it: ``kind = "modbus"``,
-``"dynamixel"``, ``"nxt"``, cameras ``"sim"``, ``"opencv"`` or ``"genicam"``.
+Each role (turntable, light arc, lamp bank, laser unit, camera, and the arm
+holding the sample on a rig that has one) has a device section whose ``kind``
+names the family that drives it: ``kind = "modbus"``, ``"dynamixel"``,
+``"nxt"``, ``"ur"`` (arm), cameras ``"sim"``, ``"opencv"`` or ``"genicam"``.
 A family's model holds what a lab writes for its device: where it is (port,
 host, unit id, retries) and how this unit is wired (register addresses, status
 bits, servo ids, gearing, NXT ports). These are plain data; what the numbers
@@ -19,7 +20,9 @@ from typing import Annotated, Literal
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 __all__ = [
+    "ARM_ROLE",
     "DEVICE_ROLES",
+    "ArmDevice",
     "CameraConnection",
     "DriveRegisters",
     "DynamixelServos",
@@ -36,10 +39,13 @@ __all__ = [
     "Retry",
     "SimCameraConnection",
     "TurntableDevice",
+    "UrController",
 ]
 
 # The roles with one device each, in the order a rig opens them (cameras: one per camera).
 DEVICE_ROLES = ("turntable", "light_arc", "lamp_bank", "laser")
+# The robot arm holding the sample, on a rig kind that has one (seed 000's lab).
+ARM_ROLE = "arm"
 
 
 class _Closed(BaseModel):
@@ -237,6 +243,53 @@ class NxtLaserUnit(_Closed):
         return self
 
 
+# -- Universal Robots arm (holds the sample) ------------------------------------------
+
+
+class UrController(_Closed):
+    """A Universal Robots arm's controller on the network (``kind = "ur"``).
+
+    The driver sends URScript to ``realtime_port`` and reads the controller's
+    state stream from it (the CB3 3.10+ / e-Series 5.4+ layout of 1116 bytes),
+    and uses the dashboard server on ``dashboard_port`` for power, brakes and
+    protective stops. ``model`` picks the published DH parameters the pose
+    checks use (``rig.ur_kinematics``); ``tcp`` is the tool centre point on
+    the flange (the sample's centre), sent with every move. Joint speed and
+    acceleration apply to every joint. See ``docs/devices.md``.
+    """
+
+    kind: Literal["ur"] = "ur"
+    host: str = "127.0.0.1"
+    dashboard_port: int = Field(29999, ge=1, le=65535, description="dashboard server")
+    realtime_port: int = Field(30003, ge=1, le=65535, description="URScript in, state out")
+    retry: Retry = Retry()
+    model: Literal["ur3e", "ur5e", "ur10e"] = "ur5e"
+    tcp: tuple[float, float, float, float, float, float] = Field(
+        (0.0, 0.0, 0.0, 0.0, 0.0, 0.0),
+        description="tool centre point on the flange: x, y, z (m), rotation vector (rad)",
+    )
+    joint_speed_deg_s: float = Field(60.0, gt=0, le=180, description="every joint")
+    joint_accel_deg_s2: float = Field(80.0, gt=0, le=800, description="every joint")
+    joint_min_deg: tuple[float, float, float, float, float, float] = (-360.0,) * 6
+    joint_max_deg: tuple[float, float, float, float, float, float] = (360.0,) * 6
+    settle_s: float = Field(0.5, ge=0, description="wait after a move before an exposure")
+    position_tolerance_deg: float = Field(
+        0.05, gt=0, le=5, description="a joint within this of its target has arrived"
+    )
+    unlock_wait_s: float = Field(
+        6.0, ge=0, le=60, description="how long to keep retrying a refused protective-stop unlock"
+    )
+
+    @model_validator(mode="after")
+    def _limits(self) -> UrController:
+        for i, (lo, hi) in enumerate(zip(self.joint_min_deg, self.joint_max_deg, strict=True)):
+            if not -360.0 <= lo < hi <= 360.0:
+                raise ValueError(
+                    f"joint {i + 1} limits [{lo}°, {hi}°] must satisfy -360 ≤ min < max ≤ 360"
+                )
+        return self
+
+
 # -- Cameras -------------------------------------------------------------------------
 
 
@@ -271,6 +324,7 @@ TurntableDevice = Annotated[ModbusDrive, Field(discriminator="kind")]
 LightArcDevice = Annotated[DynamixelServos, Field(discriminator="kind")]
 LampBankDevice = Annotated[ModbusLamps, Field(discriminator="kind")]
 LaserDevice = Annotated[NxtLaserUnit, Field(discriminator="kind")]
+ArmDevice = Annotated[UrController, Field(discriminator="kind")]
 CameraConnection = Annotated[
     SimCameraConnection | OpenCvConnection | GenicamConnection, Field(discriminator="kind")
 ]

@@ -9,6 +9,8 @@
 - ``FakeNxtBrick``: the laser unit's LEGO NXT, as a pyusb backend
   (``FakeNxtUsbBackend``) or on a pty (``NxtSerialPeer``).
 - ``CameraServer``: frames rendered from the world, over ZeroMQ.
+- ``UrControllerPeer``: a Universal Robots arm controller (dashboard and
+  real-time interface on loopback TCP ports).
 
 Every peer has ``start()``/``stop()`` (and is a context manager), a
 ``faults: ReplyFaults`` for run-time reply faults, device-specific fault
@@ -22,6 +24,7 @@ from sim.peers.dynamixel import DynamixelBusPeer
 from sim.peers.modbus import LampBankPeer, TurntableDrivePeer
 from sim.peers.nxt import FakeNxtBrick, FakeNxtUsbBackend, NxtFaults, NxtSerialPeer
 from sim.peers.registry import Peer, register_peer, start_peer
+from sim.peers.ur import UrControllerPeer
 
 __all__ = [
     "CameraFaults",
@@ -37,6 +40,7 @@ __all__ = [
     "RawPty",
     "ReplyFaults",
     "TurntableDrivePeer",
+    "UrControllerPeer",
     "register_peer",
     "start_peer",
 ]

@@ -20,7 +20,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from typing import Any, Protocol
 
-from rig.devices import DEVICE_ROLES
+from rig.devices import ARM_ROLE, DEVICE_ROLES
 from rig.errors import ConfigError
 from rig.registry import KindRegistry
 from sim.world import World
@@ -38,7 +38,7 @@ class Peer(Protocol):
         """Stop answering and release ports and threads; idempotent."""
 
 
-_REGISTRY = KindRegistry("sim.peers", DEVICE_ROLES)
+_REGISTRY = KindRegistry("sim.peers", (*DEVICE_ROLES, ARM_ROLE))
 
 
 def register_peer(role: str, kind: str) -> Callable[[Callable], Callable]:
@@ -58,7 +58,7 @@ def start_peer(
 
     Parameters
     ----------
-    role : one of ``rig.devices.DEVICE_ROLES``
+    role : one of ``rig.devices.DEVICE_ROLES`` or ``ARM_ROLE``
     section : the role's section of the rig config (``config.turntable`` …)
     world : the simulated rig the peer moves and lights
     faults : the peer's fault table (keys checked by the peer)
@@ -73,4 +73,3 @@ def start_peer(
             f"{role}.device: no simulated peer for kind {kind!r}; the simulator has {served}"
         )
     return starter(section, world, faults=dict(faults or {}), serial=serial)
-
