@@ -25,7 +25,7 @@ from typing import Annotated, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
-from rig.devices import DynamixelServos, ModbusDrive
+from rig.devices import ArmDevice, DynamixelServos, ModbusDrive, UrController
 from rig.parts import Axis, Lamp
 
 __all__ = ["RIG_KINDS", "Arm", "BonnLab", "Rail", "RailDevice", "VirtexStage"]
@@ -90,20 +90,23 @@ class Rail(_Closed):
 
 
 class Arm(_Closed):
-    """How the arm turns the plate: the rotation's profile and the tilt it can reach.
+    """The robot arm holding the plate: where it stands and how far it may tilt the plate.
 
-    A move between two plate orientations is priced as one rotation by their
-    geodesic angle on ``rotation``'s trapezoidal profile (the arm interpolates
-    the tool orientation), then its settle time.
+    Its base sits at ``base_mm`` in the lab frame, axes parallel to the lab's;
+    it holds the plate from behind, the plate centre being its tool centre
+    point (``device.tcp``). Its speed, acceleration, joint limits and settle
+    time are the device's (``rig.devices.UrController``).
     """
 
-    rotation: Axis = Axis(speed_deg_s=30.0, accel_deg_s2=60.0, settle_s=1.0, min_deg=0.0,
-                          max_deg=180.0)  # fmt: skip
+    device: ArmDevice = UrController(tcp=(0.0, 0.0, 0.05, 0.0, 0.0, 0.0))
+    base_mm: tuple[float, float, float] = Field(
+        (-320.0, -320.0, -150.0), description="the arm's base in the lab frame"
+    )
     home_azimuth_deg: float = Field(
         45.0, ge=0, le=180, description="lab azimuth of the plate normal at home"
     )
     max_tilt_deg: float = Field(
-        95.0, gt=0, le=180, description="largest angle between the plate normal and home"
+        120.0, gt=0, le=180, description="largest angle between the plate normal and home"
     )
 
 

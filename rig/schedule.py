@@ -184,7 +184,14 @@ def _fixed_groups(plan: Plan, config: RigConfig, groups: dict) -> int:
 
 
 def compile_plan(plan: Plan, config: RigConfig) -> Schedule:
-    """Ordered steps for ``plan`` on the rig ``config``, with the estimate."""
+    """Ordered steps for ``plan`` on the rig ``config``, with the estimate.
+
+    A Bonn lab's plan compiles to ``rig.bonn_plan.BonnSchedule`` (one step per pair).
+    """
+    if config.kind == "bonn":
+        from rig.bonn_plan import compile_bonn  # it builds on this module's estimate
+
+        return compile_bonn(plan, config)
     _check_plan_fits_rig(plan, config)
     groups: dict[tuple, dict[str, Shot]] = defaultdict(dict)
     poses_cache: dict[tuple, object] = {}

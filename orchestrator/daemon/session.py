@@ -146,6 +146,12 @@ class Session:
             target, field = Path(archive_path), "args.archive"
         check_archive_place(target, field)
         check_plan_size(plan, source)
+        if config.kind == "bonn":
+            raise SessionError(
+                "the daemon runs sessions on Wang rigs and VirTex stages; a Bonn lab's plan "
+                "compiles and estimates (rig plan --estimate) but its arm and rail steps are "
+                "not driven by this daemon"
+            )
         schedule = compile_plan(plan, config)
         calibration = _calibration_of(config)
         archive = Archive.create(
