@@ -26,6 +26,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 from rig.camera import PinholeCamera, look_at
 from rig.config_migration import CONFIG_VERSION, migrate_rig_config
 from rig.devices import (
+    ARM_ROLE,
     DEVICE_ROLES,
     CameraConnection,
     DynamixelServos,
@@ -42,7 +43,7 @@ from rig.devices import (
 )
 from rig.errors import ConfigError
 from rig.geometry import direction_vector
-from rig.kinds import RIG_KINDS, BonnLab, VirtexStage
+from rig.kinds import RAIL_ROLE, RIG_KINDS, BonnLab, VirtexStage
 from rig.parts import Axis, Lamp, SignedPolar
 from rig.targets import Targets
 
@@ -282,9 +283,8 @@ class RigConfig(_Closed):
     def device_roles(self) -> tuple[str, ...]:
         """The device roles this kind of rig has, cameras aside, in the order it opens them
         (a Wang rig: ``rig.devices.DEVICE_ROLES``)."""
-        return {"wang": DEVICE_ROLES, "virtex": ("lamp_bank",), "bonn": ("rail", "lamp_bank")}[
-            self.kind
-        ]
+        roles = {"virtex": ("lamp_bank",), "bonn": (ARM_ROLE, RAIL_ROLE, "lamp_bank")}
+        return roles.get(self.kind, DEVICE_ROLES)
 
     def device_section(self, role: str):
         """The config section of ``role`` (one of :attr:`device_roles`): it has a ``device``."""
@@ -292,7 +292,9 @@ class RigConfig(_Closed):
             raise ConfigError(
                 f"a {self.kind!r} rig has no {role}; its devices are {list(self.device_roles)}"
             )
-        return self.bonn.rail if role == "rail" else getattr(self, role)
+        if self.kind == "bonn" and role in (ARM_ROLE, RAIL_ROLE):
+            return getattr(self.bonn, role)
+        return getattr(self, role)
 
     def camera(self, camera_id: str) -> CameraSpec:
         for cam in self.camera_arc.cameras:

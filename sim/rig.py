@@ -20,8 +20,9 @@ from typing import Any, Literal
 
 from rig.clock import Clock, RealClock
 from rig.config import RigConfig
-from rig.devices import DEVICE_ROLES, SimCameraConnection
+from rig.devices import ARM_ROLE, DEVICE_ROLES, SimCameraConnection
 from rig.errors import ConfigError
+from rig.kinds import RAIL_ROLE
 from sim.peers import CameraFaults, CameraServer, Peer, start_peer
 from sim.scene import Scene, load_scene
 from sim.simulator import Simulator
@@ -30,7 +31,7 @@ from sim.world import World
 __all__ = ["FAULT_PEERS", "SimulatedRig"]
 
 log = logging.getLogger(__name__)
-FAULT_PEERS = (*DEVICE_ROLES, "cameras")
+FAULT_PEERS = (*DEVICE_ROLES, ARM_ROLE, RAIL_ROLE, "cameras")
 
 
 class SimulatedRig:
@@ -104,7 +105,12 @@ class SimulatedRig:
         if self.cameras is None:
             raise RuntimeError("SimulatedRig.rig_config: start() the rig first")
         config = self.scene.rig
-        update = {role: peer.connect(getattr(config, role)) for role, peer in self.peers.items()}
+        update = {
+            role: peer.connect(config.device_section(role)) for role, peer in self.peers.items()
+        }
+        if config.kind == "bonn":  # the arm and the rail are the Bonn lab's section's
+            lab = {role: update.pop(role) for role in (ARM_ROLE, RAIL_ROLE) if role in update}
+            update["bonn"] = config.bonn.model_copy(update=lab)
         cameras = tuple(
             cam.model_copy(
                 update={

@@ -88,6 +88,7 @@ class World:
     turntable: AxisMotion = field(init=False)
     arc: AxisMotion = field(init=False)
     laser_tilt: AxisMotion = field(init=False)
+    rail: AxisMotion | None = field(init=False)  # the Bonn lab's camera rail
     lamps_on: set[str] = field(default_factory=set)
     dead_lamps: set[str] = field(default_factory=set)  # injected: switched on, stays dark
     laser_on: bool = False
@@ -97,6 +98,7 @@ class World:
     def __post_init__(self) -> None:
         self.turntable = AxisMotion(self.config.turntable.axis)
         self.arc = AxisMotion(self.config.light_arc.axis)
+        self.rail = AxisMotion(self.config.bonn.rail.axis) if self.config.kind == "bonn" else None
         sweep = self.config.laser
         self.laser_tilt = AxisMotion(
             Axis(
@@ -110,6 +112,8 @@ class World:
 
     def axis(self, name: str) -> AxisMotion:
         axes = {"turntable": self.turntable, "arc": self.arc, "laser_tilt": self.laser_tilt}
+        if self.rail is not None:
+            axes["rail"] = self.rail
         try:
             return axes[name]
         except KeyError:
