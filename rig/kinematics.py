@@ -21,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rig import bonn
 from rig.config import Axis, RigConfig, arc_direction
 from rig.errors import KinematicsError
 from rig.geometry import Sampling, angular_distance_deg, direction_angles, direction_vector
@@ -282,13 +283,14 @@ def sampling_residuals(config: RigConfig, sampling: Sampling) -> list[dict]:
     always hits) and as a light (with a frontal view). Returns one row per ring:
     ``theta_deg``, ``count``, ``max_view_residual_deg``, ``max_light_residual_deg``.
     """
+    solve = bonn.inverse if config.kind == "bonn" else inverse
     rows = []
     for theta, idx in sampling.rings().items():
         view_err = light_err = 0.0
         for d in sampling.directions[idx]:
             d = (float(d[0]), float(d[1]))
-            view_err = max(view_err, inverse(config, d, (0.0, 0.0)).view_residual_deg)
-            light_err = max(light_err, inverse(config, (0.0, 0.0), d).light_residual_deg)
+            view_err = max(view_err, solve(config, d, (0.0, 0.0)).view_residual_deg)
+            light_err = max(light_err, solve(config, (0.0, 0.0), d).light_residual_deg)
         rows.append(
             {
                 "theta_deg": theta,

@@ -2,6 +2,8 @@
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
 
 from rig import bonn
 from rig.config import RigConfig
@@ -123,3 +125,31 @@ def test_the_tour_beats_a_plan_order_that_jumps_about():
     schedule = compile_plan(plan, _lab())
     assert schedule.estimate.total_s < 0.9 * schedule.naive_estimate.total_s, (
         schedule.estimate.total_s, schedule.naive_estimate.total_s)
+
+
+@settings(max_examples=40, deadline=None)
+@given(
+    st.floats(0, 85), st.floats(0, 360), st.floats(0, 85), st.floats(0, 360),
+)  # fmt: skip
+def test_every_pair_round_trips(theta_v, phi_v, theta_l, phi_l):
+    config = _lab(arm={"max_tilt_deg": 180.0})  # the arm's reach alone decides
+    view, light = (theta_v, phi_v), (theta_l, phi_l)
+    pose = bonn.inverse(config, view, light)
+    got_view, got_light = bonn.forward(config, pose.rotation, pose.rail_deg)
+    for got, want, residual in ((got_view, view, pose.view_residual_deg),
+                                (got_light, light, pose.light_residual_deg)):  # fmt: skip
+        err = angular_distance_deg(direction_vector(*got), direction_vector(*want))
+        assert np.isfinite(err) and err == pytest.approx(residual, abs=1e-6)
+    # only a pair closer than the rail's end leaves a residual, half the shortfall each
+    gap = angular_distance_deg(direction_vector(*view), direction_vector(*light))
+    shortfall = max(0.0, config.bonn.rail.axis.min_deg - gap)
+    assert pose.view_residual_deg == pytest.approx(shortfall / 2, abs=1e-6)
+
+
+def test_the_residual_table_of_a_sampling_on_the_bonn_lab():
+    from rig.geometry import Sampling
+    from rig.kinematics import sampling_residuals
+
+    rows = sampling_residuals(_lab(), Sampling.named("H1"))
+    assert rows[0]["theta_deg"] == 0 and rows[0]["max_view_residual_deg"] == pytest.approx(5.0)
+    assert all(r["max_view_residual_deg"] < 1e-6 for r in rows[1:])
