@@ -24,19 +24,24 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rig.camera import PinholeCamera, look_at
 from rig.config import RigConfig
 from rig.errors import KinematicsError
 from rig.geometry import angular_distance_deg, direction_angles, direction_vector
 from rig.ur_kinematics import UR_MODELS, Pose, nearest_joints
+from rig.ur_kinematics import forward as ur_forward
 
 __all__ = [
     "BonnPose",
     "arm_joints",
     "camera_direction",
+    "camera_model",
     "forward",
     "home_joints",
     "home_rotation",
     "inverse",
+    "lamp_position_mm",
+    "plate_rotation",
     "plate_tool_pose",
     "tilt_deg",
 ]
@@ -58,6 +63,25 @@ class BonnPose:
     joints_rad: np.ndarray
     view_residual_deg: float = 0.0
     light_residual_deg: float = 0.0
+
+
+def camera_model(config: RigConfig, camera_id: str, rotation: np.ndarray, rail_deg: float):
+    """The rail camera's pinhole model in the sample frame of a plate held at ``rotation``.
+
+    The camera sits ``rail.radius_mm`` out at azimuth ``rail_deg``, looking at the
+    plate centre, image up along the lab's z.
+    """
+    lab = _bonn(config)
+    nominal = config.camera_model(camera_id)  # intrinsics, distortion, size
+    eye = lab.rail.radius_mm * camera_direction(rail_deg)
+    r_cam, t = look_at(eye, np.zeros(3), up=np.array([0.0, 0.0, 1.0]))
+    return PinholeCamera(nominal.K, nominal.dist, r_cam @ rotation, t, nominal.width,
+                         nominal.height)  # fmt: skip
+
+
+def lamp_position_mm(config: RigConfig, rotation: np.ndarray) -> np.ndarray:
+    """(3,) the lamp's position (mm) in the sample frame of a plate held at ``rotation``."""
+    return rotation.T @ (_bonn(config).lamp_distance_mm * _LAMP)
 
 
 def _bonn(config: RigConfig):
@@ -159,6 +183,14 @@ def inverse(config: RigConfig, view_deg, light_deg, *, current_rad=None) -> Bonn
         view_residual_deg=float(angular_distance_deg(got_view, view)),
         light_residual_deg=float(angular_distance_deg(got_light, light)),
     )
+
+
+def plate_rotation(config: RigConfig, joints_rad) -> np.ndarray:
+    """(3, 3) the plate's orientation (sample → lab) where the arm's joints hold it:
+    its tool pose (the flange and the tool centre point) — :func:`plate_tool_pose` undone."""
+    device = _bonn(config).arm.device
+    flange = ur_forward(np.asarray(joints_rad, dtype=np.float64), UR_MODELS[device.model])
+    return flange[:3, :3] @ Pose(device.tcp[:3], device.tcp[3:]).matrix()[:3, :3]
 
 
 def arm_joints(config: RigConfig, rotation: np.ndarray, current_rad=None, *, pair: str = ""):

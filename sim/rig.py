@@ -86,6 +86,8 @@ class SimulatedRig:
                     faults=self._faults.get(role),
                     serial=self._transport == "rtu",
                 )
+            if ARM_ROLE in self.peers:  # the plate's pose is the arm's tool pose
+                self.world.arm_joints = self.peers[ARM_ROLE].state.joints_rad
             simulator = self.simulator
             self.cameras = CameraServer(
                 self.world,
