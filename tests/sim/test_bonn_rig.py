@@ -90,3 +90,13 @@ def test_the_camera_sees_the_plate_where_the_arm_and_rail_put_it(lab):
         rail.close()
     err = np.concatenate(errors)
     assert err.mean() < 0.5 and err.max() < 2.0, (err.mean(), err.max())
+
+
+def test_frames_of_the_bonn_lab_register_against_the_simulators_truth():
+    from tests.sim.bonn_registration import PAIRS, measure
+
+    rows = measure(PAIRS[:3])
+    assert all(r["valid"] and r["markers"] >= 12 for r in rows), rows
+    assert np.mean([r["reproj_px"] for r in rows]) < 0.15
+    assert max(r["corner_px"] for r in rows) < 0.2  # against the Bonn camera model
+    assert max(r["rmse"] for r in rows) < 0.035, [r["rmse"] for r in rows]
