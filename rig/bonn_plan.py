@@ -56,6 +56,14 @@ class BonnStep:
     exposures_s: tuple[float, ...]
     via_home: bool = False
 
+    @property
+    def cameras(self) -> tuple[str, ...]:
+        return (self.camera,)
+
+    @property
+    def source(self) -> str:
+        return self.lamp
+
 
 @dataclass(frozen=True)
 class BonnSchedule:

@@ -352,6 +352,8 @@ def build_devices(
         lamp_ids = [lamp.id for lamp in config.lamps]
         lamps = opening("lamp_bank", config.lamp_bank, lamp_ids=lamp_ids)
         unit = opening("laser", config.laser) if laser and "laser" in roles else None
+        lab = {role: opening(role, config.device_section(role)) for role in ("arm", "rail")
+               if role in roles}  # fmt: skip
         cameras = {}
         for spec in config.camera_arc.cameras:
             camera = opening("camera", spec)
@@ -364,6 +366,10 @@ def build_devices(
         for device in reversed(opened):
             device.close()
         raise
+    if lab:
+        from orchestrator.daemon.bonn_devices import BonnDevices  # it builds on RigDevices
+
+        return BonnDevices(config, clock=clock, lamps=lamps, cameras=cameras, **lab)
     return RigDevices(
         config, clock=clock, turntable=turntable, arc=arc, lamps=lamps, laser=unit, cameras=cameras
     )
