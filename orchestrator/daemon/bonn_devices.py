@@ -4,6 +4,10 @@
 (a ``drivers.interfaces.Positioner``) and the rail (an ``Axis``); a step places
 both (:meth:`BonnDevices.place`) instead of moving the two Wang axes. What it
 records as actuator state: the rail position and the tool pose the arm reports.
+
+A protective stop of the arm fails the step (``DeviceFault`` naming the arm: the
+session pauses); the next :meth:`~BonnDevices.place` — the step retried when
+the operator resumes — unlocks the stop first, then sends the move again.
 """
 
 from __future__ import annotations
@@ -13,6 +17,7 @@ import logging
 import numpy as np
 
 from drivers import DeviceError
+from drivers.errors import DeviceFault
 from drivers.interfaces import Axis, Positioner
 from orchestrator.daemon.devices import RigDevices
 from rig.bonn import plate_rotation, plate_tool_pose
@@ -29,6 +34,7 @@ class BonnDevices(RigDevices):
         super().__init__(config, turntable=None, arc=None, laser=None, **devices)
         self.arm = arm
         self.rail = rail
+        self._stopped = False  # the arm ended its last move in a protective stop
 
     def home(self, *, laser: bool) -> None:
         """Lamps off; power the arm and release its brakes; home the rail."""
@@ -42,10 +48,17 @@ class BonnDevices(RigDevices):
 
         Returns the rail position and the arm's tool pose as read back (mm, deg).
         """
+        if self._stopped:  # resumed by the operator: clear the stop, then move again
+            self.arm.unlock_protective_stop()
+            self._stopped = False
         rotation = plate_rotation(self.config, np.radians(joints_deg))
         self.arm.move_to(plate_tool_pose(self.config, rotation))
         self.rail.move_to(rail_deg)
-        pose = self.arm.wait_until_settled()
+        try:
+            pose = self.arm.wait_until_settled()
+        except DeviceFault:
+            self._stopped = True
+            raise
         rail = self.rail.wait_until_settled()
         self.clock.sleep(max(self.arm.settle_s, self.rail.settle_s))
         x, y, z = (1000.0 * v for v in pose.position_m)

@@ -5,7 +5,9 @@ captured once, its frames registered against the simulator's truth."""
 from __future__ import annotations
 
 import numpy as np
+import pytest
 
+from orchestrator import client
 from orchestrator.daemon import run_local
 from processing.offline import BtfStage, run_stages
 from processing.registration import marker_corners_mm, register_frame
@@ -16,6 +18,7 @@ from rig.geometry import angular_distance_deg, direction_vector
 from rig.material import read_material
 from rig.ur_kinematics import Pose
 from sim.rig import SimulatedRig
+from tests.integration.conftest import run_session
 from tests.sim.bonn_registration import bonn_scene
 
 PLAN = """
@@ -77,3 +80,46 @@ def test_a_reduced_plan_runs_on_the_bonn_lab_and_registers(tmp_path):
     got = direction_vector(*np.asarray(material.btf.view_dirs_deg, np.float64).T)
     for want in ((0.0, 0.0), (34.0, 150.0)):
         assert angular_distance_deg(got, direction_vector(*want)).min() < 0.1
+
+
+def test_a_protective_stop_pauses_naming_the_arm_and_resume_finishes(tmp_path):
+    clock = VirtualClock()
+    faults = {"arm": {"protective_stop_move": 3, "unlock_delay_s": 1.0}}
+    with SimulatedRig(bonn_scene(), clock=clock, faults=faults) as sim:
+
+        def resume(endpoints, status):
+            assert status["state"] == "paused", status
+            fault = status["session"]["fault"]
+            assert "arm" in fault["device"] and "protective stop" in fault["detail"], fault
+            client.resume(connect=endpoints)
+            return client.wait_for_state(
+                endpoints, client.TERMINAL_STATES, settled=True, timeout_s=120
+            )
+
+        archive, status = run_session(
+            sim, clock, tmp_path, PLAN, until_state=("paused", *client.TERMINAL_STATES),
+            act=resume,
+        )  # fmt: skip
+    assert status["state"] == "done", status
+    with Archive.open(archive) as stored:
+        assert stored.committed_steps() == tuple(range(6))  # every step exactly once
+        assert len(stored.frame_table()) == 6
+
+
+def test_a_plan_with_an_unreachable_pair_is_refused_before_the_session_starts(tmp_path):
+    clock = VirtualClock()
+    scene = bonn_scene()
+    narrow = scene.rig.bonn.arm.model_copy(update={"max_tilt_deg": 20.0})
+    (tmp_path / "plan.toml").write_text(PLAN)
+    with SimulatedRig(scene, clock=clock) as sim:
+        config = sim.rig_config()
+        config = config.model_copy(
+            update={"bonn": config.bonn.model_copy(update={"arm": narrow.model_copy(
+                update={"device": config.bonn.arm.device})})}
+        )  # fmt: skip
+        with pytest.raises(client.DaemonRequestError, match=r"plan_invalid .*\n.*captures.btf: "
+                           r"view \(0°, 0°\), light \(17°, 0°\): the plate would tilt 28.0° "
+                           r"from home, past the arm's max_tilt_deg 20°"):
+            run_local(tmp_path / "plan.toml", config, archive=tmp_path / "s.zarr", clock=clock)
+        assert sim.world.position("rail") == 0.0  # nothing moved
+    assert not (tmp_path / "s.zarr").exists()
