@@ -30,6 +30,7 @@ from calibration.lamps import (
     reflected_ray,
     sphere_center_from_silhouette,
     sphere_ray,
+    sphere_silhouette,
     triangulate_lamp,
 )
 from calibration.laser import (
@@ -83,6 +84,7 @@ __all__ = [
     "reflected_ray",
     "sphere_center_from_silhouette",
     "sphere_ray",
+    "sphere_silhouette",
     "strip_offset_mm",
     "strip_pixels",
     "triangulate_lamp",

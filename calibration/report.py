@@ -130,9 +130,10 @@ def lamp_report(results: dict[str, LampResult], run, failed: dict[str, str]) -> 
         distance = f"{np.linalg.norm(vector):11.1f}" if near else f"{'∞':>11}"
         intensity = f"{r.intensity:9.4f}" if r.intensity is not None else f"{'–':>9}"
         unit = "mm" if near else "° "
+        residual = f"{r.residual:6.3f}{unit}" if r.residual is not None else f"{'one ray':>8}"
         lines.append(
             f"{lamp:<8} {float(theta):6.2f}  {float(phi):7.2f}  {distance}  {intensity}  "
-            f"{r.residual:6.3f}{unit}  {r.observations:4d}  {r.clipped:7d}  "
+            f"{residual}  {r.observations:4d}  {r.clipped:7d}  "
             f"{len(run.skipped.get(lamp, [])):6d}"
         )
     lines += [f"{lamp:<8} not calibrated: {why}" for lamp, why in failed.items()]

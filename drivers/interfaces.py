@@ -96,8 +96,8 @@ class LaserUnit(Protocol):
     def check_battery(self) -> int:
         """The supply voltage (mV); ``DeviceFault`` when too low to scan."""
 
-    def set_laser(self, on: bool) -> None:
-        """Switch the diode."""
+    def set_laser(self, on: bool, *, mount: int = 0) -> None:
+        """Light mount ``mount``'s diode alone, or switch every diode off."""
 
     def close(self) -> None:
         """Diode off (best effort), release the connection; idempotent."""

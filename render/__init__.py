@@ -2,7 +2,8 @@
 
 ``Renderer(material, mesh).render(camera, lights)`` gives a linear float
 image; ``EnvironmentRenderer(material, mesh).render(camera, environment)`` lights
-it with an HDR environment map instead; :mod:`render.output` writes it as an
+it with an HDR environment map instead, ``PemRenderer(material, mesh).render_environment(
+camera, environment)`` by partial environment maps; :mod:`render.output` writes it as an
 sRGB PNG or a float EXR. Headless through EGL (Mesa's llvmpipe without a
 GPU). See ``docs/render.md``.
 """
@@ -12,6 +13,7 @@ from render.camera import Camera
 from render.env_renderer import EnvironmentRenderer
 from render.environment import EnvironmentMap, read_environment, synthetic_environment
 from render.lights import MAX_LIGHTS, DirectionalLight, Light, PointLight
+from render.pem_renderer import PemRenderer
 from render.renderer import Renderer
 
 __all__ = [
@@ -21,6 +23,7 @@ __all__ = [
     "EnvironmentMap",
     "EnvironmentRenderer",
     "Light",
+    "PemRenderer",
     "PointLight",
     "RenderError",
     "Renderer",

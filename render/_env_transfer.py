@@ -11,9 +11,12 @@ angle only. Per view slot j the texture under the environment is then
     T_j = Σ_i g_i N_ij = (Σ_i g_i) m_j + Σ_k γ*_kj B_kj,   γ*_kj = Σ_i g_i p_ikj,
 
 and U holds, for every vertex and slot, the RGB coefficient of the mean
-followed by the c coefficients γ*_kj: ``(V, n_views, c + 1, 3)``. It is made
-once per environment (or rotation of it); the exposure f only scales the
-frame (eq. (11)).
+followed by the c coefficients γ*_kj: ``(V, n_views, c + 1, 3)``. A global
+SVD's eigenmaps E_k(x, l) depend on the light (seed 001 §5), so no γ* per slot
+exists: T = Σ_i g_i Σ_k ω_k E_k(x, l_i) with the view weights ω, and U is g
+itself, ``(V, n_lights, 1, 3)``; the fragment sums over the measured lights.
+U is made once per environment (or rotation of it); the exposure f only
+scales the frame (eq. (11)).
 """
 
 from __future__ import annotations
@@ -21,9 +24,9 @@ from __future__ import annotations
 import numpy as np
 
 from render._errors import RenderError
-from rig.material import CompressedBTF
+from rig.material import CompressedBTF, GlobalSVD
 
-__all__ = ["environment_coefficients", "light_radiance", "texture_at_vertex"]
+__all__ = ["check_btf", "environment_coefficients", "light_radiance", "texture_at_vertex"]
 
 # Work per pass, whatever the vertex count: texel rows gathered at once (each 3
 # float64 several times over, ~100 MB) and vertices whose g and γ* are held (8192
@@ -32,12 +35,13 @@ _TEXELS_PER_PASS = 1 << 21
 _VERTICES_PER_PASS = 1 << 13
 
 
-def check_pca(btf) -> CompressedBTF:
-    if not isinstance(btf, CompressedBTF):
+def check_btf(btf) -> CompressedBTF | GlobalSVD:
+    if not isinstance(btf, CompressedBTF | GlobalSVD):
+        held = type(btf).__name__ if btf is not None else "no BTF"
         raise RenderError(
-            f"environment lighting needs a per-view PCA BTF (seed 000 eq. (10)); the material "
-            f"holds {type(btf).__name__ if btf is not None else 'no BTF'}: compress it with "
-            "processing.btf.compress_btf, or light it by median-cut lights (render.median_cut)"
+            "environment lighting through visibility maps needs a compressed BTF (per-view PCA "
+            f"or global SVD); the material holds {held}: light it by partial environment maps "
+            "(render.PemRenderer)"
         )
     return btf
 
@@ -67,7 +71,7 @@ def environment_coefficients(maps, environment, btf) -> np.ndarray:
 
     ``maps`` must have been built on ``btf``'s light directions.
     """
-    btf = check_pca(btf)
+    btf = check_btf(btf)
     lights = len(btf.light_dirs_deg)
     if int(maps.light_indices.max()) >= lights:
         raise RenderError(
@@ -75,6 +79,13 @@ def environment_coefficients(maps, environment, btf) -> np.ndarray:
             f"measured {lights}: build them on the material's light directions"
         )
     vertices = len(maps.frames)
+    if isinstance(btf, GlobalSVD):
+        out = np.empty((vertices, lights, 1, 3), np.float32)
+        per_pass = max(1, min(_TEXELS_PER_PASS // maps.texels, _VERTICES_PER_PASS))
+        for first in range(0, vertices, per_pass):
+            part = slice(first, first + per_pass)
+            out[part, :, 0] = light_radiance(maps, environment, lights, part)
+        return out
     n_views, c = len(btf.view_dirs_deg), btf.components
     weights = np.asarray(btf.weights, np.float64)  # (n_views, n_lights, c)
     out = np.empty((vertices, n_views, c + 1, 3), np.float32)
@@ -91,9 +102,16 @@ def environment_coefficients(maps, environment, btf) -> np.ndarray:
 def texture_at_vertex(btf, coefficients, view_idx, view_w) -> np.ndarray:
     """(N, N, 3) float64 texture of one vertex under the environment, exposure 1.
 
-    ``coefficients`` (n_views, c + 1, 3) is one vertex's rows of U; the view
-    slots ``view_idx`` are blended with ``view_w`` (seed 000 eq. (5)).
+    ``coefficients`` (n_views, c + 1, 3) — a global SVD's (n_lights, 1, 3) — is one
+    vertex's rows of U; the view slots ``view_idx`` are blended with ``view_w``
+    (seed 000 eq. (5)).
     """
+    if isinstance(btf, GlobalSVD):
+        out = 0.0
+        for light, g in enumerate(np.asarray(coefficients, np.float64)[:, 0]):
+            if g.any():
+                out = out + g * btf.blend(view_idx, view_w, [light], [1.0]).astype(np.float64)
+        return np.asarray(out)
     out = 0.0
     for slot, w in zip(np.asarray(view_idx), np.asarray(view_w, np.float64), strict=True):
         if w == 0.0:

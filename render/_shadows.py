@@ -5,6 +5,11 @@ projection that just holds it; a point light with a perspective one (field of
 view at most 150°: parts of the scene outside it count as lit). The surface
 shader compares against 5×5 bilinear taps (percentage-closer filtering), so
 shadow boundaries are soft over a few shadow-map texels.
+
+With a mesostructure depth (``base_depth`` > 0, seed 001 §4.2) each map
+holds the depth of the mesostructure's base below every surface instead of
+the surface's own (``shaders/shadow_mdf.frag``); the surface shader then
+tests the mesostructure point its view ray meets.
 """
 
 from __future__ import annotations
@@ -16,6 +21,7 @@ from render._errors import RenderError
 from render._gl import shader_source, vertex_array
 from render.camera import Camera
 from render.lights import PointLight
+from render.mdf import GRAZING_DEG
 
 __all__ = ["ShadowMaps", "light_camera"]
 
@@ -40,13 +46,21 @@ def light_camera(light, center: np.ndarray, radius: float, size: int) -> Camera:
 class ShadowMaps:
     """The shadow-map atlas of a frame's lights, drawn from the mesh's buffers."""
 
-    def __init__(self, ctx: moderngl.Context, vbo, ibo, *, size: int) -> None:
+    def __init__(
+        self, ctx: moderngl.Context, vbo, ibo, *, size: int, base_depth: float = 0.0
+    ) -> None:
+        """``base_depth``: the mesostructure's depth below the surfaces, scene units (0: none)."""
         if not 16 <= size <= 8192:
             raise RenderError(f"shadow_size = {size}: valid are 16…8192 texels")
-        self.ctx, self.size = ctx, int(size)
+        self.ctx, self.size, self.base_depth = ctx, int(size), float(base_depth)
+        shaders = ("shadow_mdf.vert", "shadow_mdf.frag") if base_depth > 0 else (
+            "depth.vert", "depth.frag")  # fmt: skip
         self.program = ctx.program(
-            vertex_shader=shader_source("depth.vert"), fragment_shader=shader_source("depth.frag")
+            vertex_shader=shader_source(shaders[0]), fragment_shader=shader_source(shaders[1])
         )
+        if base_depth > 0:
+            self.program["base_depth"].value = self.base_depth
+            self.program["max_slant"].value = 1.0 / np.cos(np.deg2rad(GRAZING_DEG))
         self.vao = vertex_array(ctx, self.program, vbo, ibo)
         self.atlas: moderngl.Texture | None = None
         self.fbo: moderngl.Framebuffer | None = None
@@ -88,6 +102,11 @@ class ShadowMaps:
                 texel.append(2 * distance * np.tan(np.deg2rad(camera.fov_deg) / 2) / self.size)
             self.fbo.viewport = (i * self.size, 0, self.size, self.size)
             self.program["view_proj"].write(m.T.astype(np.float32).tobytes())
+            if self.base_depth > 0:
+                self.program["light_place"].value = (
+                    (*light.position, 1.0) if isinstance(light, PointLight)
+                    else (*light.unit_direction, 0.0)
+                )  # fmt: skip
             self.vao.render(moderngl.TRIANGLES)
         self.view_proj = np.array(matrices, np.float32)
         self.texel_mm = np.array(texel, np.float32)

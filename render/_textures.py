@@ -17,7 +17,25 @@ from render._errors import RenderError
 from render._lookup import DirectionLookup
 from rig.material import GlobalSVD
 
-__all__ = ["BtfTextures", "PsTextures", "lookup_texture", "upload_btf", "upload_ps"]
+__all__ = [
+    "BtfTextures",
+    "PsTextures",
+    "lookup_texture",
+    "material_sampling",
+    "upload_btf",
+    "upload_ps",
+]
+
+
+def material_sampling(texture, channels: int):
+    """Sample `texture` as the material's maps are: repeating, trilinear over mipmaps, a grey
+    channel read as grey RGB."""
+    if channels == 1:
+        texture.swizzle = "RRR1"
+    texture.repeat_x = texture.repeat_y = True
+    texture.build_mipmaps()
+    texture.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
+    return texture
 
 
 def _layers(ctx: moderngl.Context, name: str, stack: np.ndarray) -> moderngl.TextureArray:
@@ -30,11 +48,9 @@ def _layers(ctx: moderngl.Context, name: str, stack: np.ndarray) -> moderngl.Tex
             "compress with fewer components"
         )
     data = np.ascontiguousarray(stack[:, ::-1], dtype=np.float16)
-    texture = ctx.texture_array((n, n, layers), channels, data, dtype="f2")
-    texture.repeat_x = texture.repeat_y = True
-    texture.build_mipmaps()
-    texture.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
-    return texture
+    return material_sampling(
+        ctx.texture_array((n, n, layers), channels, data, dtype="f2"), channels
+    )
 
 
 def _rows(ctx: moderngl.Context, name: str, rows: np.ndarray) -> moderngl.Texture:
@@ -127,13 +143,7 @@ class PsTextures:
 def _map(ctx: moderngl.Context, image: np.ndarray) -> moderngl.Texture:
     n_rows, n_cols, channels = image.shape
     data = np.ascontiguousarray(image[::-1], dtype=np.float32)
-    texture = ctx.texture((n_cols, n_rows), channels, data, dtype="f4")
-    if channels == 1:
-        texture.swizzle = "RRR1"
-    texture.repeat_x = texture.repeat_y = True
-    texture.build_mipmaps()
-    texture.filter = (moderngl.LINEAR_MIPMAP_LINEAR, moderngl.LINEAR)
-    return texture
+    return material_sampling(ctx.texture((n_cols, n_rows), channels, data, dtype="f4"), channels)
 
 
 def upload_ps(ctx: moderngl.Context, view) -> PsTextures:

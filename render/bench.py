@@ -9,10 +9,20 @@ floor is the same plane with one filtered texture fetch per fragment, drawn
 in the same run, so the ratio compares like with like on whatever GL this is
 (llvmpipe on a CPU, or a GPU). Seed 001 reports 27–75 frames per second on a
 2005 GPU.
+
+Rows of kind ``mdf`` time the MDF's silhouettes: a torus filling the frame
+(closed, as depth peeling needs) with the BTF alone, then with the MDF and
+1, 2, 3 peeling passes, each as a ratio to the BTF alone in the same run (seed
+001 Table 2: 6–75 frames per second for 1–3 passes). Rows of kind ``mdf
+shadows`` time a ball's shadow on the textured plane: macro shadows alone and
+with the MDF (seed 001 §4.2: pushed shadow maps, the MDF looked up per
+fragment, the ambient term in shadow), as ratios to the same frame without
+shadows.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import time
 from pathlib import Path
 
@@ -22,10 +32,10 @@ import numpy as np
 from render._gl import gl_context, shader_source, vertex_array
 from render.camera import Camera
 from render.lights import PointLight
-from render.meshes import plane
+from render.meshes import merged, plane, sphere, torus
 from render.renderer import Renderer
 from rig.geometry import Sampling
-from rig.material import CompressedBTF, GlobalSVD, Material
+from rig.material import CompressedBTF, GlobalSVD, Material, Mdf
 
 __all__ = ["run_bench"]
 
@@ -53,6 +63,48 @@ def _material(kind: str, components: int, size: int) -> Material:
             np.ones(n_views, np.float32), components,
         )  # fmt: skip
     return Material(Path("bench"), 20.0, size, btf, np.ones(n_views, bool))
+
+
+def _with_mdf(material: Material) -> Material:
+    """``material`` with a random MDF (depths up to 1 mm) over its view slots."""
+    rng = np.random.default_rng(1)
+    views = material.btf.view_dirs_deg
+    shape = (len(views), material.size, material.size)
+    depth = rng.uniform(0.0, 1.0, shape) / np.cos(np.deg2rad(views[:, :1, None]))
+    mdf = Mdf(depth.astype(np.float32), views, np.zeros(shape, np.uint8), np.ones(shape, np.uint8))
+    return dataclasses.replace(material, mdf=mdf)
+
+
+def _mdf_rows(size: tuple[int, int], texels: int, frames: int) -> list[dict]:
+    """BTF + MDF on a torus at 1, 2, 3 peeling passes against the BTF alone on it."""
+    material = _with_mdf(_material("pca", 4, texels))
+    mesh = torus(segments=96)
+    camera = Camera.perspective((0, -210, 120), (0, 0, -8), fov_deg=38, size=size)
+    lights = [PointLight((30.0, -120.0, 160.0), intensity=1e4)]
+    cases = [
+        ({"kind": "mdf", "mdf": mdf, "peel": peel},
+         {"shadows": False, "mdf": mdf, "peel": max(peel, 1), "tile_mm": 10.0})
+        for mdf, peel in ((False, 0), (True, 1), (True, 2), (True, 3))
+    ]  # fmt: skip
+    return _rows_against_first(material, mesh, camera, lights, cases, size, frames)
+
+
+def _rows_against_first(material, mesh, camera, lights, cases, size, frames) -> list[dict]:
+    """One row per ``(row fields, Renderer options)`` case: frames/s and CPU ms per frame,
+    with their ratios to the first case's in the same run."""
+    rows, btf_fps, btf_cpu_ms = [], None, None
+    for fields, options in cases:
+        with Renderer(material, mesh, **options) as renderer:
+            fps, cpu_ms = _timing(lambda r=renderer: r.draw(camera, lights), frames)
+            gl_renderer = renderer.ctx.info["GL_RENDERER"]
+        btf_fps, btf_cpu_ms = btf_fps or fps, btf_cpu_ms or cpu_ms
+        rows.append({
+            **fields, "fps": round(fps, 3),
+            "ratio_to_btf": round(fps / btf_fps, 4), "btf_fps": round(btf_fps, 2),
+            "cpu_ms": round(cpu_ms, 1), "cpu_ratio_to_btf": round(btf_cpu_ms / cpu_ms, 4),
+            "size": f"{size[0]}x{size[1]}", "gl_renderer": gl_renderer,
+        })  # fmt: skip
+    return rows
 
 
 def _timing(draw, frames: int) -> tuple[float, float]:
@@ -109,7 +161,11 @@ class _PlainQuad:
 def run_bench(*, quick: bool = False, size: tuple[int, int] = _SIZE) -> list[dict]:
     """Rows: ``kind``, ``components``, ``view_slots``, ``fps``, ``ratio_to_plain``
     (fps over the plain quad's), ``plain_fps``, ``cpu_ms`` (CPU time per frame, see
-    ``_timing``), ``plain_cpu_ms``, ``size``, ``gl_renderer``.
+    ``_timing``), ``plain_cpu_ms``, ``size``, ``gl_renderer``; then the ``mdf`` rows:
+    ``mdf``, ``peel`` (passes, 0 without the MDF), ``fps``, ``ratio_to_btf`` (fps over
+    the BTF alone on the same torus), ``btf_fps``, ``cpu_ms``, ``cpu_ratio_to_btf`` (the
+    BTF alone's CPU time per frame over this one's: the speed ratio that llvmpipe's
+    shared-machine noise leaves alone), ``size``, ``gl_renderer``.
 
     ``quick``: c ∈ {4, 16}, 1 and 4 view slots, 64² textures, best of 2 frames
     (else c ∈ {1, 4, 8, 16}, 1/3/4 slots and the SVD, 128² textures, best of 5).
@@ -143,4 +199,21 @@ def run_bench(*, quick: bool = False, size: tuple[int, int] = _SIZE) -> list[dic
             "cpu_ms": round(cpu_ms, 1), "plain_cpu_ms": round(plain_cpu_ms, 1),
             "size": f"{size[0]}x{size[1]}", "gl_renderer": gl_renderer,
         })  # fmt: skip
-    return rows
+    return rows + _mdf_rows(size, texels, frames) + _mdf_shadow_rows(size, texels, frames)
+
+
+def _mdf_shadow_rows(size: tuple[int, int], texels: int, frames: int) -> list[dict]:
+    """A ball's shadow on the plane: without shadows (the baseline), macro shadows, and
+    shadows with the MDF; rows ``kind`` ("mdf shadows"), ``shadows``, ``mdf``, then as
+    the ``mdf`` rows, the ratios to the frame without shadows."""
+    material = _with_mdf(_material("pca", 4, texels))
+    ball = sphere(radius_mm=40.0, segments=32)
+    ball = dataclasses.replace(ball, positions=ball.positions + np.float32([0.0, 10.0, 60.0]))
+    mesh = merged([plane(size_mm=400.0, segments=4), ball], name="ball over plane")
+    camera = Camera.perspective((0, -90, 70), (0, 10, 0), fov_deg=60, size=size)
+    lights = [PointLight((30.0, -20.0, 80.0), intensity=1e4)]
+    cases = [
+        ({"kind": "mdf shadows", "shadows": shadows, "mdf": mdf}, {"shadows": shadows, "mdf": mdf})
+        for shadows, mdf in ((False, False), (True, False), (True, True))
+    ]
+    return _rows_against_first(material, mesh, camera, lights, cases, size, frames)

@@ -113,6 +113,27 @@ class Camera:
             p[3, 3] = 1.0
         return p.astype(np.float32)
 
+    def pixel_rays(self) -> tuple[np.ndarray, np.ndarray]:
+        """Origins and unit directions of the rays through the pixel centres, as
+        :meth:`render.renderer.Renderer.render` lays out its image (row 0 at the top):
+        (H, W, 3) float64 each, scene units. A ray tracer that casts them sees what
+        each pixel of the rendered image shows."""
+        inverse = np.linalg.inv(self.view_matrix().astype(np.float64))
+        width, height = self.size
+        half_h = self.height / 2 if self.fov_deg is None else np.tan(np.deg2rad(self.fov_deg) / 2)
+        half_w = half_h * width / height
+        x = ((np.arange(width) + 0.5) / width * 2 - 1) * half_w
+        y = (1 - (np.arange(height) + 0.5) / height * 2) * half_h
+        xx, yy = np.meshgrid(x, y)
+        if self.fov_deg is None:  # parallel rays from the image plane through the eye
+            local = np.stack([xx, yy, np.zeros_like(xx)], axis=-1)
+            origins = local @ inverse[:3, :3].T + inverse[:3, 3]
+            return origins, np.broadcast_to(self.forward, origins.shape).copy()
+        local = np.stack([xx, yy, -np.ones_like(xx)], axis=-1)
+        directions = local @ inverse[:3, :3].T
+        directions /= np.linalg.norm(directions, axis=-1, keepdims=True)
+        return np.broadcast_to(self.eye, directions.shape).copy(), directions
+
     def depth_range(self, center, radius: float) -> tuple[float, float]:
         """Near and far planes that hold a bounding sphere (``center``, ``radius``)."""
         distance = float(np.dot(np.asarray(center) - self.eye, self.forward))

@@ -15,6 +15,14 @@ the studio environment. Rows:
 - ``median_cut``: per light count K, the error of the median-cut lights
   (each ray-cast from the vertex, as the shadow maps approximate) against the
   same brute force, and the frame time with shadow maps, K/8 passes.
+- ``pem``: per region count K, partial environment maps on photometric-stereo
+  maps (bumpy normals, albedo, a Blinn–Phong lobe s = 40): the largest error of
+  a vertex's texture — each region's partial maps × its visibility ray-cast from
+  the vertex towards it, as the shadow maps approximate — against the sum over
+  every pixel with ray-cast visibility (largest and median over the vertices),
+  beside the same with every region read at its top level (point lights), and
+  the frame time of ``PemRenderer`` as a
+  ratio to a point-light frame of the same PS material.
 - ``vertices``: ray casting and U against the vertex count, and the memory
   that stays per vertex (visibility bits, frames, U).
 """
@@ -22,6 +30,7 @@ the studio environment. Rows:
 from __future__ import annotations
 
 import time
+from pathlib import Path
 
 import numpy as np
 import trimesh
@@ -35,14 +44,17 @@ from render.environment import synthetic_environment
 from render.lights import DirectionalLight
 from render.median_cut import median_cut, render_median_cut
 from render.meshes import cloth, sphere
+from render.pem import PartialMaps, partial_maps, region_radiance
+from render.pem_renderer import PemRenderer
 from render.renderer import Renderer
 from render.visibility import visibility_maps
 from rig.geometry import direction_vector, nearest_directions
-from rig.material import CompressedBTF
+from rig.material import CompressedBTF, Material, PsView
 
 __all__ = ["brute_force_texture", "run_bench"]
 
 _VIEW_DEG = (30.0, 40.0)
+_LOBE = {"specular": 0.5, "shininess": 40.0}
 
 
 def brute_force_texture(btf, mesh, vertex: int, frame, environment, view_deg) -> np.ndarray:
@@ -84,6 +96,98 @@ def _directional_sum(btf, mesh, vertex, frame, directions, irradiance, view_deg)
     return texture
 
 
+def _ps_material(size: int) -> Material:
+    """Photometric-stereo maps of random bumps (slopes ~ 0.4) and albedo, size² texels."""
+    rng = np.random.default_rng(1)
+    normals = np.dstack([-0.4 * rng.standard_normal((size, size, 2)), np.ones((size, size))])
+    normals /= np.linalg.norm(normals, axis=-1, keepdims=True)
+    ps = PsView(
+        name="cam0", normals=normals.astype(np.float32),
+        albedo=rng.uniform(0.1, 0.9, (size, size, 3)).astype(np.float32),
+        valid=np.ones((size, size), bool), reason=np.zeros((size, size), np.uint8),
+        height_mm=np.zeros((size, size), np.float32), view_deg=(0.0, 0.0),
+    )  # fmt: skip
+    return Material(Path("bench-ps"), 20.0, size, ps={ps.name: ps})
+
+
+def _hidden(mesh, vertex: int, frame, directions) -> np.ndarray:
+    """(M,) bool: ``directions`` (M, 3) above the vertex's horizon (``frame``'s last row)
+    in which a ray from the vertex hits the mesh."""
+    positions = np.asarray(mesh.positions, np.float64)
+    scene = trimesh.Trimesh(positions, np.asarray(mesh.faces, np.int64), process=False)
+    origin = positions[vertex] + 1e-4 * np.linalg.norm(np.ptp(positions, axis=0)) * frame[2]
+    up = np.flatnonzero(directions @ frame[2] > 0)
+    hidden = np.zeros(len(directions), bool)
+    hidden[up] = scene.ray.intersects_any(np.repeat(origin[None], len(up), 0), directions[up])
+    return hidden
+
+
+def _ps_at_vertex(ps, mesh, vertex, frame, eye, maps: PartialMaps, hidden) -> np.ndarray:
+    """(N·N, 3): the PS texture at ``vertex`` (``frame``: rows tangent, bitangent, normal)
+    seen from ``eye``: Σ over the regions of ``maps`` not ``hidden`` (K,)."""
+    view = np.asarray(eye, np.float64) - np.asarray(mesh.positions[vertex], np.float64)
+    normals = ps.normals.reshape(-1, 3).astype(np.float64) @ frame
+    albedo = ps.albedo.reshape(-1, 3).astype(np.float64)
+    light = region_radiance(maps, normals, view, surface=frame[2], albedo=albedo, **_LOBE)
+    return light[~hidden].sum(axis=0)
+
+
+def _every_pixel(environment, mesh, vertex, frame) -> PartialMaps:
+    """Every environment pixel above the vertex's horizon and seen from it, as one region's
+    texels at both levels: shaded and summed, the brute-force reference."""
+    vectors, solid = environment.pixel_directions()
+    directions = vectors.reshape(-1, 3)
+    light = (environment.radiance * solid[..., None]).reshape(-1, 3) * environment.exposure
+    seen = (directions @ frame[2] > 0) & ~_hidden(mesh, vertex, frame, directions)
+    every = np.array([[0, int(seen.sum())]])
+    return PartialMaps(
+        directions=np.zeros((1, 3)), light=np.zeros((1, 3)), angular_radius=np.zeros(1),
+        diffuse=every, glossy=every, texel_directions=directions[seen],
+        texel_light=light[seen].astype(np.float64), levels=(0, 0),
+    )  # fmt: skip
+
+
+def _pem_rows(env, mesh, camera, probe, frames, counts) -> list[dict]:
+    material = _ps_material(32)
+    ps = material.frontal_ps()
+    references = {
+        v: _ps_at_vertex(ps, mesh, v, frames[v], camera.eye, _every_pixel(env, mesh, v, frames[v]),
+                         np.zeros(1, bool))
+        for v in probe
+    }  # fmt: skip
+    with Renderer(material, mesh, shadows=False, **_LOBE) as point:
+        light = [DirectionalLight((0.3, -0.5, 0.8))]
+        point.render(camera, light)
+        _, point_s = _timed(lambda: point.render(camera, light))
+    rows = []
+    for count in counts:
+        errors = {}
+        for mip in (True, False):
+            maps = partial_maps(env, count, shininess=_LOBE["shininess"], mip=mip)
+            errors[mip] = [
+                np.abs(
+                    _ps_at_vertex(ps, mesh, v, frames[v], camera.eye, maps,
+                                  _hidden(mesh, v, frames[v], maps.directions)) - ref
+                ).max()
+                / np.abs(ref).max()
+                for v, ref in references.items()
+            ]  # fmt: skip
+        with PemRenderer(material, mesh, **_LOBE) as renderer:
+            renderer.render_environment(camera, env, count=count)
+            _, frame_s = _timed(
+                lambda r=renderer, k=count: r.render_environment(camera, env, count=k)
+            )
+        rows.append({
+            "row": "pem", "count": count, "lights": len(maps.directions),
+            "max_error": round(float(max(errors[True])), 4),
+            "max_error_point_lights": round(float(max(errors[False])), 4),
+            "median_error": round(float(np.median(errors[True])), 4),
+            "median_error_point_lights": round(float(np.median(errors[False])), 4),
+            "frame_s": round(frame_s, 3), "frame_over_point_light": round(frame_s / point_s, 2),
+        })  # fmt: skip
+    return rows
+
+
 def _timed(call):
     start = time.perf_counter()
     value = call()
@@ -91,7 +195,7 @@ def _timed(call):
 
 
 def run_bench(*, quick: bool = False) -> list[dict]:
-    """Rows ``row`` = visibility | pca | median_cut | vertices (see the module)."""
+    """Rows ``row`` = visibility | pca | median_cut | pem | vertices (see the module)."""
     material = random_material("pca", 6, 32)  # 27 view slots × H1's 81 lights, c = 6
     btf: CompressedBTF = material.btf
     env = synthetic_environment("studio", height=32)
@@ -159,6 +263,7 @@ def run_bench(*, quick: bool = False) -> list[dict]:
             "max_error": round(float(error), 4), "frame_s": round(frame_s, 3),
             "frame_over_point_light": round(frame_s / point_s, 2),
         })  # fmt: skip
+    rows += _pem_rows(env, mesh, camera, probe, frames0, (4, 16) if quick else (1, 4, 16, 64))
     big = (cloth(segments=24), mesh) if quick else (cloth(segments=24), mesh, sphere(segments=316))
     for shape in big:
         maps = visibility_maps(shape, btf.light_vectors, resolution=4)

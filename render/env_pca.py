@@ -29,11 +29,11 @@ class IlluminationBasis:
     Attributes
     ----------
     eigen_sets : (e, D) float32
-        W_k, unit rows; D = V · n_views · (c + 1) · 3.
+        W_k, unit rows; D = V · n_views · (c + 1) · 3 (a global SVD: V · n_lights · 3).
     weights : (A, e) float64
         o_ak of each sampled rotation.
     shape : tuple
-        U's shape, (V, n_views, c + 1, 3).
+        U's shape, (V, n_views, c + 1, 3) or (V, n_lights, 1, 3).
     energy : float
         Fraction of Σ |U_a|² the e sets keep (1 = exact at the samples).
     seconds : float

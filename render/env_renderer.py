@@ -1,4 +1,4 @@
-"""A per-view PCA BTF on a mesh under an HDR environment (seed 000 §5, seed 003).
+"""A compressed BTF on a mesh under an HDR environment (seed 000 §5, seed 003).
 
 ``EnvironmentRenderer(material, mesh)`` casts every vertex's visibility map
 once (:mod:`render.visibility`); each environment (or rotation of it) becomes
@@ -6,8 +6,11 @@ the per-vertex coefficients U (:mod:`render._env_transfer`, ``method=
 "visibility"``) or, with ``method="pca"``, U from the PCA of A sampled
 rotations (:mod:`render.env_pca`), so turning the environment is interactive.
 The fragment shader blends U across each triangle, blends the view slots by
-the rule of ``rig.geometry`` and reconstructs the texture with the exposure f.
-The BTF textures are the point-light renderer's (``render._textures``).
+the rule of ``rig.geometry`` and reconstructs the texture with the exposure f:
+a per-view PCA from its c + 1 coefficients per slot, a global SVD from the
+radiance g of every measured light direction (U = g) times the eigenmaps of
+that light, weighted by the blended view weights. The BTF textures are the
+point-light renderer's (``render._textures``).
 """
 
 from __future__ import annotations
@@ -15,7 +18,7 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from render._env_transfer import check_pca, environment_coefficients
+from render._env_transfer import check_btf, environment_coefficients
 from render._errors import RenderError
 from render._gl import gl_context, shader_source
 from render._textures import upload_btf
@@ -24,6 +27,7 @@ from render.env_pca import check_basis_size, illumination_basis
 from render.environment import EnvironmentMap
 from render.visibility import visibility_maps
 from rig.geometry import spherical_triangulation
+from rig.material import GlobalSVD
 
 __all__ = ["ENV_METHODS", "EnvironmentRenderer"]
 
@@ -61,12 +65,12 @@ def _corner_buffer(mesh) -> np.ndarray:
 
 
 class EnvironmentRenderer:
-    """Draws ``material``'s per-view PCA BTF on ``mesh`` lit by an environment map.
+    """Draws ``material``'s BTF on ``mesh`` lit by an environment map.
 
     Parameters
     ----------
     material : rig.material.Material
-        Must hold a per-view PCA BTF.
+        Must hold a per-view PCA or a global-SVD BTF.
     mesh : render.meshes.Mesh
     tile_mm : float, optional
         As for :class:`render.Renderer` (the sample's side by default).
@@ -84,7 +88,8 @@ class EnvironmentRenderer:
         resolution: int = 8, light_method: str = "nearest4", view_method: str = "nearest4",
         rotations: int = 30, components: int = 5,
     ) -> None:  # fmt: skip
-        self.btf = check_pca(material.btf)
+        self.btf = check_btf(material.btf)
+        svd = isinstance(self.btf, GlobalSVD)
         if method not in ENV_METHODS:
             raise RenderError(f"method = {method!r}: valid are {ENV_METHODS}")
         if method == "pca":
@@ -121,18 +126,22 @@ class EnvironmentRenderer:
             vertex_shader=shader_source("env_surface.vert"),
             fragment_shader=f"#version 330\n#define COEF_WIDTH {_COEF_WIDTH}\n"
             f"#define CHANNELS {self.textures.channels}\n#define PACKED {self.textures.packed}\n"
+            f"#define SVD_COMPONENTS {self.textures.components if svd else 0}\n"
             + shader_source("env_surface.frag"),
         )
         self.vao = self.ctx.vertex_array(self.program, [(
             self.vbo, "3f 3f 2f 4f 3f 3i",
             "in_position", "in_normal", "in_uv", "in_tangent", "in_corner", "in_ids",
         )])  # fmt: skip
-        self._units = [self.textures.images, view_table]
-        for unit, name in enumerate(("btf_images", "view_table")):
-            self.program[name].value = unit
+        self._units = [self.textures.images, view_table, self.textures.weights]
+        for unit, name in enumerate(("btf_images", "view_table", "btf_weights")):
+            if name in self.program:
+                self.program[name].value = unit
+        # U's rows per vertex: per view slot c + 1 coefficients; a global SVD's one g per light.
+        rows_per_vertex = len(self.btf.light_dirs_deg) if svd else len(self.btf.view_dirs_deg)
         uniforms = {
-            "env_coef": len(self._units), "n_slots": len(self.btf.view_dirs_deg),
-            "components": self.btf.components, "view_rows": rows,
+            "env_coef": len(self._units), "n_slots": rows_per_vertex,
+            "components": 0 if svd else self.btf.components, "view_rows": rows,
             "view_method": int(view_method == "barycentric"),
             "view_k": 1 if view_method == "nearest" else min(4, int(valid.sum())),
             "uv_scale": 1.0 / float(tile),

@@ -10,8 +10,8 @@ energy-weighted mean direction carrying the region's whole irradiance
 The point-light renderer draws them with its shadow maps (soft edges from
 percentage-closer filtering), :data:`render.lights.MAX_LIGHTS` per pass, so
 this works for every material the renderer draws (per-view PCA, global SVD,
-photometric stereo). Not built from seed 002: the regions' own extent as
-area lights and the MIP-level glossiness filtering.
+photometric stereo). :mod:`render.pem` treats the regions as extended lights
+whose radiance is filtered to the surface's glossiness.
 """
 
 from __future__ import annotations
@@ -21,20 +21,17 @@ import numpy as np
 from render._errors import RenderError
 from render.lights import MAX_LIGHTS, DirectionalLight
 
-__all__ = ["environment_lights", "median_cut", "render_median_cut"]
+__all__ = ["environment_lights", "median_cut", "median_cut_regions", "render_median_cut"]
 
 _LUMINANCE = np.array([0.2126, 0.7152, 0.0722])  # Rec. 709
 
 
-def median_cut(environment, count: int) -> tuple[np.ndarray, np.ndarray]:
-    """Directions (K, 3) float64 unit and irradiance (K, 3) float64 of the regions.
-
-    K ≤ ``count`` (a power of 2): a region of one pixel is not split further,
-    and regions without light are left out. Rotation applies, exposure not.
-    """
+def median_cut_regions(environment, count: int) -> list[tuple[int, int, int, int]]:
+    """The regions (row0, row1, col0, col1) of the map's pixels, at most ``count``
+    (a power of 2): a region of one pixel is not split further."""
     if not (isinstance(count, int) and count >= 1 and count & (count - 1) == 0):
         raise RenderError(f"median cut count = {count!r}: need a power of 2 (1, 2, 4, … )")
-    vectors, solid = environment.pixel_directions()
+    _, solid = environment.pixel_directions()
     power = environment.radiance.astype(np.float64) * solid[..., None]  # (H, W, 3)
     energy = power @ _LUMINANCE
     h, w = energy.shape
@@ -58,8 +55,20 @@ def median_cut(environment, count: int) -> tuple[np.ndarray, np.ndarray]:
             else:
                 split += [(r0, r0 + cut, c0, c1), (r0 + cut, r1, c0, c1)]
         regions = split
+    return regions
+
+
+def median_cut(environment, count: int) -> tuple[np.ndarray, np.ndarray]:
+    """Directions (K, 3) float64 unit and irradiance (K, 3) float64 of the regions.
+
+    K ≤ ``count`` (a power of 2): a region of one pixel is not split further,
+    and regions without light are left out. Rotation applies, exposure not.
+    """
+    vectors, solid = environment.pixel_directions()
+    power = environment.radiance.astype(np.float64) * solid[..., None]  # (H, W, 3)
+    energy = power @ _LUMINANCE
     directions, irradiance = [], []
-    for r0, r1, c0, c1 in regions:
+    for r0, r1, c0, c1 in median_cut_regions(environment, count):
         part = power[r0:r1, c0:c1].reshape(-1, 3)
         if not part.any():
             continue

@@ -35,6 +35,7 @@ __all__ = [
     "cloth",
     "cylinder",
     "load_mesh",
+    "merged",
     "mesh_by_name",
     "mesh_from_arrays",
     "plane",
@@ -139,6 +140,20 @@ def mesh_from_arrays(
         degenerate_faces=int(frames.degenerate_faces.sum()),
         fallback_frames=int(frames.fallback.sum()),
     )
+
+
+def merged(parts, *, name: str) -> Mesh:
+    """One mesh of several (a floor and what stands on it), their vertices and faces in turn."""
+    parts = list(parts)
+    offsets = np.cumsum([0] + [len(part.positions) for part in parts[:-1]])
+    return Mesh(
+        **{field: np.vstack([getattr(part, field) for part in parts])
+           for field in ("positions", "normals", "uvs", "tangents")},
+        faces=np.vstack([part.faces + offset for part, offset in zip(parts, offsets, strict=True)]),
+        name=name,
+        degenerate_faces=sum(part.degenerate_faces for part in parts),
+        fallback_frames=sum(part.fallback_frames for part in parts),
+    )  # fmt: skip
 
 
 def _grid_faces(n_u: int, n_v: int) -> np.ndarray:

@@ -12,16 +12,20 @@ shadow maps filtered to soft edges. See ``docs/render.md``.
 
 from __future__ import annotations
 
+from typing import ClassVar
+
 import moderngl
 import numpy as np
 
 from render._errors import RenderError
 from render._gl import gl_context, mesh_buffers, shader_source, vertex_array
 from render._lookup import build_lookup
+from render._mdf_shading import mdf_shading
 from render._shadows import ShadowMaps
 from render._textures import lookup_texture, upload_btf, upload_ps
 from render.camera import Camera
 from render.lights import MAX_LIGHTS, DirectionalLight, PointLight
+from render.peel import mdf_silhouettes
 from rig.material import CompressedBTF, Material
 
 __all__ = ["MAX_LIGHTS", "Renderer"]
@@ -57,6 +61,21 @@ class Renderer:
         Macro shadows of the mesh (shadow maps, 5×5 PCF).
     shadow_size : int
         Texels per side of each light's shadow map.
+    mdf : bool or None
+        Use the material's MDF (seed 001 §4); None: when the material holds
+        one. Mesostructure silhouettes by depth peeling (``render.peel``), and
+        mesostructure-aware shadows: tested where the view ray meets the
+        mesostructure, p − s·D(x, y, v)·v (s = tile_mm / sample_mm), against
+        shadow maps holding the mesostructure's base, shadowed points shaded
+        by the ambient term.
+    peel : int
+        Peeling passes with the MDF (1…8): intervals of a ray inside the mesh
+        tested, nearest first.
+    ambient : float
+        With the MDF: the fraction a ∈ [0, 1] of each light's irradiance that
+        reaches the points it shadows as uniform skylight (radiance a·E/π),
+        shading them by the ambient term L_a, the BTF integrated over all light
+        directions (``render.ambient``); 0: shadows are black.
 
     Notes
     -----
@@ -64,6 +83,9 @@ class Renderer:
     blend is built over the valid slots only, so their weights sum to one and
     a direction at an empty slot takes its valid neighbours.
     """
+
+    #: Shader features a subclass turns on (``render.pem_renderer``: PEM 1).
+    _features: ClassVar[dict[str, int]] = {"PEM": 0}
 
     def __init__(
         self,
@@ -78,6 +100,9 @@ class Renderer:
         shininess: float = 40.0,
         shadows: bool = True,
         shadow_size: int = 1024,
+        mdf: bool | None = None,
+        peel: int = 2,
+        ambient: float = 0.2,
     ) -> None:
         self.layers = self._check_layers(material, layers)
         tile = material.sample_mm if tile_mm is None else tile_mm
@@ -91,6 +116,9 @@ class Renderer:
             raise RenderError(
                 f"specular = {specular}, shininess = {shininess}: need specular ≥ 0, shininess > 0"
             )
+        if not (np.isfinite(ambient) and 0 <= ambient <= 1):
+            raise RenderError(f"ambient = {ambient}: valid is a fraction 0 … 1 of each light")
+        mdf = material.mdf is not None if mdf is None else bool(mdf)
         self.ctx = gl_context()
         self.mesh = mesh
         self._owned: list = []
@@ -103,6 +131,9 @@ class Renderer:
             "BTF_KIND": 0 if btf is None else (1 if isinstance(btf, CompressedBTF) else 2),
             "PS": int("ps" in self.layers),
             "SHADOWS": int(bool(shadows)),
+            "MDF_SHADOWS": int(mdf and shadows),
+            "AMBIENT": 0,
+            **self._features,
         }
         self._programs: dict[int, tuple[moderngl.Program, moderngl.VertexArray]] = {}
         self._static: dict[str, object] = {}
@@ -125,10 +156,26 @@ class Renderer:
             self._bind("ps_normals", self.ps_textures.normals)
             self._set("specular", float(specular))
             self._set("shininess", float(shininess))
+        self.mdf = None
+        if mdf:
+            self.mdf = mdf_shading(self.ctx, material, btf, view_method=view_method,
+                                   light_method=light_method, ambient=ambient,
+                                   tile_mm=float(tile))  # fmt: skip
+            for name, texture in self.mdf.textures().items():
+                self._bind(name, texture)
+            for name, value in self.mdf.uniforms.items():
+                self._set(name, value)
+            self._defines.update(self.mdf.defines())
+        base_depth = 0.0 if self.mdf is None else self.mdf.base_depth
         self.shadows = (
-            ShadowMaps(self.ctx, self.vbo, self.ibo, size=shadow_size) if shadows else None
-        )
+            ShadowMaps(self.ctx, self.vbo, self.ibo, size=shadow_size, base_depth=base_depth)
+            if shadows else None
+        )  # fmt: skip
         self._framebuffers: dict[tuple[int, int], moderngl.Framebuffer] = {}
+        self.silhouettes = mdf_silhouettes(
+            self.ctx, mesh, self.vbo, self.ibo, self.mdf and self.mdf.texture, peel=peel,
+            texture_scale=float(tile) / material.sample_mm, uv_scale=self.uv_scale,
+        )  # fmt: skip
         self._program(1)  # a shader this GL cannot compile fails here, not at the first frame
 
     @staticmethod
@@ -167,6 +214,9 @@ class Renderer:
         if n_lights not in self._programs:
             defines = {**self._defines, "N_LIGHTS": n_lights}
             header = "#version 330\n" + "".join(f"#define {k} {v}\n" for k, v in defines.items())
+            header += shader_source("directions.glsl")
+            if self.mdf is not None:
+                header += shader_source("mdf.glsl") + shader_source("mdf_shadow.glsl")
             try:
                 program = self.ctx.program(
                     vertex_shader=shader_source("surface.vert"),
@@ -272,29 +322,55 @@ class Renderer:
         if self.shadows is not None:
             self.shadows.draw(lights, self.bounds_center, self.bounds_radius)
             self.shadows.bind(program, unit=len(self._units))
+        self._bind_lights(program, lights, unit=len(self._units) + 1)
         near, far = camera.depth_range(self.bounds_center, self.bounds_radius)
         view_proj = camera.projection_matrix(near, far) @ camera.view_matrix()
         view_proj = view_proj.T.astype(np.float32).tobytes()
         program["view_proj"].write(view_proj)
-        self._depth_program["view_proj"].write(view_proj)
         for name, value in (("orthographic", camera.fov_deg is None), ("eye", tuple(camera.eye)),
                             ("toward_camera", tuple(-camera.forward))):  # fmt: skip
             if name in program:
                 program[name].value = value
+        fbo = self._depth_pass(camera, view_proj)
         for unit, texture in enumerate(self._units):
             texture.use(location=unit)
+        fbo.use()
+        # Shade only what the depth pass left in front (depth equal): where the mesh
+        # folds over itself each pixel runs the costly shader once, not per layer.
+        self.ctx.depth_func = "<=" if self.silhouettes is None else "=="
+        vao.render(moderngl.TRIANGLES)
+        self.ctx.depth_func = "<"
+
+    def _depth_pass(self, camera: Camera, view_proj: bytes) -> moderngl.Framebuffer:
+        """The framebuffer cleared, its depth that of the surfaces to shade: the nearest
+        (depth pre-pass) or, with the MDF, those whose rays meet the mesostructure."""
         fbo = self._framebuffer(camera.size)
         fbo.use()
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
+        if self.silhouettes is not None:
+            # Texture units above the surface program's, the shadow atlas's and the one
+            # a subclass binds for its lights (_bind_lights).
+            self.silhouettes.draw(camera, view_proj, fbo.depth_attachment,
+                                  unit=len(self._units) + 2)  # fmt: skip
+            return fbo
         self.ctx.enable_only(moderngl.DEPTH_TEST)
-        # Depth first, then shade only what stays in front (depth equal): where the
-        # mesh folds over itself each pixel runs the costly shader once, not per layer.
+        self._depth_program["view_proj"].write(view_proj)
         fbo.color_mask = False, False, False, False
         self._depth_vao.render(moderngl.TRIANGLES)
         fbo.color_mask = True, True, True, True
-        self.ctx.depth_func = "<="
-        vao.render(moderngl.TRIANGLES)
-        self.ctx.depth_func = "<"
+        return fbo
+
+    def coverage(self, camera: Camera) -> np.ndarray:
+        """(H, W) bool: the pixels where the surface is drawn (with the MDF, where a
+        ray meets the mesostructure), row 0 at the top like :meth:`render`."""
+        near, far = camera.depth_range(self.bounds_center, self.bounds_radius)
+        view_proj = camera.projection_matrix(near, far) @ camera.view_matrix()
+        fbo = self._depth_pass(camera, view_proj.T.astype(np.float32).tobytes())
+        depth = np.frombuffer(fbo.read(components=1, attachment=-1, dtype="f4"), np.float32)
+        return np.ascontiguousarray(depth.reshape(camera.size[1], camera.size[0])[::-1] < 1.0)
+
+    def _bind_lights(self, program: moderngl.Program, lights: list, *, unit: int) -> None:
+        """A subclass's per-frame uniforms of its ``lights`` and its texture on ``unit``."""
 
     def release(self) -> None:
         """Free the GPU objects (the shared context stays)."""
@@ -303,10 +379,11 @@ class Renderer:
                 attachment.release()
             fbo.release()
         self._framebuffers.clear()
-        for part in (self.shadows, self.btf_textures, self.ps_textures):
+        for part in (self.shadows, self.btf_textures, self.ps_textures, self.silhouettes,
+                     self.mdf):  # fmt: skip
             if part is not None:
                 part.release()
-        self.shadows = self.btf_textures = self.ps_textures = None
+        self.shadows = self.btf_textures = self.ps_textures = self.silhouettes = self.mdf = None
         for program, vao in self._programs.values():
             vao.release()
             program.release()

@@ -28,7 +28,7 @@ import trimesh
 from render._errors import RenderError
 from rig.geometry import barycentric_weights, nearest_directions
 
-__all__ = ["VisibilityMaps", "hemicube", "visibility_maps"]
+__all__ = ["VisibilityMaps", "hemicube", "light_table", "visibility_maps"]
 
 _LIGHT_METHODS = ("nearest", "nearest4", "barycentric")
 # Rays per ray-casting call: bounds the memory of the cast (about 100 bytes a ray).
@@ -146,7 +146,9 @@ def _frames(mesh) -> np.ndarray:
     return np.stack([tangents[:, :3], bitangents, normals], axis=1)
 
 
-def _light_table(light_vectors, directions: np.ndarray, method: str):
+def light_table(light_vectors, directions: np.ndarray, method: str):
+    """The measured lights each of ``directions`` blends and their weights, as the
+    point-light path blends them: (T, k) int64 indices, (T, k) float64 weights."""
     if method not in _LIGHT_METHODS:
         raise RenderError(f"light_method = {method!r}: valid are {_LIGHT_METHODS}")
     table = np.asarray(light_vectors, np.float64)
@@ -181,7 +183,7 @@ def visibility_maps(
     VisibilityMaps
     """
     directions, solid_angles = hemicube(resolution)
-    light_indices, light_weights = _light_table(light_vectors, directions, light_method)
+    light_indices, light_weights = light_table(light_vectors, directions, light_method)
     frames = _frames(mesh)
     positions = np.asarray(mesh.positions, np.float64)
     scene = trimesh.Trimesh(positions, np.asarray(mesh.faces, np.int64), process=False)

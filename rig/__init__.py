@@ -5,7 +5,7 @@ the calibration file, the camera model, the clock and the errors. It imports
 nothing of btfrig's; every other package may use it.
 """
 
-from rig.camera import PinholeCamera, look_at
+from rig.camera import OrthographicCamera, PinholeCamera, look_at
 from rig.clock import Clock, RealClock, VirtualClock
 from rig.config import RigConfig, default_rig_config, load_rig_config
 from rig.errors import ConfigError, KinematicsError, PlanError, RigError
@@ -29,6 +29,7 @@ __all__ = [
     "Estimate",
     "Interpolation",
     "KinematicsError",
+    "OrthographicCamera",
     "PinholeCamera",
     "Plan",
     "PlanError",

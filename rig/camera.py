@@ -1,4 +1,8 @@
-"""The pinhole camera model shared by the simulator, calibration and processing.
+"""The camera models shared by the simulator, calibration and processing.
+
+``PinholeCamera`` is the rig's cameras; ``OrthographicCamera`` is a telecentric
+lens or a camera so far from a small target (a mirror sphere in a distant
+setup) that its rays are parallel.
 
 OpenCV conventions: the camera looks along its +z axis, x to the right, y down;
 a world point ``X`` maps to camera coordinates ``R @ X + t``; lens distortion
@@ -13,7 +17,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-__all__ = ["PinholeCamera", "look_at"]
+__all__ = ["OrthographicCamera", "PinholeCamera", "look_at"]
 
 
 def look_at(eye, target, up=(0.0, 0.0, 1.0)) -> tuple[np.ndarray, np.ndarray]:
@@ -157,3 +161,82 @@ class PinholeCamera:
             x = (xd[:, 0] - dx) / radial
             y = (xd[:, 1] - dy) / radial
         return np.stack([x, y], axis=1)
+
+
+@dataclass(frozen=True)
+class OrthographicCamera:
+    """A telecentric (orthographic) camera: parallel rays along its +z axis.
+
+    Camera coordinates as ``PinholeCamera`` (``R @ X + t``, x right, y down);
+    a point's pixel is ``(x, y) / mm_per_px`` plus the image centre, whatever
+    its depth. Rays start on the plane z = 0 of the camera frame.
+
+    Parameters
+    ----------
+    R : (3, 3) float64
+        World→camera rotation.
+    t : (3,) float64
+        World→camera translation, mm.
+    mm_per_px : float
+        Side of one pixel's footprint, mm (1 where the scale is unknown: the
+        lengths are then in pixels).
+    width, height : int
+        Image size in pixels.
+    """
+
+    R: np.ndarray
+    t: np.ndarray
+    mm_per_px: float
+    width: int
+    height: int
+
+    def __post_init__(self) -> None:
+        for name, shape in (("R", (3, 3)), ("t", (3,))):
+            value = np.array(getattr(self, name), dtype=np.float64)
+            if value.shape != shape or not np.all(np.isfinite(value)):
+                raise ValueError(f"OrthographicCamera.{name}: expected finite {shape}, got {value}")
+            value.setflags(write=False)
+            object.__setattr__(self, name, value)
+        if not np.allclose(self.R @ self.R.T, np.eye(3), atol=1e-9):
+            raise ValueError("OrthographicCamera.R is not a rotation matrix")
+        if not (np.isfinite(self.mm_per_px) and self.mm_per_px > 0):
+            raise ValueError(f"OrthographicCamera.mm_per_px={self.mm_per_px}: must be > 0")
+
+    @classmethod
+    def looking_down(
+        cls, width: int, height: int, *, mm_per_px: float = 1.0, height_mm: float = 1000.0
+    ) -> OrthographicCamera:
+        """A camera above the origin looking down −z: image x is world +x, image
+        up is world +y, so directions come out in the frame photometric-stereo
+        data sets use (x right, y up, z towards the camera)."""
+        R = np.array([[1.0, 0.0, 0.0], [0.0, -1.0, 0.0], [0.0, 0.0, -1.0]])
+        return cls(R, np.array([0.0, 0.0, height_mm]), mm_per_px, width, height)
+
+    @property
+    def towards_camera(self) -> np.ndarray:
+        """(3,) unit world direction from the scene towards the camera."""
+        return -self.R[2].copy()
+
+    def project(self, points) -> tuple[np.ndarray, np.ndarray]:
+        """Pixel coordinates of world points, as ``PinholeCamera.project``
+        (``in_front`` is False for points behind the plane z = 0)."""
+        X = np.atleast_2d(np.asarray(points, dtype=np.float64)) @ self.R.T + self.t
+        centre = np.array([(self.width - 1) / 2, (self.height - 1) / 2])
+        return X[:, :2] / self.mm_per_px + centre, X[:, 2] > 0
+
+    def rays(self, pixels) -> tuple[np.ndarray, np.ndarray]:
+        """World-space rays through pixel coordinates.
+
+        Returns
+        -------
+        origins : (n, 3) float64
+            Each ray's start on the camera frame's plane z = 0.
+        directions : (n, 3) float64
+            The view axis, the same unit vector for every ray.
+        """
+        pix = np.atleast_2d(np.asarray(pixels, dtype=np.float64))
+        centre = np.array([(self.width - 1) / 2, (self.height - 1) / 2])
+        xy = (pix - centre) * self.mm_per_px
+        cam = np.column_stack([xy, np.zeros(len(xy))])
+        origins = (cam - self.t) @ self.R  # R.T @ (x − t) for each row
+        return origins, np.broadcast_to(self.R[2], origins.shape).copy()

@@ -145,7 +145,12 @@ class CameraArc(_Closed):
 
 
 class Laser(_Closed):
-    """The LEGO laser unit on the light arc: it tilts the laser sheet to sweep it."""
+    """The LEGO laser unit on the light arc: it tilts the laser sheet to sweep it.
+
+    ``mount_theta_deg`` holds one angle per emitter on the arc (signed: a
+    negative angle is on the arc's other side); a second, steeper mount
+    reaches recesses a 45° sheet cannot (docs/mdf.md, coverage).
+    """
 
     mount_theta_deg: tuple[SignedPolar, ...] = (45.0,)
     radius_mm: float = Field(500.0, gt=0, description="distance from the turntable centre")
@@ -161,6 +166,10 @@ class Laser(_Closed):
             raise ValueError(
                 f"sweep_deg {self.sweep_deg} exceeds the tilt range ±{self.tilt_limit_deg}"
             )
+        try:
+            self.device.diode_ports(len(self.mount_theta_deg))
+        except ValueError as err:
+            raise ValueError(f"mount_theta_deg {list(self.mount_theta_deg)}: {err}") from None
         return self
 
 

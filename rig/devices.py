@@ -207,7 +207,10 @@ class NxtLaserUnit(_Closed):
 
     Reached over USB (pyusb) or Bluetooth SPP (serial). Output ``motor_port``
     tilts the sheet through a gearbox of ``gear_ratio`` degrees of tilt per
-    motor degree; output ``laser_port`` powers the diode.
+    motor degree; output ``laser_port`` powers the diode. A second mount on
+    the arc (``laser.mount_theta_deg``) has its diode on the brick's third
+    output; the one motor tilts both emitters (their tilt axes are parallel,
+    both across the arc), and one diode is lit at a time.
     """
 
     kind: Literal["nxt"] = "nxt"
@@ -241,6 +244,17 @@ class NxtLaserUnit(_Closed):
                 f"motor_port and laser_port are both {self.motor_port!r}; use two NXT outputs"
             )
         return self
+
+    def diode_ports(self, mounts: int) -> tuple[str, ...]:
+        """The output powering each of ``mounts`` mounts' diodes: ``laser_port``,
+        then the output that is neither it nor ``motor_port``."""
+        if not 1 <= mounts <= 2:
+            raise ValueError(
+                f"an NXT laser unit lights 1 or 2 mounts (its three outputs: the tilt motor "
+                f"and a diode per mount), not {mounts}"
+            )
+        spare = next(p for p in "ABC" if p not in (self.motor_port, self.laser_port))
+        return (self.laser_port, spare)[:mounts]
 
 
 # -- Universal Robots arm (holds the sample) ------------------------------------------

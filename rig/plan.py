@@ -161,7 +161,11 @@ class MdfCapture(_Closed):
 
     views: SamplingSpec
     laser_locations: SamplingSpec
-    scan_step_deg: float = Field(0.1, ge=0.001, le=10, description="sheet tilt between frames")
+    scan_step_deg: float = Field(
+        0.1, ge=0.001, le=10,
+        description="sheet tilt between frames, spread over the whole sweep; a step finer than "
+        "laser.sweep_speed_deg_s / laser.frame_rate_hz is taken at the frame rate",
+    )  # fmt: skip
 
 
 class FixedShot(_Closed):

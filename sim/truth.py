@@ -135,7 +135,7 @@ def image_truth(
     return image.mean(axis=2) if spec.channels == 1 else image
 
 
-def _texel_hits(model: SceneModel, view_dir, n: int) -> tuple[SurfaceHits, np.ndarray]:
+def texel_hits(model: SceneModel, view_dir, n: int) -> tuple[SurfaceHits, np.ndarray]:
     """Hits along −v from the texel centres just above the reference plane."""
     v = direction_vector(*view_dir)
     if v[2] <= 0:
@@ -158,14 +158,14 @@ def mdf_truth(model: SceneModel, view_dir, n: int) -> np.ndarray:
     first surface (seed ``001_…``, §4); ``view_dir`` = (θ, φ) degrees, sample
     frame, pointing away from the surface.
     """
-    hits, dist = _texel_hits(model, view_dir, n)
+    hits, dist = texel_hits(model, view_dir, n)
     out = _image(hits, np.clip(dist, 0, None), fill=-1.0)
     return out
 
 
 def texel_truth(model: SceneModel, n: int) -> TexelTruth:
     """Normals, albedo, height and part on the texel grid, seen from above."""
-    hits, _ = _texel_hits(model, (0.0, 0.0), n)
+    hits, _ = texel_hits(model, (0.0, 0.0), n)
     part = np.full((n, n), -1, dtype=np.int8)
     part.reshape(-1)[hits.pixels] = hits.parts
     return TexelTruth(
@@ -186,7 +186,7 @@ def btf_truth(model: SceneModel, view_dir, light_dir, n: int) -> np.ndarray:
     along the view ray through (x, y, 0), as a rectified normtexture does.
     """
     scene = model.scene
-    hits, _ = _texel_hits(model, view_dir, n)
+    hits, _ = texel_hits(model, view_dir, n)
     light = direction_vector(*light_dir)
     dirs = np.broadcast_to(light, hits.points.shape)
     e = np.ones(len(hits.points))

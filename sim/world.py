@@ -156,11 +156,14 @@ class World:
         with self._lock:
             return frozenset(self.lamps_on)
 
-    def set_laser(self, on: bool, *, mount: int | None = None) -> None:
+    def set_diode(self, mount: int, on: bool) -> None:
+        """Mount ``mount``'s diode switched: on lights its sheet; off darkens the
+        laser only if that mount's sheet was the lit one."""
         with self._lock:
-            self.laser_on = on
-            if mount is not None:
-                self.laser_mount = mount
+            if on:
+                self.laser_on, self.laser_mount = True, mount
+            elif self.laser_mount == mount:
+                self.laser_on = False
 
     def snapshot(self) -> WorldSnapshot:
         joints = self.arm_joints() if self.arm_joints is not None else None

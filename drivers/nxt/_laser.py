@@ -4,7 +4,8 @@ The tilt is an ``Axis`` (``NxtTilt``, the ``tilt`` attribute). The diode hangs
 on output ``unit.laser_port`` driven at constant power (``unit.laser_power``
 %, motor on, unregulated): an NXT output is the only place with switchable
 4.3–9 V on the brick, and unlike a powered sensor type (SETINPUTMODE) it can
-be read back with GETOUTPUTSTATE.
+be read back with GETOUTPUTSTATE. A second mount's diode is on the third
+output (``NxtLaserUnit.diode_ports``); the same motor tilts both.
 """
 
 from __future__ import annotations
@@ -34,6 +35,7 @@ class NxtLaser:
     ----------
     brick : an open ``NxtBrick``; closed by ``close``.
     unit : the laser's device section (ports, gear ratio, power, limits).
+    mounts : how many mounts (diodes) the unit lights, one at a time.
     tilt_limit_deg, tilt_speed_deg_s : the tilt's range (±) and speed (deg, deg/s).
     clock : injected time for polling and stall detection.
     poll_s : interval between polls while waiting for a tilt.
@@ -44,6 +46,7 @@ class NxtLaser:
         brick: NxtBrick,
         unit: NxtLaserUnit,
         *,
+        mounts: int = 1,
         tilt_limit_deg: float,
         tilt_speed_deg_s: float,
         clock: Clock,
@@ -52,7 +55,7 @@ class NxtLaser:
         self.brick = brick
         self.unit = unit
         self.device = brick.device
-        self._diode = MOTOR_PORTS[unit.laser_port]
+        self._diodes = [MOTOR_PORTS[port] for port in unit.diode_ports(mounts)]
         self.tilt = NxtTilt(
             brick,
             unit,
@@ -74,18 +77,30 @@ class NxtLaser:
             )
         return mv
 
-    def set_laser(self, on: bool) -> None:
-        """Switch the diode's output port on (constant power) or off (float)."""
+    def set_laser(self, on: bool, *, mount: int = 0) -> None:
+        """Light mount ``mount``'s diode alone (its output at constant power), or
+        switch every diode off (float)."""
+        if not 0 <= mount < len(self._diodes):
+            raise DeviceError(
+                self.device, f"laser {'on' if on else 'off'}",
+                f"mount {mount} has no diode; this unit lights mounts 0..{len(self._diodes) - 1}",
+            )  # fmt: skip
+        for index, port in enumerate(self._diodes):
+            if index != mount:
+                self._switch(port, False)
+        self._switch(self._diodes[mount], on)
+
+    def _switch(self, port: int, on: bool) -> None:
         self.brick.set_output_state(
-            self._diode,
+            port,
             power=self.unit.laser_power if on else 0,
             mode=OutputMode.MOTORON if on else OutputMode.COAST,
             regulation=RegulationMode.IDLE,
             run_state=RunState.RUNNING if on else RunState.IDLE,
         )
 
-    def laser_is_on(self) -> bool:
-        state = self.brick.get_output_state(self._diode)
+    def laser_is_on(self, *, mount: int = 0) -> bool:
+        state = self.brick.get_output_state(self._diodes[mount])
         return bool(state.mode & OutputMode.MOTORON) and state.power != 0
 
     def close(self) -> None:
@@ -108,6 +123,7 @@ def open_laser(section: Laser, *, clock: Clock, usb_backend=None) -> NxtLaser:
     return NxtLaser(
         brick,
         section.device,
+        mounts=len(section.mount_theta_deg),
         tilt_limit_deg=section.tilt_limit_deg,
         tilt_speed_deg_s=section.sweep_speed_deg_s,
         clock=clock,

@@ -49,7 +49,10 @@ __all__ = ["ArmStatus", "UrArm"]
 log = logging.getLogger(__name__)
 
 _POWER_UP_S = 60.0  # a controller boots its joints in ~20–40 s
-_START_GRACE_S = 1.0  # a sent script shows as a running program within this
+# A sent script shows as a running program within this much time and this many state
+# packets (both: in virtual time the clock may race ahead of the controller's cycles).
+_START_GRACE_S = 1.0
+_START_GRACE_PACKETS = 50
 _MOVING_SAFETY = (SafetyMode.NORMAL, SafetyMode.REDUCED)
 
 
@@ -174,6 +177,7 @@ class UrArm:
             timeout_s = 2.0 * float(self._joint_axis.move_time_s(delta)) + 2.0
         deadline = self._clock.now() + timeout_s
         seen_running = False
+        packets = 1
         tolerance = np.radians(self.device.position_tolerance_deg)
         while True:
             self._check_safety(state, f"moving to {target_pose}")
@@ -183,7 +187,11 @@ class UrArm:
                 self._target = None
                 return self._pose_of(state)
             if not state.program_running and (
-                seen_running or self._clock.now() - self._sent_at > _START_GRACE_S
+                seen_running
+                or (
+                    self._clock.now() - self._sent_at > _START_GRACE_S
+                    and packets > _START_GRACE_PACKETS
+                )
             ):
                 raise MotionStalled(
                     self.name,
@@ -199,6 +207,7 @@ class UrArm:
                 )
             self._clock.sleep(self._poll_s)
             state = self._read_state("move_to")
+            packets += 1
 
     def stop(self) -> None:
         """Decelerate every joint and end the program; the next wait returns where it stopped."""

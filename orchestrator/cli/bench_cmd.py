@@ -60,6 +60,7 @@ AREAS: dict[str, tuple[str, Callable]] = {
     "calibration": ("orchestrator.calibration_bench", _plain),
     "render": ("render.bench", _plain),
     "render-loop": ("orchestrator.render_loop", _plain),
+    "silhouettes": ("orchestrator.silhouettes", _plain),
     "environment": ("render.env_bench", _plain),
 }
 

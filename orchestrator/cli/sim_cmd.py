@@ -9,6 +9,7 @@ from enum import Enum
 from pathlib import Path
 from typing import Annotated, Literal
 
+import numpy as np
 import typer
 from rich.markup import escape
 from typer.core import TyperGroup
@@ -145,3 +146,74 @@ def render(
     written = write_preview(scene, out, cameras=cameras, lamps=lamps)
     for path in written:
         console.print(escape(f"wrote {path}"))
+
+
+def _angles(text: str, option: str, count: int | None = None) -> tuple[float, ...]:
+    """``"45,20"`` → (45.0, 20.0); ``ConfigError`` naming the option otherwise."""
+    try:
+        values = tuple(float(part) for part in text.split(","))
+    except ValueError:
+        values = ()
+    if not values or (count is not None and len(values) != count):
+        want = f"{count} numbers" if count else "numbers"
+        raise ConfigError(f"{option} {text!r}: expected {want} separated by commas, e.g. 45,20")
+    return values
+
+
+@app.command()
+def coverage(
+    scene: Annotated[Path, typer.Argument(help="scene TOML")],
+    mounts: Annotated[
+        list[str] | None,
+        typer.Option(
+            help="laser mount angles θ, e.g. 45,20 (repeat for several rigs; "
+            "default: the scene's rig)"
+        ),
+    ] = None,
+    view: Annotated[str, typer.Option(help="view direction θ,φ in degrees")] = "0,0",
+    goal: Annotated[float, typer.Option(min=0.01, max=1.0, help="coverage to reach")] = 0.99,
+    size: Annotated[int, typer.Option(min=8, max=1024, help="texels per side")] = 128,
+    even: Annotated[str, typer.Option(help="location counts evenly in azimuth (one mount)")] = (
+        "1,5,13,26"
+    ),
+    start: Annotated[int, typer.Option(min=1, help="even locations the choice completes")] = 5,
+) -> None:
+    """Which texels MDF laser scans reach, against laser locations and mounts, beside
+    the capture time; prints a markdown table and, for several mounts, the chosen
+    locations for a plan's `laser_locations`.
+
+    Ray casts the scene's sample (no rendering): a texel counts when the camera
+    sees it and a sheet the rig can produce reaches it without grazing the view.
+    """
+    from sim.coverage import coverage_rows
+    from sim.model import SceneModel
+    from sim.scene import load_scene
+
+    loaded = load_scene(scene)
+    mount_sets = [_angles(m, "--mounts") for m in mounts or []] or [
+        loaded.rig.laser.mount_theta_deg
+    ]
+    counts = tuple(int(c) for c in _angles(even, "--even"))
+    if any(c < 1 for c in counts):
+        raise ConfigError(f"--even {even!r}: counts must be ≥ 1")
+    rows = coverage_rows(
+        SceneModel(loaded), loaded.rig, _angles(view, "--view", 2), mounts=mount_sets,
+        even=counts, start=start, goal=goal, n=size,
+    )  # fmt: skip
+    console.print("| mounts θ (°) | locations | chosen | coverage | capture (s) |", soft_wrap=True)
+    console.print("|---|---|---|---|---|")
+    for row in rows:
+        mounts_text = ", ".join(f"{m:g}" for m in row["mounts"])
+        console.print(
+            f"| {mounts_text} | {len(row['locations'])} | {row['choice']} | "
+            f"{row['coverage']:.3f} | {row['capture_s']:.0f} |",
+            soft_wrap=True,
+        )
+    for row in rows:
+        if "greedy" in row["choice"]:
+            where = ", ".join(f"[{t:g}, {p:g}]" for t, p in np.round(row["locations"], 2))
+            heading = f"# mounts {list(row['mounts'])}, {row['choice']}:"
+            console.print(
+                escape(f"{heading}\nlaser_locations = [{where}]"),
+                soft_wrap=True,
+            )

@@ -125,8 +125,8 @@ def register(app: typer.Typer) -> None:
             str,
             typer.Option(
                 help="visibility (a new pass over every visibility map per environment or turn), "
-                "pca (the PCA of 30 turns: turning is fast) or pem (median-cut lights with "
-                "shadow maps: any material)"
+                "pca (the PCA of 30 turns: turning is fast) or pem (median-cut regions as "
+                "extended lights with soft shadows: any material)"
             ),
         ] = "visibility",
         vis_res: Annotated[
@@ -140,6 +140,17 @@ def register(app: typer.Typer) -> None:
         median_cut: Annotated[
             int, typer.Option(min=1, max=1024, help="lights of --env-method pem (a power of 2)")
         ] = 16,
+        mdf: Annotated[
+            bool | None,
+            typer.Option(
+                "--mdf/--no-mdf",
+                help="mesostructure silhouettes (depth peeling) and shadows (the ambient term "
+                "where shadowed) from the material's MDF (default: when the material holds one)",
+            ),
+        ] = None,
+        peel: Annotated[
+            int, typer.Option(min=1, max=8, help="depth-peeling passes with the MDF")
+        ] = 2,
     ) -> None:
         """Render a material on a mesh under point and directional lights or an environment."""
         if env_method not in ("visibility", "pca", "pem"):
@@ -150,6 +161,12 @@ def register(app: typer.Typer) -> None:
             raise typer.BadParameter(f"{median_cut} is not a power of 2", param_hint="--median-cut")
         if vis_res % 2:
             raise typer.BadParameter(f"{vis_res} is odd; give an even n", param_hint="--vis-res")
+        if mdf and env is not None and env_method != "pem":
+            raise typer.BadParameter(
+                f"--env-method {env_method} draws no MDF silhouettes; use --env-method pem "
+                "or --no-mdf",
+                param_hint="--mdf",
+            )
         environment = None if env is None else parse_environment(env, env_rotate)
         lighting = environment, env_method, vis_res, median_cut
         # Under an environment, lights are only those given (added to its light).
@@ -163,7 +180,7 @@ def register(app: typer.Typer) -> None:
             require_display()  # before the material and the mesh are read
         _run(
             material, mesh, lights, camera_spec, fov_deg, image_size, tile_mm, exposure,
-            out, turntable, window, lighting,
+            out, turntable, window, lighting, (mdf, peel),
         )  # fmt: skip
 
 
@@ -180,9 +197,9 @@ def _run(
     turntable: int | None,
     window: bool,
     lighting: tuple,
+    silhouettes: tuple[bool | None, int],
 ) -> None:
-    from render import EnvironmentRenderer, Renderer, RenderError
-    from render.median_cut import render_median_cut
+    from render import EnvironmentRenderer, PemRenderer, Renderer, RenderError
     from render.meshes import MeshError, mesh_by_name
     from render.output import to_srgb8, write_exr, write_png
     from rig.material import MaterialError, read_material
@@ -213,7 +230,17 @@ def _run(
             stack.enter_context(lit)
         renderer = None
         if lights or not through_maps:
-            renderer = stack.enter_context(Renderer(material, mesh, tile_mm=tile_mm))
+            # Lamps added to the environment maps' image draw no MDF: the outlines must agree.
+            mdf, peel = (False, 1) if through_maps else silhouettes
+            kind = Renderer if through_maps or environment is None else PemRenderer
+            try:
+                # Under an environment its own light fills the shadows: no ambient term on top.
+                fill = {} if environment is None else {"ambient": 0.0}
+                made = kind(material, mesh, tile_mm=tile_mm, mdf=mdf, peel=peel, **fill)
+            except RenderError as err:  # --mdf on a material without one
+                err_console.print(f"[red]error:[/red] {err}")
+                raise typer.Exit(EXIT_INVALID) from err
+            renderer = stack.enter_context(made)
 
         def draw(turn_deg: float, tilt_deg: float, light_turn_deg: float) -> np.ndarray:
             """The image with the camera turned and raised, the lights turned (degrees)."""
@@ -229,7 +256,7 @@ def _run(
             # Light adds up: the environment's image plus the lights' image.
             turned = environment.with_view(rotation_deg=environment.rotation_deg + light_turn_deg)
             if not through_maps:
-                return render_median_cut(renderer, camera, turned, count=median_cut, lights=placed)
+                return renderer.render_environment(camera, turned, count=median_cut, lights=placed)
             image = lit.render(camera, turned)
             return image + renderer.render(camera, placed) if placed else image
 

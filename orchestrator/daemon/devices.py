@@ -218,14 +218,14 @@ class RigDevices:
         self.lamps.switch(frozenset({lamp_id}) if on else frozenset())
 
     def laser(self, mount: int, on: bool) -> None:
-        """Switch the laser diode of mount ``mount`` (one unit: mount 0)."""
+        """Light the laser diode of mount ``mount`` alone, or switch the diodes off."""
         mounts = len(self.config.laser.mount_theta_deg)
         if not 0 <= mount < mounts:
             raise DeviceError(
                 "laser brick", f"laser {'on' if on else 'off'}",
                 f"mount {mount} does not exist; laser.mount_theta_deg has {mounts}",
             )  # fmt: skip
-        self._laser_unit().set_laser(on)
+        self._laser_unit().set_laser(on, mount=mount)
 
     def capture(
         self, cameras: Sequence[str], exposures_s: Sequence[float]
@@ -246,15 +246,20 @@ class RigDevices:
     ) -> tuple[dict[str, list[Captured]], list[float]]:
         """Sweep the sheet from ``tilt_deg[0]`` to ``[1]`` recording ``frames`` frames.
 
-        Frames are triggered at the laser frame rate while the sheet tilts; the
-        sheet returns to the start afterwards. Returns the frames per camera and
-        the tilt (deg) read back at each frame.
+        The frames are spread evenly over the sweep (the sheet tilts at
+        ``laser.sweep_speed_deg_s``), but never faster than the laser frame
+        rate: a step finer than speed / rate takes frames at the rate, the
+        last ones after the sheet has stopped at the end. The sheet returns to
+        the start afterwards. Returns the frames per camera and the tilt (deg)
+        read back at each frame.
         """
         tilt = self._laser_unit().tilt
         start, end = tilt_deg
         if self._tilt_deg != start:
             self._tilt_deg = self._tilt_to(start)
-        period = 1.0 / self.config.laser.frame_rate_hz
+        laser = self.config.laser
+        sweep_s = abs(end - start) / laser.sweep_speed_deg_s
+        period = max(1.0 / laser.frame_rate_hz, sweep_s / max(frames - 1, 1))
         captured: dict[str, list[Captured]] = {c: [] for c in cameras}
         tilts = []
         tilt.move_to(end)

@@ -12,9 +12,10 @@ maximum with its frame index, a running minimum (the background: the
 contrast max - min is what is thresholded, so bright albedo is not mistaken
 for laser light) and, per pixel, the ``2r+1`` samples around its maximum,
 copied once ``r`` frames have followed it. Per frame that is a copy into the
-buffer plus its share of one max and one min reduction over the block; the
-frame of the maximum is searched only where the block raised it. Memory is
-``O((4r+1+block)·H·W)`` whatever the sequence length.
+buffer plus its share of one compiled pass over the block
+(:mod:`processing.mdf._spacetime_kernel`: running max, min and the frame that
+raised the maximum, per tile of pixels). Memory is ``O((4r+1+block)·H·W)``
+whatever the sequence length.
 """
 
 from __future__ import annotations
@@ -26,6 +27,7 @@ import numpy as np
 
 from processing.mdf._errors import MdfError
 from processing.mdf._reason import Reason
+from processing.mdf._spacetime_kernel import fold_block
 from processing.mdf.peaks import PeakMethod, peak_offset, peak_radius
 
 __all__ = ["PixelPeaks", "SpaceTimeTracker", "space_time_peaks"]
@@ -104,8 +106,6 @@ class SpaceTimeTracker:
         self._low = np.full(size, _highest(dtype), dtype)
         self._index = np.zeros(size, np.int32)
         self._snapped = np.zeros(size, bool)
-        # Pixels whose maximum is too recent for its window to be complete.
-        self._waiting = np.zeros(0, np.intp)
 
     def update(self, frame) -> None:
         """Add the next frame, (H, W) or (H, W, C), any numeric dtype.
@@ -129,32 +129,10 @@ class SpaceTimeTracker:
         n_new = self._count - first
         if n_new == 0:
             return
-        new = self._buffer[2 * r : 2 * r + n_new]
-        np.minimum(self._low, new.min(axis=0), out=self._low)
-        block_max = new.max(axis=0)
-        raised_mask = block_max > self._best
-        np.maximum(self._best, block_max, out=self._best)
-        # A maximum below min_contrast above the dtype's floor can never be lit:
-        # its frame and window are not needed (most raises of a dark background).
-        raised_mask &= block_max >= self._can_matter
-        raised = np.flatnonzero(raised_mask)
-        if raised.size:
-            # First frame of the block reaching its maximum (ties keep the earliest).
-            at = np.argmax(np.take(new, raised, axis=1), axis=0)
-            self._index[raised] = first + at
-            self._snapped[raised] = False
-        # Windows that are complete now: buffer row of frame k is k - first + 2r.
-        candidates = np.concatenate([self._waiting[~raised_mask[self._waiting]], raised])
-        last = self._count - 1
-        peak = self._index[candidates]
-        ready = peak + r <= last
-        sel = candidates[ready]
-        if sel.size:
-            rows = (peak[ready] - first + 2 * r)[None] + np.arange(-r, r + 1)[:, None]
-            flat = np.maximum(rows, 0) * self._buffer.shape[1] + sel
-            self._window[:, sel] = np.take(self._buffer, flat)
-            self._snapped[sel] = True
-        self._waiting = candidates[~ready]
+        fold_block(
+            self._buffer, n_new, first, r, self._can_matter,
+            self._best, self._low, self._index, self._snapped, self._window,
+        )  # fmt: skip
         # Keep the last 2r frames in front of the next block.
         if 2 * r:
             self._buffer[: 2 * r] = self._buffer[n_new : n_new + 2 * r].copy()

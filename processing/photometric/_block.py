@@ -11,20 +11,33 @@ from __future__ import annotations
 import numpy as np
 
 from . import _robust, _system
+from ._kernels import weighted_sums
 from ._result import CONDITION_CAP, Reason
 
 
 def solve_block(
-    obs: np.ndarray, energy: np.ndarray, lights: np.ndarray, shared_condition, options
+    obs: np.ndarray,
+    energy: np.ndarray,
+    dark: np.ndarray,
+    clipped: np.ndarray | None,
+    lights: np.ndarray,
+    shared_condition,
+    options,
 ) -> dict:
     """Solve pixels of one chunk.
 
     Parameters
     ----------
     obs : (L, n) or (L, n, C) float64
-        Normalised observations.
+        Normalised observations (divided by the lamps' colour balance).
     energy : (n,) or (n, C) float64
         Σ_l I² per pixel (and channel).
+    dark : (n,) bool
+        Whether the pixel's brightest observation as stored (mean over
+        channels of each channel's maximum) is at or below the dark level.
+    clipped : (L, n) bool or None
+        Observations at or above their clipping level in any channel (None:
+        none is).
     lights : (L, 3) or (L, n, 3) float64
         Light vectors (shared for distant lamps, per pixel for near ones).
     shared_condition : float or None
@@ -38,17 +51,8 @@ def solve_block(
     n_lights, n = obs.shape[:2]
     colour = obs.ndim == 3
     grey = obs.mean(axis=2) if colour else obs
-    per_channel_max = obs.max(axis=0)
-    brightest = per_channel_max.mean(axis=1) if colour else per_channel_max
-    saturated = None
-    if np.isfinite(options.saturation):
-        hit = per_channel_max >= options.saturation
-        if np.any(hit):
-            saturated = (
-                (obs >= options.saturation).any(axis=2) if colour else obs >= options.saturation
-            )
-    n_unsaturated = n_lights - (saturated.sum(axis=0) if saturated is not None else 0)
-    usable = ~saturated if saturated is not None else np.ones(grey.shape, bool)
+    n_unsaturated = n_lights - (clipped.sum(axis=0) if clipped is not None else 0)
+    usable = ~clipped if clipped is not None else np.ones(grey.shape, bool)
 
     if lights.ndim == 2:
         condition_full = np.full(n, shared_condition)
@@ -58,7 +62,7 @@ def solve_block(
         a_full = _system.normal_matrix(lights, np.ones((n_lights, n)))
         condition_full = _system.condition(a_full)
 
-    weights = _weights(grey, usable, lights, saturated is None, options)
+    weights = _weights(grey, usable, lights, clipped is None, options)
     if weights is None:  # every observation, unit weight
         condition_used = condition_full
         a = np.broadcast_to(lights.T @ lights, (n, 3, 3)) if lights.ndim == 2 else a_full
@@ -66,6 +70,9 @@ def solve_block(
         e = energy
         weight_sum = np.full(n, float(n_lights))
         used = np.full(n, n_lights)
+    elif lights.ndim == 2:  # one light matrix: all the sums in one compiled pass
+        a, g, e, weight_sum, used = _shared_weighted_sums(obs, weights, lights)
+        condition_used = _system.condition(a)
     else:
         a = _system.normal_matrix(lights, weights)
         condition_used = _system.condition(a)
@@ -99,7 +106,7 @@ def solve_block(
     reason = np.select(
         [
             condition_full > options.max_condition,
-            brightest <= options.dark_level,
+            dark,
             n_unsaturated < 3,
             used < 3,
             condition_used > options.max_condition,
@@ -151,6 +158,25 @@ def _weights(grey, usable, lights, all_usable: bool, options) -> np.ndarray | No
         iterations=options.irls_iterations,
         max_condition=options.max_condition,
     )
+
+
+def _shared_weighted_sums(obs, weights, lights):
+    """``A``, ``g``, ``e``, ``Σ w`` and the count used, shaped as the numpy route gives them."""
+    n = weights.shape[1]
+    colour = obs.ndim == 3
+    planes = np.ascontiguousarray(np.moveaxis(obs, 2, 0)) if colour else obs[None]
+    weights = np.ascontiguousarray(weights, dtype=np.float64)
+    upper = np.empty((6, n))
+    moment = np.empty((planes.shape[0], 3, n))
+    energy = np.empty((planes.shape[0], n))
+    weight_sum = np.empty(n)
+    used = np.empty(n)
+    weighted_sums(weights, np.ascontiguousarray(planes), lights, upper, moment, energy,
+                  weight_sum, used)  # fmt: skip
+    a = upper.T[:, _system.FULL_FROM_PAIRS].reshape(n, 3, 3)
+    g = moment.transpose(2, 1, 0) if colour else moment[0].T
+    e = energy.T if colour else energy[0]
+    return a, g, e, weight_sum, used.astype(np.int64)
 
 
 def _coplanar(n: int, colour: bool, condition_full: np.ndarray) -> dict:

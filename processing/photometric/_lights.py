@@ -36,15 +36,36 @@ def _intensities(value, n_lights: int) -> np.ndarray:
         arr = np.ones(n_lights)
         arr.setflags(write=False)
         return arr
-    arr = _finite_array(value, "intensities", f"({n_lights},)", 1, None)
-    if arr.shape != (n_lights,):
+    try:
+        arr = np.array(value, dtype=np.float64)
+    except (TypeError, ValueError) as err:
+        raise PhotometricError(f"intensities: expected numbers, got {value!r}") from err
+    if arr.shape not in ((n_lights,), (n_lights, 3)):
         raise PhotometricError(
-            f"intensities: expected one per light, shape ({n_lights},), got {arr.shape}"
+            f"intensities: expected one per light, ({n_lights},), or one per light and "
+            f"colour channel, ({n_lights}, 3); got shape {arr.shape}"
         )
-    if np.any(arr <= 0):
-        i = int(np.argmax(arr <= 0))
-        raise PhotometricError(f"intensities[{i}] = {arr[i]:g}; lamp intensities must be > 0")
+    bad = ~np.isfinite(arr) | (arr <= 0)
+    if np.any(bad):
+        i = tuple(int(k) for k in np.argwhere(bad)[0])
+        index = i[0] if arr.ndim == 1 else i
+        raise PhotometricError(
+            f"intensities[{index}] = {arr[i]:g}; lamp intensities must be finite and > 0"
+        )
+    arr.setflags(write=False)
     return arr
+
+
+def _brightness(intensities: np.ndarray) -> np.ndarray:
+    """(L,) lamp brightness: the intensity, or its mean over the colour channels."""
+    return intensities if intensities.ndim == 1 else intensities.mean(axis=1)
+
+
+def _colour_balance(intensities: np.ndarray) -> np.ndarray | None:
+    """(L, 3) each channel's intensity over the lamp's brightness; None for grey intensities."""
+    if intensities.ndim == 1:
+        return None
+    return intensities / intensities.mean(axis=1, keepdims=True)
 
 
 def _check_count(n_lights: int, name: str) -> None:
@@ -62,8 +83,12 @@ class DistantLights:
     ----------
     directions : (L, 3) array_like
         Unit vectors in the sample frame pointing towards each lamp, z ≥ 0.
-    intensities : (L,) array_like, optional
-        Irradiance each lamp delivers to a surface facing it (default 1).
+    intensities : (L,) or (L, 3) array_like, optional
+        Irradiance each lamp delivers to a surface facing it (default 1),
+        per colour channel when (L, 3) (a real lamp is rarely white). The
+        lamp's brightness (the mean over channels) scales its light vector;
+        its colour balance (channel ÷ brightness) divides the observations
+        of colour images, so albedo is per unit intensity in every channel.
     """
 
     directions: np.ndarray
@@ -97,8 +122,12 @@ class DistantLights:
         return len(self.directions)
 
     def light_matrix(self) -> np.ndarray:
-        """(L, 3) float64: direction times intensity, one row per lamp."""
-        return self.directions * self.intensities[:, None]
+        """(L, 3) float64: direction times brightness, one row per lamp."""
+        return self.directions * _brightness(self.intensities)[:, None]
+
+    def colour_balance(self) -> np.ndarray | None:
+        """(L, 3) per-channel intensity ÷ brightness, or None for (L,) intensities."""
+        return _colour_balance(self.intensities)
 
 
 @dataclass(frozen=True)
@@ -109,9 +138,10 @@ class NearLights:
     ----------
     positions_mm : (L, 3) array_like
         Lamp positions in the sample frame, in mm, above the sample (z > 0).
-    intensities : (L,) array_like, optional
+    intensities : (L,) or (L, 3) array_like, optional
         Irradiance each lamp delivers at the sample-frame origin to a surface
-        facing it (default 1). A pixel at distance r from lamp l receives
+        facing it (default 1), per colour channel when (L, 3) (as for
+        :class:`DistantLights`). A pixel at distance r from lamp l receives
         ``intensities[l] · (r0_l / r)²`` with ``r0_l = |positions_mm[l]|``,
         so the albedo means the same as with :class:`DistantLights`.
     """
@@ -137,7 +167,7 @@ class NearLights:
         return len(self.positions_mm)
 
     def light_vectors(self, points_mm: np.ndarray) -> np.ndarray:
-        """Per-point light vectors: unit direction × intensity × falloff.
+        """Per-point light vectors: unit direction × brightness × falloff.
 
         Parameters
         ----------
@@ -151,8 +181,12 @@ class NearLights:
         to_lamp = self.positions_mm[:, None, :] - points_mm[None, :, :]
         r2 = np.einsum("lni,lni->ln", to_lamp, to_lamp)
         r0_sq = np.einsum("li,li->l", self.positions_mm, self.positions_mm)
-        scale = (self.intensities * r0_sq)[:, None] / (r2 * np.sqrt(r2))
+        scale = (_brightness(self.intensities) * r0_sq)[:, None] / (r2 * np.sqrt(r2))
         return to_lamp * scale[..., None]
+
+    def colour_balance(self) -> np.ndarray | None:
+        """(L, 3) per-channel intensity ÷ brightness, or None for (L,) intensities."""
+        return _colour_balance(self.intensities)
 
 
 @dataclass(frozen=True)

@@ -22,6 +22,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import _system
+from ._irls_kernel import irls_weights_kernel
 
 #: Tukey biweight tuning constant (95 % efficiency under Gaussian noise).
 TUKEY_C = 4.685
@@ -71,8 +72,25 @@ def irls_weights(
     or drop out (a cast shadow or a specular tail above the floor). The
     per-observation arrays of the iterations are float32 (half the memory
     traffic; weights need no more digits); the 3×3 systems are solved in
-    float64, and so is the final fit with these weights.
+    float64, and so is the final fit with these weights. Distant lamps (one
+    light matrix) run compiled (:mod:`._irls_kernel`); near lamps, with a
+    light vector per pixel, run the same steps in numpy.
     """
+    if lights.ndim == 2:
+        n_lights = grey.shape[0]
+        weights = np.empty(grey.shape, np.float32)
+        settings = np.array(
+            [shadow_fraction, iterations, max_condition, TUKEY_C, _MAD_TO_SIGMA, _SCALE_FLOOR]
+        )
+        irls_weights_kernel(
+            np.ascontiguousarray(grey, dtype=np.float32),
+            np.ascontiguousarray(usable),
+            lights.astype(np.float32),
+            n_lights - 1 - highlight_count(n_lights, highlight_fraction),
+            settings,
+            weights,
+        )
+        return weights.astype(np.float64)
     ref = reference_level(grey, highlight_fraction)
     support = usable & (grey >= shadow_fraction * ref)
     weights = (support & (grey <= ref)).astype(np.float32)

@@ -36,7 +36,6 @@ _CHUNK_BYTES = 6 << 20
 class _Options:
     method: str
     dark_level: float
-    saturation: float
     max_condition: float
     shadow_fraction: float
     highlight_fraction: float
@@ -72,7 +71,9 @@ def solve(
         frame, mm (a grid on z = 0, or explicit positions, e.g. lifted by an
         estimated height). Not allowed with :class:`DistantLights`.
     mask : (H, W) bool, optional
-        Pixels to solve; the rest get ``Reason.MASKED``.
+        Pixels to solve; the rest get ``Reason.MASKED``. Integer masks of
+        0 and 1, or 0 and the dtype maximum (0/255 in uint8), are accepted.
+        The chosen pixels are packed, so a sparse mask costs its pixels.
     method : {"irls", "threshold", "lsq"}
         ``"lsq"`` uses every unsaturated observation; ``"threshold"`` and
         ``"irls"`` (the default: about half the error of ``"threshold"`` with
@@ -82,9 +83,12 @@ def solve(
     dark_level : float
         Normalised level at or below which a pixel's brightest observation
         counts as no signal (``Reason.DARK``).
-    saturation_level : float, optional
+    saturation_level : float, (L,) or (L, 3) array_like, optional
         Normalised level at or above which an observation is clipped and not
-        used. Default: 1.0 (full scale) for integer images, none for floats.
+        used: one for all, one per light, or one per light and colour channel
+        (a clipped channel drops the observation). Compared with the stored
+        values, before any division by lamp colour. Default: 1.0 (full
+        scale) for integer images, none for floats.
     max_condition : float
         Largest condition number accepted for a pixel's light system (full
         set → ``COPLANAR_LIGHTS``, set used → ``ILL_CONDITIONED``).
@@ -122,11 +126,10 @@ def solve(
         raise PhotometricError(
             f"lights: expected DistantLights or NearLights, got {type(lights).__name__}"
         )
-    stack = check_stack(images, lights.n_lights, saturation_level)
+    stack = check_stack(images, lights.n_lights, saturation_level, lights.colour_balance())
     options = _check_options(
         method,
         dark_level,
-        stack.saturation,
         max_condition,
         shadow_fraction,
         highlight_fraction,
@@ -145,19 +148,23 @@ def solve(
         shared_condition = min(light_set_condition(light_matrix), CONDITION_CAP)
         if options.method == "lsq" and shared_condition <= options.max_condition:
             route = PinvRoute.prepare(light_matrix, shared_condition, stack, options.dark_level)
+            flat_out = _route_view(out, stack.channels)
     for index in _chunks(n_pixels, chunk, selected):
         if route is not None:
-            block, hard = route.solve(stack.values[:, index])
-            _store(out, index, block)
+            pixel = _pixel_ids(index)
+            if isinstance(index, slice) and stack.values.flags.c_contiguous:
+                hard = route.solve(stack.values, index.start, pixel.size, pixel, flat_out)
+            else:  # the masked pixels, or a chunk of a strided stack (a crop), packed
+                packed = np.ascontiguousarray(stack.values[:, index])
+                hard = route.solve(packed, 0, pixel.size, pixel, flat_out)
             if not hard.any():
                 continue
-            index = _pixel_ids(index)[hard]
-        obs, energy = _read_chunk(stack, index)
+            index = pixel[hard]
+        chunk_in = _read_chunk(stack, index, options.dark_level)
         if points is None:
-            block = solve_block(obs, energy, light_matrix, shared_condition, options)
+            block = solve_block(*chunk_in, light_matrix, shared_condition, options)
         else:
-            light_vectors = lights.light_vectors(points[index])
-            block = solve_block(obs, energy, light_vectors, None, options)
+            block = solve_block(*chunk_in, lights.light_vectors(points[index]), None, options)
         _store(out, index, block)
     h, w = stack.shape
     albedo_shape = (h, w) if stack.channels == 1 else (h, w, 3)
@@ -175,7 +182,6 @@ def solve(
 def _check_options(
     method,
     dark_level,
-    saturation,
     max_condition,
     shadow_fraction,
     highlight_fraction,
@@ -200,7 +206,6 @@ def _check_options(
     return _Options(
         method,
         float(dark_level),
-        saturation,
         float(max_condition),
         float(shadow_fraction),
         float(highlight_fraction),
@@ -256,6 +261,13 @@ def _pixel_ids(index) -> np.ndarray:
     return np.arange(index.start, index.stop) if isinstance(index, slice) else index
 
 
+def _route_view(out: dict[str, np.ndarray], channels: int) -> tuple:
+    """The result arrays in the order and shapes the pseudo-inverse route writes."""
+    albedo = out["albedo"].reshape(-1, channels)
+    names = ("reason", "condition", "residual", "lights_used")
+    return (out["normals"], albedo, *(out[name] for name in names))
+
+
 def _store(out: dict[str, np.ndarray], index, block: dict) -> None:
     for name, values in block.items():
         out[name][index] = values
@@ -274,11 +286,29 @@ def _allocate(n_pixels: int, channels: int) -> dict[str, np.ndarray]:
     }
 
 
-def _read_chunk(stack: Stack, index) -> tuple[np.ndarray, np.ndarray]:
-    """Normalised float64 observations of some pixels and their Σ I² per pixel."""
-    obs = stack.values[:, index].astype(np.float64)
-    if stack.scale != 1.0:
-        obs *= stack.scale
+def _read_chunk(stack: Stack, index, dark_level: float):
+    """One chunk's observations as the per-pixel route takes them.
+
+    Returns ``(obs, energy, dark, clipped)``: normalised float64 observations
+    (L, n[, C]) divided by the lamps' colour balance, Σ I² per pixel (and
+    channel), whether the brightest stored observation (mean over channels of
+    each channel's maximum) is at or below ``dark_level``, and the
+    observations at or above their clipping level in any channel ((L, n)
+    bool, or None when none is). Levels are compared with the stored values,
+    as the pseudo-inverse route does.
+    """
+    raw = stack.values[:, index]
+    colour = raw.ndim == 3
+    peak = raw.max(axis=0)
+    brightest = peak.mean(axis=1) if colour else peak
+    dark = brightest <= dark_level / stack.scale
+    clipped = None
+    if stack.clips:
+        level = stack.clip_raw[:, None, :] if colour else stack.clip_raw
+        hit = raw >= level
+        if hit.any():
+            clipped = hit.any(axis=2) if colour else hit
+    obs = raw * (stack.gain[:, None, :] if colour else stack.gain)
     energy = np.einsum("ln...,ln...->n...", obs, obs)
     # A NaN or ±inf anywhere makes Σ I² non-finite: one check, no extra pass.
     if not np.all(np.isfinite(energy)):
@@ -294,4 +324,4 @@ def _read_chunk(stack: Stack, index) -> tuple[np.ndarray, np.ndarray]:
             f"images[{light}] has a non-finite value at pixel (row {row}, column {col}); "
             "float images must be finite (exclude bad pixels with the mask instead)"
         )
-    return obs, energy
+    return obs, energy, dark, clipped

@@ -18,7 +18,7 @@ from ._result import CONDITION_CAP
 # Upper-triangle index pairs of a symmetric 3×3 matrix, and where each of the
 # nine entries finds its value among them.
 _PAIRS = ((0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2))
-_FULL_FROM_PAIRS = np.array([0, 1, 2, 1, 3, 4, 2, 4, 5])
+FULL_FROM_PAIRS = np.array([0, 1, 2, 1, 3, 4, 2, 4, 5])
 
 
 def normal_matrix(lights: np.ndarray, weights: np.ndarray) -> np.ndarray:
@@ -32,7 +32,7 @@ def normal_matrix(lights: np.ndarray, weights: np.ndarray) -> np.ndarray:
         upper = np.stack(
             [np.einsum("ln,ln->n", weighted[..., i], lights[..., j]) for i, j in _PAIRS], axis=1
         )
-    return upper[:, _FULL_FROM_PAIRS].reshape(-1, 3, 3)
+    return upper[:, FULL_FROM_PAIRS].reshape(-1, 3, 3)
 
 
 def moment(lights: np.ndarray, weights: np.ndarray | None, obs: np.ndarray) -> np.ndarray:

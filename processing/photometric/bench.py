@@ -80,6 +80,11 @@ def run_bench(
     part_mpx = part.shape[1] * part.shape[2] / 1e6
     near = NearLights(lights.directions * 500.0)
     grid = PixelGrid(part.shape[1:], 0.05)
+    # The first call of a compiled route compiles it, or loads it from numba's cache:
+    # a cost per process and dtype, not per solve (docs/photometric.md), so it is paid here.
+    for method in METHODS:
+        solve(part[:, :4, :4], lights, method=method)
+    solve(part[:, :4, :4], near, pixels=PixelGrid((4, 4), 0.05), method="lsq")
     # Everything interleaved, best of `repeats`: drifting load hits floors and solves alike.
     # The slower solvers run on `part` and are compared with lsq on the same rows.
     timed = _best_interleaved(

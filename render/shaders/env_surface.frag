@@ -1,8 +1,11 @@
-// A per-view PCA BTF under an environment (seed 000 §5.3, eq. (10)–(11)), prepended
+// A compressed BTF under an environment (seed 000 §5.3, eq. (10)–(11)), prepended
 // by the renderer: #version and #defines COEF_WIDTH (texels per row of env_coef),
-// CHANNELS (1 grey, 3 RGB) and PACKED (texture layers per view slot).
+// CHANNELS (1 grey, 3 RGB), PACKED (texture layers per view slot or, for a global
+// SVD, per light) and SVD_COMPONENTS (a global SVD's c; 0 for a per-view PCA).
 //
-// T_j = f · (u_0j m_j + Σ_k u_kj B_kj) per view slot j, the coefficients u (RGB)
+// Per-view PCA: T_j = f · (u_0j m_j + Σ_k u_kj B_kj) per view slot j. Global SVD:
+// T = f · Σ_i g_i Σ_k ω_k E_k(l_i), ω_k = Σ_j w_j W_jk (seed 001 §5), one g_i (RGB)
+// per measured light. The coefficients u or g are
 // blended from the triangle's three vertices; view slots blended per fragment by
 // the rule of rig.geometry (nearest-k Shepard or barycentric), every table entry
 // scanned (a few dozen view slots). The back of a surface gets no light: its
@@ -22,8 +25,8 @@ uniform bool orthographic;
 uniform float uv_scale;
 uniform float exposure;          // f
 uniform sampler2D env_coef;      // RGB: texel ((vertex·n_slots + slot)·(c + 1) + k)
-uniform int n_slots;             // view slots of the material
-uniform int components;          // c
+uniform int n_slots;             // view slots of the material (a global SVD: its lights)
+uniform int components;          // c (a global SVD: 0, one g per light)
 // The point-light renderer's packed BTF (render/_textures.py): a slot's images,
 // basis 0…c − 1 then the mean, CHANNELS values each, four values to a texel;
 // value v of slot j is component v % 4 of layer j·PACKED + v / 4.
@@ -94,6 +97,40 @@ void barycentric_slots(vec3 q, out ivec4 slots, out vec4 w) {
     w = vec4(total > 0.0 ? weights / total : vec3(1.0, 0.0, 0.0), 0.0);
 }
 
+#if SVD_COMPONENTS > 0
+uniform sampler2D btf_weights;   // row slot: W_jk, four k to a texel
+
+// Σ_i g_i Σ_k ω_k E_k(st, l_i) over the measured lights whose g is not zero.
+vec3 shade_svd(ivec4 slots, vec4 w, vec2 st, vec2 sx, vec2 sy) {
+    float omega[SVD_COMPONENTS];
+    for (int k4 = 0; k4 < (SVD_COMPONENTS + 3) / 4; ++k4) {
+        vec4 blend = vec4(0.0);
+        for (int j = 0; j < 4; ++j) blend += w[j] * texelFetch(btf_weights, ivec2(k4, slots[j]), 0);
+        for (int q = 0; q < 4; ++q)
+            if (4 * k4 + q < SVD_COMPONENTS) omega[4 * k4 + q] = blend[q];
+    }
+    vec3 total = vec3(0.0);
+    for (int light = 0; light < n_slots; ++light) {
+        vec3 g = blended(light, 0);
+        if (g == vec3(0.0)) continue;
+        vec3 light_rgb = vec3(0.0);
+        for (int p = 0; p < PACKED; ++p) {
+            vec4 texel = textureGrad(btf_images, vec3(st, light * PACKED + p), sx, sy);
+            for (int q = 0; q < 4; ++q) {
+                int v = 4 * p + q;
+#if CHANNELS == 1
+                if (v < SVD_COMPONENTS) light_rgb += vec3(omega[v] * texel[q]);
+#else
+                if (v < 3 * SVD_COMPONENTS) light_rgb[v % 3] += omega[v / 3] * texel[q];
+#endif
+            }
+        }
+        total += g * light_rgb;
+    }
+    return total;
+}
+#endif
+
 void main() {
     if (!gl_FrontFacing) { frag = vec4(0.0, 0.0, 0.0, 1.0); return; }
     vec3 n = safe_normalize(v_normal, vec3(0.0, 0.0, 1.0));
@@ -114,6 +151,9 @@ void main() {
     vec2 st = v_uv * uv_scale;
     vec2 sx = dFdx(st);
     vec2 sy = dFdy(st);
+#if SVD_COMPONENTS > 0
+    vec3 total = shade_svd(slots, w, st, sx, sy);
+#else
     vec3 total = vec3(0.0);
     for (int j = 0; j < 4; ++j) {
         if (w[j] == 0.0) continue;
@@ -137,5 +177,6 @@ void main() {
         }
         total += w[j] * slot_rgb;
     }
+#endif
     frag = vec4(exposure * total, 1.0);
 }

@@ -1,6 +1,8 @@
 // The measured material under point and directional lights (prepended by the
 // renderer: #version, and #defines BTF_KIND 0 none / 1 pca / 2 svd, PS 0/1,
-// SHADOWS 0/1, N_LIGHTS (this program's number of lights, ≥ 1); with a BTF
+// SHADOWS 0/1, MDF_SHADOWS 0/1, AMBIENT 0/1 (mdf_shadow.glsl), PEM 0/1 (lights
+// may be partial environment maps), N_LIGHTS (this
+// program's number of lights, ≥ 1); with a BTF
 // COMPONENTS (c) and, for the VIEW and LIGHT tables, _METHOD (0 nearest-k,
 // 1 barycentric), _K (neighbours blended) and _CANDIDATES (per lookup cell)).
 //
@@ -26,112 +28,7 @@ uniform float uv_scale;        // 1 / tile_mm: sample repeats per UV unit
 uniform vec4 light_place[N_LIGHTS];   // xyz position (w = 1) or direction to the light (w = 0)
 uniform vec3 light_emission[N_LIGHTS];
 
-struct Blend { ivec4 idx; vec4 w; };
-
-vec3 safe_normalize(vec3 v, vec3 fallback) {
-    float len2 = dot(v, v);
-    return len2 > 1e-24 ? v * inversesqrt(len2) : fallback;
-}
-
-// ---- direction lookups (render/_lookup.py builds the candidate grids) ----
-
-ivec2 hemi_cell(vec3 d, int res) {
-    vec3 a = abs(d);
-    vec2 p = d.xy / (a.x + a.y + d.z);
-    vec2 uv = vec2(p.x + p.y, p.x - p.y);
-    return clamp(ivec2(floor((uv * 0.5 + 0.5) * float(res))), ivec2(0), ivec2(res - 1));
-}
-
-// q in the tangent frame; below the horizon it is laid onto it (θ = 90°).
-vec3 on_hemisphere(vec3 q) {
-    return safe_normalize(vec3(q.xy, max(q.z, 0.0)), vec3(0.0, 0.0, 1.0));
-}
-
-// The k nearest table directions of q (ties to the lower index) with Shepard
-// weights 1/angle², exactly one at a table direction: rig.geometry.nearest_directions.
-// A cell's `count` candidates (layer i: direction xyz, table index w), ascending,
-// are ranked by cosine (the same order as by angle), the best four kept sorted
-// in a vec4 without local arrays, which software rasterisers handle slowly.
-Blend blend_nearest(sampler2DArray cells, int count, int k, vec3 q) {
-    q = on_hemisphere(q);
-    ivec2 cell = hemi_cell(q, textureSize(cells, 0).x);
-    vec4 best = vec4(-2.0);
-    ivec4 at = ivec4(0);  // the best four's places in the cell's list
-    for (int i = 0; i < count; ++i) {
-        float c = dot(q, texelFetch(cells, ivec3(cell, i), 0).xyz);
-        if (c > best.w) {
-            best.w = c;
-            at.w = i;
-            if (best.w > best.z) { best.zw = best.wz; at.zw = at.wz; }
-            if (best.z > best.y) { best.yz = best.zy; at.yz = at.zy; }
-            if (best.y > best.x) { best.xy = best.yx; at.xy = at.yx; }
-        }
-    }
-    Blend b;
-    b.idx = ivec4(0);
-    vec4 inverse_sq = vec4(0.0);
-    float nearest_angle = 0.0;
-    for (int m = 0; m < k; ++m) {
-        vec4 texel = texelFetch(cells, ivec3(cell, at[m]), 0);
-        b.idx[m] = int(texel.w + 0.5);
-        float angle = atan(length(cross(q, texel.xyz)), dot(q, texel.xyz));
-        if (m == 0) nearest_angle = angle;
-        inverse_sq[m] = 1.0 / max(angle * angle, 1e-30);
-    }
-    b.w = nearest_angle <= 1e-6 ? vec4(1.0, 0.0, 0.0, 0.0)
-                                : inverse_sq / dot(inverse_sq, vec4(1.0));
-    return b;
-}
-
-// k = 1: the nearest table direction alone, weight one (no angle needed).
-Blend blend_nearest_one(sampler2DArray cells, int count, vec3 q) {
-    q = on_hemisphere(q);
-    ivec2 cell = hemi_cell(q, textureSize(cells, 0).x);
-    float best = -2.0;
-    float index = 0.0;
-    for (int i = 0; i < count; ++i) {
-        vec4 texel = texelFetch(cells, ivec3(cell, i), 0);
-        float c = dot(q, texel.xyz);
-        if (c > best) {
-            best = c;
-            index = texel.w;
-        }
-    }
-    Blend b;
-    b.idx = ivec4(int(index + 0.5), 0, 0, 0);
-    b.w = vec4(1.0, 0.0, 0.0, 0.0);
-    return b;
-}
-
-// The spherical triangle holding q, barycentric weights in its gnomonic
-// projection: rig.geometry.barycentric_weights. A cell's `count` candidates
-// take three layers each: the rows of the triangle's inverse (w_i = row_i · q),
-// each with its corner's table index in w.
-Blend blend_barycentric(sampler2DArray cells, int count, vec3 q) {
-    q = on_hemisphere(q);
-    ivec2 cell = hemi_cell(q, textureSize(cells, 0).x);
-    float best = -1e30;
-    vec3 weights = vec3(1.0, 0.0, 0.0);
-    vec3 corners = vec3(0.0);
-    for (int i = 0; i < count; ++i) {
-        vec4 r0 = texelFetch(cells, ivec3(cell, 3 * i), 0);
-        vec4 r1 = texelFetch(cells, ivec3(cell, 3 * i + 1), 0);
-        vec4 r2 = texelFetch(cells, ivec3(cell, 3 * i + 2), 0);
-        vec3 w = vec3(dot(r0.xyz, q), dot(r1.xyz, q), dot(r2.xyz, q));
-        float low = min(w.x, min(w.y, w.z));
-        if (low > best) {
-            best = low;
-            weights = w;
-            corners = vec3(r0.w, r1.w, r2.w);
-        }
-    }
-    Blend b;
-    b.idx = ivec4(ivec3(corners + 0.5), 0);
-    weights = max(weights, vec3(0.0));
-    float total = weights.x + weights.y + weights.z;
-    b.w = vec4(total > 0.0 ? weights / total : vec3(1.0, 0.0, 0.0), 0.0);
-    return b;
-}
+// Blend, safe_normalize, tangent_frame and the blend_* lookups: directions.glsl, prepended.
 
 #if BTF_KIND > 0
 uniform sampler2DArray view_cells;
@@ -261,6 +158,57 @@ uniform float specular;            // Blinn–Phong weight
 uniform float shininess;
 #endif
 
+#if PEM == 1
+// Partial environment maps (render/pem.py, render/pem_renderer.py): light l is a
+// median-cut region when it has texels. light_texels[l]: first and count of its
+// texels at the Lambert level, first and count at the level of the specular lobe;
+// entry i of pem_texels is texel 2i (direction) and 2i + 1 (light Σ L Δω) in row order.
+uniform sampler2D pem_texels;
+uniform ivec4 light_texels[N_LIGHTS];
+uniform float light_spread[N_LIGHTS];  // the region's shadow taps' spacing, scene units
+#define SPREAD(l) max(light_spread[l] / shadow_offset[l], 1.0)
+#else
+#define SPREAD(l) 1.0
+#endif
+
+#if PEM == 1 && PS == 1
+// Σ over texels first … first + count − 1 above the surface's horizon (normal `surface`:
+// a sheet is lit from its front only) of their light × (n·l)⁺, or (lobe) × (n·h)^s where
+// n·l > 0; the normals, the view and the texels' directions in the scene frame.
+vec3 texel_sum(int first, int count, vec3 surface, vec3 n, vec3 view, bool lobe) {
+    int width = textureSize(pem_texels, 0).x;
+    vec3 total = vec3(0.0);
+    for (int i = first; i < first + count; ++i) {
+        ivec2 at = ivec2((2 * i) % width, (2 * i) / width);
+        vec3 d = texelFetch(pem_texels, at, 0).xyz;
+        float cos_in = dot(n, d);
+        if (cos_in <= 0.0 || dot(surface, d) <= 0.0) continue;
+        float weight = cos_in;
+        if (lobe) weight = pow(max(dot(n, safe_normalize(d + view, vec3(0.0))), 0.0), shininess);
+        total += weight * texelFetch(pem_texels, at + ivec2(1, 0), 0).rgb;
+    }
+    return total;
+}
+
+// Region l's light on the bumped normal n of a surface of normal `surface` (seed 002
+// eq. (5)): its visibility (the shadow
+// map's, from the region's irradiance over its emission; 1 where its direction is below
+// the horizon, out of the map's reach) × its texels at the Lambert level × the albedo
+// (under a BTF, which holds the diffuse shading, none) + at the lobe's level × specular.
+vec3 region_light(int l, vec3 irradiance, float height, vec3 surface, vec3 n, vec3 view,
+                  vec3 albedo) {
+    vec3 emission = light_emission[l];
+    float visible = height > 0.0 ? dot(irradiance, vec3(1.0)) / max(dot(emission, vec3(1.0)),
+                                                                   1e-30) : 1.0;
+    vec3 light = specular * texel_sum(light_texels[l].z, light_texels[l].w, surface, n, view,
+                                      true);
+#if BTF_KIND == 0
+    light += albedo * texel_sum(light_texels[l].x, light_texels[l].y, surface, n, view, false);
+#endif
+    return visible * light;
+}
+#endif
+
 #if SHADOWS == 1
 uniform sampler2DShadow shadow_maps;       // atlas: light l's depth map is tile l of shadow_tiles
 uniform mat4 light_view_proj[N_LIGHTS];
@@ -269,15 +217,17 @@ uniform int shadow_tiles;
 uniform float shadow_size;                 // texels per tile side
 
 // Fraction of light l reaching p: 5×5 percentage-closer filtering of the
-// light's depth map (each tap itself bilinear), so shadow edges are soft. The
-// point is moved towards the light by what the surface's slope in the map adds
-// over the kernel's 3-texel radius (moving along the light ray does not move it
-// in the map), and off the surface by a texel: no self-shadowing acne.
+// light's depth map (each tap itself bilinear), so shadow edges are soft; the taps
+// are SPREAD(l) texels apart (1, or wider for an extended light). The point is
+// moved towards the light by what the surface's slope in the map adds over the
+// kernel's radius (moving along the light ray does not move it in the map), and
+// off the surface by a texel: no self-shadowing acne.
 float lit_fraction(int l, vec3 p, vec3 n, vec3 to_light) {
     float cos_in = clamp(dot(n, to_light), 0.05, 1.0);
     float tan_in = sqrt(1.0 - cos_in * cos_in) / cos_in;
     float texel = shadow_offset[l];
-    vec3 moved = p + n * texel + to_light * texel * (1.0 + 3.0 * tan_in);
+    float spread = SPREAD(l);
+    vec3 moved = p + n * texel + to_light * texel * (1.0 + 3.0 * spread * tan_in);
     vec4 clip = light_view_proj[l] * vec4(moved, 1.0);
     if (clip.w <= 0.0) return 1.0;
     vec3 s = clip.xyz / clip.w * 0.5 + 0.5;
@@ -286,7 +236,7 @@ float lit_fraction(int l, vec3 p, vec3 n, vec3 to_light) {
     float sum = 0.0;
     for (int dy = -2; dy <= 2; ++dy) {
         for (int dx = -2; dx <= 2; ++dx) {
-            vec2 tap = clamp(s.xy + vec2(dx, dy) / shadow_size, vec2(lo), vec2(1.0 - lo));
+            vec2 tap = clamp(s.xy + spread * vec2(dx, dy) / shadow_size, vec2(lo), vec2(1.0 - lo));
             tap.x = (tap.x + float(l)) / float(shadow_tiles);
             sum += texture(shadow_maps, vec3(tap, s.z));
         }
@@ -301,18 +251,21 @@ void main() {
     // Two-sided: the back of a surface shows the material turned over about its
     // tangent (a rigid turn: the frame (t, −b, −n) stays right-handed).
     if (!gl_FrontFacing) n = -n;
-    float hand = v_tangent.w < 0.0 ? -1.0 : 1.0;
-    vec3 t = v_tangent.xyz - n * dot(n, v_tangent.xyz);
-    vec3 any_side = abs(n.x) < 0.9 ? vec3(1.0, 0.0, 0.0) : vec3(0.0, 1.0, 0.0);
-    t = safe_normalize(t, safe_normalize(cross(any_side, n), vec3(1.0, 0.0, 0.0)));
-    vec3 b = hand * cross(n, t);
-    mat3 to_local = transpose(mat3(t, b, n));
+    mat3 to_local = tangent_frame(n, v_tangent);
 
     vec2 st = v_uv * uv_scale;
     vec3 view_local = to_local * to_eye;
 
     vec3 irradiance[N_LIGHTS];
     vec3 light_local[N_LIGHTS];
+#if MDF_SHADOWS == 1
+    vec3 shadow_point = mesostructure_point(v_position, to_eye, st, view_local);
+#else
+    vec3 shadow_point = v_position;
+#endif
+#if AMBIENT == 1
+    vec3 shadowed = vec3(0.0);  // Σ of the lights' irradiance that their shadows hold back
+#endif
     for (int l = 0; l < N_LIGHTS; ++l) {
         irradiance[l] = vec3(0.0);
         vec3 to_light;
@@ -326,9 +279,15 @@ void main() {
             to_light = safe_normalize(light_place[l].xyz, vec3(0.0, 0.0, 1.0));
         }
         light_local[l] = to_local * to_light;
+#if AMBIENT == 1
+        shadowed += e;  // the lit part is taken back below
+#endif
         if (light_local[l].z <= 0.0) continue;  // below the horizon: no light, never NaN
 #if SHADOWS == 1
-        e *= lit_fraction(l, v_position, n, to_light);
+        e *= lit_fraction(l, shadow_point, n, to_light);
+#endif
+#if AMBIENT == 1
+        shadowed -= e;
 #endif
         irradiance[l] = e;
     }
@@ -340,6 +299,14 @@ void main() {
     for (int l = 0; l < N_LIGHTS; ++l) lights[l] = blend_light(light_local[l]);
     colour += shade_btf(st, view, lights, irradiance);
 #endif
+#if AMBIENT == 1
+    // In shadow the ambient term (seed 001 §4.2): skylight of a · E, a uniform sky of
+    // radiance a · E / π, for what each shadow holds back.
+    colour += (ambient / 3.14159265) * shadowed * ambient_term(st, view);
+#endif
+#if PEM == 1 && PS == 1
+    mat3 to_world = transpose(to_local);
+#endif
 #if PS == 1
     // Bump mapping (seed 004): the measured normal, in the tangent frame, bends the
     // shading normal. Alone: Lambert + Blinn–Phong. Under a BTF, whose normtextures
@@ -348,6 +315,13 @@ void main() {
     vec3 bumped = safe_normalize(bump, vec3(0.0, 0.0, 1.0));
     vec3 albedo = texture(ps_albedo, st).rgb;
     for (int l = 0; l < N_LIGHTS; ++l) {
+#if PEM == 1
+        if (light_texels[l].y + light_texels[l].w > 0) {
+            colour += region_light(l, irradiance[l], light_local[l].z, n, to_world * bumped,
+                                   to_eye, albedo);
+            continue;
+        }
+#endif
         if (irradiance[l] == vec3(0.0)) continue;
         float cos_in = dot(bumped, light_local[l]);
         if (cos_in <= 0.0) continue;

@@ -1,3 +1,4 @@
+import re
 import sys
 import tomllib
 from pathlib import Path
@@ -333,3 +334,31 @@ def test_sim_serve_rejects_an_unknown_rig_kind():
     result = runner.invoke(app, ["sim", "examples/scenes/bumps.toml", "--config-kind", "tripod"])
     assert result.exit_code == 2
     assert "tripod" in result.output and "'virtex'" in result.output
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--mounts", "45,x"], "--mounts '45,x': expected numbers separated by commas"),
+        (["--mounts", "45,20,10"], r"laser: mount_theta_deg \[45.0, 20.0, 10.0\]: .*1 or 2 mounts"),
+        (["--mounts", "45,95"], r"laser.mount_theta_deg.1: Input should be less than or equal"),
+        (["--view", "30"], "--view '30': expected 2 numbers"),
+    ],
+)
+def test_sim_coverage_rejects_bad_input(args, message):
+    result = runner.invoke(app, ["sim", "coverage", "examples/scenes/default.toml", *args])
+    assert result.exit_code == 2
+    assert re.search(message, " ".join(result.output.split()))
+
+
+def test_sim_coverage_prints_the_table_and_the_chosen_locations():
+    args = ["sim", "coverage", "examples/scenes/default.toml", "--size", "24", "--even", "1,4"]
+    result = runner.invoke(app, [*args, "--mounts", "45", "--mounts", "45,20", "--start", "4"])
+    assert result.exit_code == 0, result.output
+    rows = [line.split("|")[1:-1] for line in result.output.splitlines() if line.startswith("| 4")]
+    assert [(r[0].strip(), r[2].strip()) for r in rows] == [
+        ("45", "1 even at 45°"), ("45", "4 even at 45°"),
+        ("45, 20", "greedy to 99%"), ("45, 20", "4 even + greedy"),
+    ]  # fmt: skip
+    assert float(rows[1][3]) < 0.95 <= 0.99 <= float(rows[3][3])
+    assert "laser_locations = [[45, 0], [45, 90], [45, 180], [45, 270], [20," in result.output

@@ -14,8 +14,8 @@ from processing.btf import compress_btf, compress_global_svd
 from processing.btf.synthetic import SyntheticBTF
 from render.meshes import Mesh
 from render.texel_view import texel_quad
-from rig.geometry import Sampling
-from rig.material import Material, PsView, write_btf
+from rig.geometry import Sampling, direction_vector
+from rig.material import Material, Mdf, PsView, write_btf
 
 SAMPLE_MM = 20.0
 N = 16
@@ -81,3 +81,17 @@ def tilted_quad(view_deg) -> tuple[Mesh, np.ndarray]:
     """The SAMPLE_MM quad seen from ``view_deg`` by a camera on +z (``render.texel_view``):
     the mesh and the local → world rotation F."""
     return texel_quad(SAMPLE_MM, view_deg)
+
+
+def synthetic_mdf(n: int = 12, seed: int = 0, unseen: float = 0.0) -> Mdf:
+    """Random depths below the plane seen from VIEWS (D = h / cos θ); a fraction unseen."""
+    rng = np.random.default_rng(seed)
+    depth = rng.uniform(0.0, 2.0, (n, n))
+    cos_theta = direction_vector(VIEWS[:, 0], VIEWS[:, 1])[:, 2]
+    distance = np.broadcast_to(depth, (len(VIEWS), n, n)) / cos_theta[:, None, None]
+    distance = np.where(rng.random(distance.shape) < unseen, -1.0, distance)
+    shape = distance.shape
+    return Mdf(
+        distance.astype(np.float32), VIEWS.astype(np.float32),
+        np.zeros(shape, np.uint8), np.ones(shape, np.uint8),
+    )  # fmt: skip

@@ -17,3 +17,6 @@ def test_environment_bench_rows():
     assert {r["vertices"] for r in rows if r["row"] == "vertices"} == {289, 625}
     cut = [r for r in rows if r["row"] == "median_cut"]
     assert [r["count"] for r in cut] == [4, 16] and cut[1]["max_error"] < cut[0]["max_error"]
+    pem = [r for r in rows if r["row"] == "pem"]
+    assert [r["count"] for r in pem] == [4, 16] and pem[1]["max_error"] < pem[0]["max_error"]
+    assert all(r["max_error"] < r["max_error_point_lights"] for r in pem)

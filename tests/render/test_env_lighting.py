@@ -1,4 +1,4 @@
-"""A per-view PCA BTF under an environment: against brute force, GPU against CPU, PCA.
+"""A compressed BTF under an environment: against brute force, GPU against CPU, PCA.
 
 Brute force: at vertices of a small draped cloth, the rendering equation
 summed over every environment pixel above the vertex's horizon — radiance ×
@@ -7,7 +7,8 @@ light direction. The visibility-map method samples the same environment
 through hemicube texels instead of its pixels, so it converges to the brute
 force as the hemicube gets finer: tolerance 3 % of the brightest texel at
 n = 16 on a 16 × 32 studio (measured: 1.2 %, and 31 % at n = 2), and n = 16
-must beat n = 2.
+must beat n = 2. Both BTF kinds: a per-view PCA (U per view slot) and a global
+SVD (U = g per measured light).
 """
 
 import dataclasses
@@ -28,7 +29,7 @@ from render.environment import EnvironmentMap, synthetic_environment
 from render.meshes import Mesh, cloth, sphere
 from render.visibility import visibility_maps
 from rig.geometry import direction_angles, direction_vector, nearest_directions, texel_centers_mm
-from tests.render.conftest import SAMPLE_MM, N, material, tilted_quad
+from tests.render.conftest import SAMPLE_MM, N, material, ps_view, tilted_quad
 
 VIEW_DEG = (30.0, 40.0)
 STUDIO = synthetic_environment("studio", height=16)
@@ -57,7 +58,9 @@ def brute_force(btf, mesh, frame, vertex, env) -> np.ndarray:
     return total
 
 
-def test_visibility_method_converges_to_brute_force(pca_model, small_cloth):
+@pytest.mark.parametrize("kind", ["pca", "svd"])
+def test_visibility_method_converges_to_brute_force(kind, small_cloth, request):
+    pca_model = request.getfixturevalue(f"{kind}_model")  # either kind, one name below
     view = nearest_directions(pca_model.view_vectors, direction_vector(*VIEW_DEG)[None], k=4)
     vertices = (20, 84, 100)  # an edge, a fold, the top
     errors = {}
@@ -84,16 +87,29 @@ def test_gpu_matches_cpu_coefficients(pca_model, view_method, channels):
     pca_model = dataclasses.replace(
         pca_model, mean=pca_model.mean[..., :channels], basis=pca_model.basis[..., :channels]
     )
+    _gpu_against_cpu(pca_model, view_method)
+
+
+@pytest.mark.parametrize(("view_method", "channels"), [("nearest4", 3), ("barycentric", 3),
+                                                     ("nearest4", 1)])  # fmt: skip
+def test_gpu_matches_cpu_for_a_global_svd(svd_model, view_method, channels):
+    """U = g per measured light, blended across the triangle, times each light's eigenmaps
+    weighted by the blended view weights (seed 001 §5): the same tolerance."""
+    svd_model = dataclasses.replace(svd_model, eigenmaps=svd_model.eigenmaps[..., :channels])
+    _gpu_against_cpu(svd_model, view_method)
+
+
+def _gpu_against_cpu(model, view_method):
     view_deg = (47.0, 200.0)
     mesh, _ = tilted_quad(view_deg)
     env = synthetic_environment("window", height=16).with_view(exposure=0.5, rotation_deg=30.0)
     camera = Camera.orthographic(
         (0, 0, 100), (0, 0, 0), up=(0, 1, 0), height=SAMPLE_MM, size=(N, N)
     )
-    with EnvironmentRenderer(material(pca_model), mesh, resolution=8, view_method=view_method) as r:
+    with EnvironmentRenderer(material(model), mesh, resolution=8, view_method=view_method) as r:
         image = r.render(camera, env)
         u = r.coefficients(env).astype(np.float64)
-    view = direction_weights(pca_model.view_vectors, view_deg, method=view_method)
+    view = direction_weights(model.view_vectors, view_deg, method=view_method)
     xy = texel_centers_mm(SAMPLE_MM, N)
     corners = mesh.positions[:, :2].astype(np.float64)
     expected = np.zeros((N, N, 3))
@@ -103,7 +119,7 @@ def test_gpu_matches_cpu_coefficients(pca_model, view_method, channels):
             tri = [0, 1, 2] if y <= x else [0, 2, 3]
             bary = np.linalg.solve(np.vstack([corners[tri].T, np.ones(3)]), [x, y, 1.0])
             coef = np.tensordot(bary, u[tri], axes=1)
-            expected[row, col] = 0.5 * texture_at_vertex(pca_model, coef, *view)[row, col]
+            expected[row, col] = 0.5 * texture_at_vertex(model, coef, *view)[row, col]
     np.testing.assert_allclose(image, expected, atol=2.0**-11 * np.abs(expected).max(), rtol=0)
     assert np.abs(expected).max() > 0
 
@@ -121,7 +137,9 @@ def test_pca_of_illumination_reconstructs_rotations(pca_model, small_cloth):
     assert five.energy < full.energy <= 1.0 + 1e-9
 
 
-def test_hard_cases_stay_finite(pca_model):
+@pytest.mark.parametrize("kind", ["pca", "svd"])
+def test_hard_cases_stay_finite(kind, request):
+    pca_model = request.getfixturevalue(f"{kind}_model")  # either kind, one name below
     ball = sphere(radius_mm=20.0, segments=12)
     inside = Mesh(
         positions=ball.positions, normals=-ball.normals, uvs=ball.uvs, tangents=ball.tangents,
@@ -142,9 +160,9 @@ def test_hard_cases_stay_finite(pca_model):
     assert np.all(np.isfinite(basis.coefficients(45.0))) and not basis.coefficients(45.0).any()
 
 
-def test_bad_renderer_options_are_refused_with_a_reason(svd_model, pca_model):
-    with pytest.raises(RenderError, match="per-view PCA"):
-        EnvironmentRenderer(material(svd_model), sphere(segments=8))
+def test_bad_renderer_options_are_refused_with_a_reason(pca_model):
+    with pytest.raises(RenderError, match="needs a compressed BTF"):
+        EnvironmentRenderer(material(ps=ps_view()), sphere(segments=8))
     with pytest.raises(RenderError, match="components = 40"):
         EnvironmentRenderer(material(pca_model), sphere(segments=8), method="pca", components=40)
     with pytest.raises(RenderError, match="method = 'mip'"):

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from render import Camera, DirectionalLight, PointLight, Renderer
-from render.meshes import Mesh, plane, sphere
+from render.meshes import Mesh, merged, plane, sphere
 from tests.render.conftest import material, ps_view
 
 PIXELS = 128  # over 160 mm: 1.25 mm per pixel
@@ -15,14 +15,8 @@ FLOOR_MM = 160.0
 
 def ball_over_floor() -> Mesh:
     floor, ball = plane(size_mm=FLOOR_MM), sphere(radius_mm=15.0, segments=16)
-    return Mesh(
-        positions=np.vstack([floor.positions, ball.positions + np.array([0.0, 0.0, 30.0])]),
-        normals=np.vstack([floor.normals, ball.normals]),
-        uvs=np.vstack([floor.uvs, ball.uvs]),
-        tangents=np.vstack([floor.tangents, ball.tangents]),
-        faces=np.vstack([floor.faces, ball.faces + len(floor.positions)]),
-        name="ball over floor",
-    )
+    ball = dataclasses.replace(ball, positions=ball.positions + np.float32([0.0, 0.0, 30.0]))
+    return merged([floor, ball], name="ball over floor")
 
 
 @pytest.fixture(scope="module")

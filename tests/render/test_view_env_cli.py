@@ -67,7 +67,7 @@ def test_bad_environment_options_exit_2_naming_them(store, tmp_path):
         assert "Traceback" not in result.output
 
 
-def test_pem_method_draws_median_cut_lights(store, tmp_path):
+def test_pem_method_draws_partial_environment_maps(store, tmp_path):
     out = tmp_path / "pem.png"
     result = _view(store, "--env", "sky", "--env-method", "pem", "--median-cut", "16",
                    "--out", str(out))  # fmt: skip

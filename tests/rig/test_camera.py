@@ -4,7 +4,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from numpy.testing import assert_allclose
 
-from rig.camera import PinholeCamera, look_at
+from rig.camera import OrthographicCamera, PinholeCamera, look_at
 from rig.config import default_rig_config
 
 
@@ -79,3 +79,19 @@ def test_scaled_camera_keeps_pixel_centres_on_their_rays(scale):
     assert_allclose(got, (full + 0.5) * scale - 0.5, atol=1e-9)
     with pytest.raises(ValueError, match="scale=0"):
         cam.scaled(0.0)
+
+
+def test_orthographic_rays_are_parallel_and_project_back():
+    camera = OrthographicCamera.looking_down(64, 48, mm_per_px=0.5, height_mm=300.0)
+    pixels = np.array([[0.0, 0.0], [31.5, 23.5], [63.0, 10.25]])
+    origins, directions = camera.rays(pixels)
+    assert_allclose(directions, [[0.0, 0.0, -1.0]] * 3)
+    assert_allclose(origins[:, 2], 300.0)
+    # image x is world +x, image up is world +y, 0.5 mm per pixel about the centre
+    assert_allclose(origins[1, :2], [0.0, 0.0], atol=1e-12)
+    assert_allclose(origins[0, :2], [-15.75, 11.75])
+    deeper = origins + 120.0 * directions
+    assert_allclose(camera.project(deeper)[0], pixels, atol=1e-12)
+    assert camera.project(deeper)[1].all() and not camera.project([[0, 0, 400.0]])[1][0]
+    with pytest.raises(ValueError, match="mm_per_px"):
+        OrthographicCamera(camera.R, camera.t, 0.0, 64, 48)

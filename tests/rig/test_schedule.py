@@ -2,6 +2,7 @@ import itertools
 
 import pytest
 from numpy.testing import assert_allclose
+from pydantic import ValidationError
 
 from rig.config import default_rig_config
 from rig.errors import PlanError
@@ -101,3 +102,20 @@ def test_fixed_shots_go_where_they_say_and_bad_ids_are_named():
         compile_plan(bad, config)
     assert "captures.fixed[0].lamp" in str(info.value)
     assert "captures.fixed[0].cameras" in str(info.value)
+
+
+def test_laser_locations_go_to_the_mount_of_their_elevation():
+    laser = CONFIG.laser.model_copy(update={"mount_theta_deg": (45.0, -20.0)})
+    config = CONFIG.model_copy(update={"laser": laser})
+    plan = parse_plan(
+        '[sample]\nname = "m"\n[captures.mdf]\nviews = [[0, 0]]\n'
+        "laser_locations = [[45, 0], [20, 90], [20, 270]]\n"
+    )
+    steps = compile_plan(plan, config).steps
+    by_location = {s.shots[0].light_deg: s.source for s in steps}
+    assert by_location == {(45.0, 0.0): "laser0", (20.0, 90.0): "laser1", (20.0, 270.0): "laser1"}
+    assert max(s.shots[0].light_residual_deg for s in steps) < 1e-6
+    with pytest.raises(ValidationError, match=r"mount_theta_deg \[45.0, 20.0, 10.0\]: .* 1 or 2"):
+        CONFIG.laser.model_validate(
+            {**CONFIG.laser.model_dump(), "mount_theta_deg": (45.0, 20.0, 10.0)}
+        )

@@ -11,7 +11,8 @@ Wiring of the simulated laser unit (from ``world.config.laser.device``): the mot
 ``motor_port`` turns the world's ``laser_tilt`` axis through ``gear_ratio``
 degrees of tilt per motor degree, so motion takes world-clock time on the
 axis' trapezoidal profile; the output ``laser_port`` switches the world's
-laser (on while its mode has MOTORON, power ≠ 0 and run state ≠ IDLE).
+laser (on while its mode has MOTORON, power ≠ 0 and run state ≠ IDLE), and
+with a second mount the third output switches it with that mount's emitter.
 
 Counters of the tilt motor (motor degrees, rounded to whole counts):
 ``tacho_count`` since power-on, ``block_tacho_count`` since the last movement
@@ -93,7 +94,8 @@ class FakeNxtBrick:
         laser = world.config.laser
         self.gear_ratio = laser.device.gear_ratio
         self.tilt_port = _PORTS[laser.device.motor_port]
-        self.laser_port = _PORTS[laser.device.laser_port]
+        ports = laser.device.diode_ports(len(laser.mount_theta_deg))
+        self.diode_ports = {_PORTS[port]: mount for mount, port in enumerate(ports)}
         self.tilt_limit_deg = laser.tilt_limit_deg
         self.outputs = [_Output() for _ in _PORTS]
         self._target_motor_deg: float | None = None
@@ -187,9 +189,9 @@ class FakeNxtBrick:
         self.outputs[port] = out
         if port == self.tilt_port:
             self._drive_tilt(out)
-        elif port == self.laser_port:
+        elif port in self.diode_ports:
             on = bool(mode & _MOTORON) and power != 0 and run != _RUN_IDLE
-            self.world.set_laser(on)
+            self.world.set_diode(self.diode_ports[port], on)
         return _OK
 
     def _output_state(self, port: int) -> bytes:

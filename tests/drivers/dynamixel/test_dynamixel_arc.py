@@ -12,21 +12,10 @@ from rig.config import default_rig_config
 from rig.devices import DynamixelServos, Retry
 from rig.errors import KinematicsError
 from sim.peers import DynamixelBusPeer
-from sim.world import World
 
 FAST_RETRY = Retry(timeout_s=0.2, retries=2, backoff_s=0.01)
 AXIS = default_rig_config().light_arc.axis
 GEARED = DynamixelServos(ids=(1, 2), gear_ratio=4.0, zero_tick=1000)
-
-
-@pytest.fixture
-def clock():
-    return VirtualClock()
-
-
-@pytest.fixture
-def world(clock):
-    return World(default_rig_config(), clock)
 
 
 @pytest.fixture

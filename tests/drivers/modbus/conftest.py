@@ -2,23 +2,10 @@
 
 import pytest
 
-from rig.clock import VirtualClock
-from rig.config import default_rig_config
 from rig.devices import ModbusConnection, ModbusDrive, Retry
-from sim.world import World
 
 # Short real-time I/O timeouts (pymodbus waits in real time); backoff on the virtual clock.
 FAST_RETRY = Retry(timeout_s=0.2, retries=2, backoff_s=0.01)
-
-
-@pytest.fixture
-def clock():
-    return VirtualClock()
-
-
-@pytest.fixture
-def world(clock):
-    return World(default_rig_config(), clock)
 
 
 @pytest.fixture(params=["tcp", "rtu"])

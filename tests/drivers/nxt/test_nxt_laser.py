@@ -84,6 +84,35 @@ def test_laser_switch_reaches_the_world(laser, world):
     assert not laser.laser_is_on()
 
 
+def test_a_second_mount_has_its_diode_on_the_third_output():
+    """Mount 1's diode on output A (motor C, laser B here): lighting it darkens
+    mount 0's, and the world's sheet comes from mount 1."""
+    config = RigConfig().model_copy(deep=True)
+    device = config.laser.device.model_copy(update={"motor_port": "C", "retry": RETRY})
+    laser_section = config.laser.model_copy(
+        update={"mount_theta_deg": (45.0, 20.0), "device": device}
+    )
+    world = World(config.model_copy(update={"laser": laser_section}), VirtualClock())
+    brick = FakeNxtBrick(world)
+    driver = open_device(
+        "laser", laser_section, clock=world.clock, usb_backend=FakeNxtUsbBackend(brick)
+    )
+    try:
+        driver.set_laser(True, mount=1)
+        snap = world.snapshot()
+        assert (snap.laser_on, snap.laser_mount) == (True, 1)
+        assert driver.laser_is_on(mount=1) and not driver.laser_is_on(mount=0)
+        assert brick.outputs[0].power != 0  # output A
+        driver.set_laser(True, mount=0)
+        assert (world.snapshot().laser_mount, driver.laser_is_on(mount=1)) == (0, False)
+        driver.set_laser(False)
+        assert not world.snapshot().laser_on
+        with pytest.raises(DeviceError, match=r"mount 2 has no diode; .* mounts 0\.\.1"):
+            driver.set_laser(True, mount=2)
+    finally:
+        driver.close()
+
+
 def test_move_tilts_the_world_axis_through_the_gear_ratio(laser, world):
     gear = world.config.laser.device.gear_ratio
     laser.tilt.zero()

@@ -3,24 +3,11 @@
 import pytest
 
 from drivers.ur import UrArm
-from rig.clock import VirtualClock
-from rig.config import default_rig_config
 from rig.devices import Retry, UrController
 from sim.peers.ur import UrControllerPeer
-from sim.world import World
 
 # Short real-time socket timeouts; backoff and motion on the virtual clock.
 FAST_RETRY = Retry(timeout_s=0.5, retries=2, backoff_s=0.01)
-
-
-@pytest.fixture
-def clock():
-    return VirtualClock()
-
-
-@pytest.fixture
-def world(clock):
-    return World(default_rig_config(), clock)
 
 
 @pytest.fixture

@@ -4,11 +4,11 @@ import numpy as np
 import pytest
 from pydantic import BaseModel
 
-from drivers.errors import DeviceError, DeviceFault, DeviceTimeout
+from drivers.errors import DeviceError, DeviceFault, DeviceTimeout, MotionStalled
 from drivers.interfaces import Positioner
 from drivers.registry import open_device
 from drivers.ur import UrArm
-from rig.devices import ArmDevice
+from rig.devices import ArmDevice, UrController
 from rig.errors import KinematicsError
 from rig.ur_kinematics import UR_MODELS, Pose, forward
 from sim.peers.registry import start_peer
@@ -221,3 +221,18 @@ def test_a_fault_table_stops_the_nth_move_of_a_session(world, clock):
     finally:
         arm.close()
         peer.stop()
+
+
+def test_a_move_the_controller_refuses_is_a_stall_naming_both_poses(make_peer, clock):
+    # the controller's own joint limits are tighter than the config says: it refuses the move
+    tight = UrController(joint_min_deg=(-10.0, *[-360.0] * 5), joint_max_deg=(10.0, *[360.0] * 5))
+    controller = make_peer(device=tight, faults={"powered": True})
+    arm = UrArm(device_of(controller), clock=clock)
+    try:
+        target = Pose((0.2, -0.45, 0.4), _TILTED)  # the base turned by about 90°
+        arm.move_to(target)
+        with pytest.raises(MotionStalled, match=r"ended the move at .* short of \(200\.0, -450\.0"):
+            arm.wait_until_settled()
+        assert "joint 1 target beyond its limit" in controller.errors[-1]
+    finally:
+        arm.close()

@@ -186,7 +186,7 @@ class SoftLaser:
     def check_battery(self) -> int:
         return 8000
 
-    def set_laser(self, on: bool) -> None:
+    def set_laser(self, on: bool, *, mount: int = 0) -> None:
         self.rig.laser_on = on
 
     def close(self) -> None:

@@ -1,5 +1,6 @@
 """``build_devices`` opens every role through the registry, on the simulator's peers."""
 
+import numpy as np
 import pytest
 
 from drivers.errors import DeviceError
@@ -94,3 +95,38 @@ def test_a_virtex_stage_opens_its_lamps_and_camera_and_never_moves():
             devices.all_off()
         finally:
             devices.close()
+
+
+def _dark(camera_id, snapshot, exposure_s):
+    spec = default_rig_config().camera(camera_id)
+    return np.zeros((spec.height, spec.width, spec.channels), dtype=np.uint8)
+
+
+@pytest.mark.parametrize(("half_sweep_deg", "step_deg"), [(6.0, 2.0), (6.0, 0.5), (1.0, 0.05)])
+def test_a_scan_spreads_its_frames_over_the_whole_sweep(world, peers, half_sweep_deg, step_deg):
+    """A coarse step covers the sweep from end to end; a step finer than the sheet
+    moves between frames at the camera's rate (1°/s at 7.5 Hz) is taken at that rate."""
+    with CameraServer(world, _dark) as cameras:
+        config = _on_peers(world.config, peers)
+        spec = config.camera_arc.cameras[0]
+        connection = spec.connection.model_copy(update={"url": cameras.url})
+        cam = config.camera_arc.model_copy(
+            update={"cameras": (spec.model_copy(update={"connection": connection}),)}
+        )
+        config = config.model_copy(update={"camera_arc": cam})
+        devices = build_devices(config, clock=world.clock)
+        try:
+            devices.home(laser=True)
+            frames = round(2 * half_sweep_deg / step_deg) + 1
+            _, tilts = devices.scan(
+                [spec.id], tilt_deg=(-half_sweep_deg, half_sweep_deg), frames=frames,
+                exposure_s=0.001,
+            )  # fmt: skip
+        finally:
+            devices.close()
+    spacing = max(step_deg, 1 / 7.5)
+    moving = round(2 * half_sweep_deg / spacing)
+    assert tilts[0] == pytest.approx(-half_sweep_deg, abs=0.05)
+    # read back through the tacho: one count is 1/24°
+    assert np.diff(tilts[: moving + 1]) == pytest.approx(np.full(moving, spacing), abs=0.05)
+    assert tilts[-1] == pytest.approx(half_sweep_deg, abs=0.05)

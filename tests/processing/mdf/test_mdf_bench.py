@@ -25,6 +25,9 @@ def test_quick_bench_rows():
     assert kinds.count("read") == 2
     tracked = [r for r in rows if r["kind"] == "space_time"]
     assert all(r["ratio_to_read"] > 0 and r["speedup_vs_argmax"] > 0 for r in tracked)
+    for r in tracked:  # best-of parts add up to at most the best-of whole
+        parts = r["streaming_ratio_to_read"] + r["fit_ratio_to_read"]
+        assert 0 < parts <= r["ratio_to_read"] * 1.001
     assert kinds.count("space_time") == len(PEAK_METHODS)
     assert kinds.count("detector") == len(PEAK_METHODS)
     accuracy = [r for r in rows if r["kind"] == "accuracy"]

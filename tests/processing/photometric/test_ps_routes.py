@@ -13,8 +13,8 @@ from numpy.testing import assert_allclose, assert_array_equal
 from processing.photometric import DistantLights, PhotometricError, Reason, solve
 from processing.photometric._block import solve_block
 from processing.photometric._inputs import check_stack
-from processing.photometric._robust import _median
-from processing.photometric._solve import _check_options
+from processing.photometric._robust import _median, irls_weights
+from processing.photometric._solve import _check_options, _read_chunk
 from tests.processing.photometric.ps_synthetic import ring_directions
 
 DIRS = ring_directions(16, theta_deg=(20, 45, 65))
@@ -24,11 +24,9 @@ N_PIXELS = 60
 def per_pixel_reference(images, dirs, *, dark_level=0.0):
     """Every pixel through the per-pixel route, float64 throughout."""
     stack = check_stack(images, len(dirs), None)
-    options = _check_options("lsq", dark_level, stack.saturation, 100.0, 0.05, 0.1, 3)
-    obs = stack.values.astype(np.float64) * stack.scale
-    energy = np.einsum("ln...,ln...->n...", obs, obs)
-    condition = np.linalg.cond(dirs)
-    return solve_block(obs, energy, dirs, condition, options)
+    options = _check_options("lsq", dark_level, 100.0, 0.05, 0.1, 3)
+    chunk = _read_chunk(stack, slice(0, stack.values.shape[1]), dark_level)
+    return solve_block(*chunk, dirs, np.linalg.cond(dirs), options)
 
 
 def scene(dtype, colour, *, exclusions, seed=0):
@@ -125,3 +123,24 @@ def test_irls_scale_is_the_median_of_the_supported_residuals(n_lights):
         for j in range(40)
     ]
     assert_allclose(_median(np.abs(residual), support), expected, rtol=1e-6)
+
+
+def test_compiled_irls_weights_match_the_per_pixel_light_steps():
+    # Distant lamps reweight compiled; the same lamps given per pixel (as near
+    # lamps are) take the numpy steps. Both must give the same weights.
+    images = scene(np.float64, False, exclusions=True)
+    grey = images.reshape(len(DIRS), -1)
+    usable = np.random.default_rng(3).random(grey.shape) > 0.05
+    options = {
+        "shadow_fraction": 0.05,
+        "highlight_fraction": 0.1,
+        "iterations": 3,
+        "max_condition": 100.0,
+    }
+    per_pixel = np.broadcast_to(DIRS[:, None, :], (*grey.shape, 3))
+    compiled = irls_weights(grey, usable, DIRS, **options)
+    stepwise = irls_weights(grey, usable, per_pixel, **options)
+    assert compiled.dtype == np.float64 and compiled.shape == grey.shape
+    # float32 sums over the lights in another order: weights agree to ~1e-4
+    assert_allclose(compiled, stepwise, atol=5e-4)
+    assert 0 < (compiled == 0).mean() < 0.5  # shadows, highlights and clipped observations out

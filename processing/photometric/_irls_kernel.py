@@ -1,0 +1,266 @@
+"""The IRLS reweighting of :mod:`._robust`, compiled: a few passes per step over a tile.
+
+The same arithmetic as the numpy version (float32 observations, residuals and
+weights, float64 3×3 systems), laid out like :mod:`._kernels`: a tile of
+pixels, light by light, SIMD over pixels, everything in cache. The two order
+statistics (the reference level and the median absolute residual) are exact
+radix selections on order-preserving integer keys of the float32 values,
+vectorised over the tile's pixels: 32 counting passes in cache instead of a
+transposing copy and a sort per pixel.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+#: Pixels per tile: the tile's keys, residuals, weights and support (L × TILE
+#: each) stay in L2 through the 32 selection passes.
+TILE = 256
+
+# Fused multiply-add only: nothing assumes finite values.
+_CONTRACT = {"contract"}
+_LOW_BITS = np.int32(0x7FFFFFFF)
+#: Key of an observation left out of the median: above every finite value's key.
+_ABSENT = np.int32(0x7FFFFFFF)
+
+
+@njit(cache=True, nogil=True, fastmath=_CONTRACT)
+def irls_weights_kernel(grey, usable, lights, rank, settings, out):
+    """Tukey-biweight IRLS weights of every pixel.
+
+    Parameters
+    ----------
+    grey : (L, n) float32, C-contiguous
+    usable : (L, n) bool, C-contiguous (False: clipped)
+    lights : (L, 3) float32
+    rank : int
+        Order of the reference level among a pixel's observations.
+    settings : (6,) float64
+        shadow_fraction, iterations, max_condition, Tukey c, MAD → σ, scale
+        floor (relative to the reference level).
+    out : (L, n) float32
+        The weights.
+    """
+    shadow_fraction, iterations, max_condition = settings[0], int(settings[1]), settings[2]
+    tukey_c, mad_to_sigma, floor_fraction = settings[3], settings[4], settings[5]
+    n_lights, n = grey.shape
+    keys = np.empty((n_lights, TILE), np.int32)
+    support = np.empty((n_lights, TILE), np.float32)
+    residual = np.empty((n_lights, TILE), np.float32)
+    order = np.empty(TILE, np.int32)
+    count = np.empty(TILE, np.float32)
+    lower = np.empty(TILE, np.int32)
+    upper = np.empty(TILE, np.int32)
+    values = np.empty(TILE, np.float32)
+    shadow = np.empty(TILE, np.float32)
+    inverse = np.empty(TILE, np.float32)
+    floor = np.empty(TILE, np.float64)
+    fit = np.empty((3, TILE), np.float32)
+    f0, f1, f2 = fit[0], fit[1], fit[2]
+    for t0 in range(0, n, TILE):
+        m = min(TILE, n - t0)
+        # The reference level: each pixel's observation of order `rank`.
+        for light in range(n_lights):
+            _float_keys(grey[light, t0 : t0 + m], keys[light])
+        order[:m] = rank
+        _select(keys, m, order, lower)
+        _key_values(lower, m, values)
+        for i in range(m):
+            shadow[i] = np.float32(shadow_fraction * values[i])
+            floor[i] = floor_fraction * max(np.float64(values[i]), 0.0)
+        for light in range(n_lights):
+            row = grey[light, t0 : t0 + m]
+            use = usable[light, t0 : t0 + m]
+            sup = support[light]
+            w = out[light, t0 : t0 + m]
+            for i in range(m):
+                on = use[i] and row[i] >= shadow_fraction * np.float64(values[i])
+                sup[i] = 1.0 if on else 0.0
+                w[i] = 1.0 if on and row[i] <= values[i] else 0.0
+        for _ in range(iterations):
+            _weighted_fit(out, grey, lights, t0, m, max_condition, fit)
+            count[:m] = 0
+            for light in range(n_lights):
+                s0, s1, s2 = lights[light, 0], lights[light, 1], lights[light, 2]
+                row = grey[light, t0 : t0 + m]
+                w = out[light, t0 : t0 + m]
+                res = residual[light]
+                for i in range(m):
+                    res[i] = abs(row[i] - (s0 * f0[i] + s1 * f1[i] + s2 * f2[i]))
+                bits = res.view(np.int32)
+                key = keys[light]
+                for i in range(m):
+                    on = w[i] > 0
+                    key[i] = bits[i] if on else _ABSENT
+                    count[i] += np.float32(1) if on else np.float32(0)
+            for i in range(m):
+                order[i] = max((np.int32(count[i]) - 1) // 2, 0)
+            _select(keys, m, order, lower)
+            _upper_middle(keys, m, lower, order, count, upper)
+            for i in range(m):
+                lo = np.float64(_key_value(lower[i]))
+                hi = np.float64(_key_value(upper[i]))
+                median = 0.5 * (lo + hi) if count[i] > 0 else 0.0
+                scale = max(mad_to_sigma * median, floor[i])
+                inverse[i] = 1.0 / (tukey_c * scale) if scale > 0 else 0.0
+            for light in range(n_lights):
+                s0, s1, s2 = lights[light, 0], lights[light, 1], lights[light, 2]
+                res = residual[light]
+                sup = support[light]
+                w = out[light, t0 : t0 + m]
+                for i in range(m):
+                    u = res[i] * inverse[i]
+                    t = max(np.float32(1.0) - u * u, np.float32(0.0))
+                    predicted = s0 * f0[i] + s1 * f1[i] + s2 * f2[i]
+                    w[i] = t * t if sup[i] > 0 and predicted > shadow[i] else np.float32(0.0)
+
+
+@njit(cache=True, nogil=True)
+def _weighted_fit(weights, grey, lights, t0, m, max_condition, fit):
+    """``b = (Σ w s sᵀ)⁻¹ Σ w I s`` per pixel (0 where the system is too ill-conditioned)."""
+    n_lights = grey.shape[0]
+    sums = np.zeros((9, m), np.float32)
+    m00, m01, m02, m11, m12, m22 = sums[0], sums[1], sums[2], sums[3], sums[4], sums[5]
+    g0s, g1s, g2s = sums[6], sums[7], sums[8]
+    for light in range(n_lights):
+        s0, s1, s2 = lights[light, 0], lights[light, 1], lights[light, 2]
+        a00, a01, a02, a11, a12, a22 = s0 * s0, s0 * s1, s0 * s2, s1 * s1, s1 * s2, s2 * s2
+        w = weights[light, t0 : t0 + m]
+        row = grey[light, t0 : t0 + m]
+        # Three accumulators per loop: more arrays in one loop stop LLVM vectorising it.
+        for i in range(m):
+            m00[i] += a00 * w[i]
+            m01[i] += a01 * w[i]
+            m02[i] += a02 * w[i]
+        for i in range(m):
+            m11[i] += a11 * w[i]
+            m12[i] += a12 * w[i]
+            m22[i] += a22 * w[i]
+        for i in range(m):
+            wg = w[i] * row[i]
+            g0s[i] += s0 * wg
+            g1s[i] += s1 * wg
+            g2s[i] += s2 * wg
+    for i in range(m):
+        a00, a01, a02 = np.float64(sums[0, i]), np.float64(sums[1, i]), np.float64(sums[2, i])
+        a11, a12, a22 = np.float64(sums[3, i]), np.float64(sums[4, i]), np.float64(sums[5, i])
+        g0, g1, g2 = np.float64(sums[6, i]), np.float64(sums[7, i]), np.float64(sums[8, i])
+        c00 = a11 * a22 - a12 * a12
+        c01 = a02 * a12 - a01 * a22
+        c02 = a01 * a12 - a02 * a11
+        c11 = a00 * a22 - a02 * a02
+        c12 = a01 * a02 - a00 * a12
+        c22 = a00 * a11 - a01 * a01
+        det = a00 * c00 + a01 * c01 + a02 * c02
+        if _condition(a00, a01, a02, a11, a12, a22) <= max_condition and det != 0:
+            fit[0, i] = (c00 * g0 + c01 * g1 + c02 * g2) / det
+            fit[1, i] = (c01 * g0 + c11 * g1 + c12 * g2) / det
+            fit[2, i] = (c02 * g0 + c12 * g1 + c22 * g2) / det
+        else:
+            fit[0, i] = fit[1, i] = fit[2, i] = 0.0
+
+
+@njit(cache=True, nogil=True)
+def _condition(a00, a01, a02, a11, a12, a22):
+    """sqrt(λmax/λmin) of a symmetric 3×3 matrix, as :func:`._system.condition`."""
+    q = (a00 + a11 + a22) / 3.0
+    off = a01 * a01 + a02 * a02 + a12 * a12
+    diag = (a00 - q) ** 2 + (a11 - q) ** 2 + (a22 - q) ** 2
+    p = np.sqrt((diag + 2.0 * off) / 6.0)
+    if p <= np.finfo(np.float64).tiny:
+        hi = lo = q
+    else:
+        b00, b11, b22 = (a00 - q) / p, (a11 - q) / p, (a22 - q) / p
+        b01, b02, b12 = a01 / p, a02 / p, a12 / p
+        det = (
+            b00 * (b11 * b22 - b12 * b12)
+            - b01 * (b01 * b22 - b12 * b02)
+            + b02 * (b01 * b12 - b11 * b02)
+        )
+        phi = np.arccos(min(max(det / 2.0, -1.0), 1.0)) / 3.0
+        hi = q + 2.0 * p * np.cos(phi)
+        lo = q + 2.0 * p * np.cos(phi + 2.0 * np.pi / 3.0)
+    if hi > 0 and lo > hi / _CAP_SQ:
+        return np.sqrt(hi / lo)
+    return _CAP
+
+
+_CAP = 1.0e12
+_CAP_SQ = _CAP * _CAP
+
+
+@njit(cache=True, nogil=True)
+def _select(keys, m, order, out):
+    """Per pixel, the key of the given order (0 = smallest) among the L keys: exact.
+
+    Bisection on the signed key: from the sign bit down, keep a bit when
+    fewer than ``order + 1`` keys lie below the prefix with it.
+    """
+    n_lights = keys.shape[0]
+    low = np.empty(m, np.int64)  # the answer lies in [low, low + 2^bit)
+    candidate = np.empty(m, np.int32)
+    below = np.empty(m, np.float32)  # float32 counts: int32 sums widen to int64 lanes
+    one, zero = np.float32(1), np.float32(0)
+    low[:] = -(2**31)
+    for bit in range(31, -1, -1):
+        for i in range(m):
+            candidate[i] = np.int32(low[i] + (1 << bit))
+        below[:] = 0
+        for light in range(n_lights):
+            row = keys[light]
+            for i in range(m):
+                below[i] += one if row[i] < candidate[i] else zero
+        for i in range(m):
+            if below[i] <= order[i]:
+                low[i] += 1 << bit
+    for i in range(m):
+        out[i] = np.int32(low[i])
+
+
+@njit(cache=True, nogil=True)
+def _upper_middle(keys, m, lower, order, count, out):
+    """The key of order ``count // 2``, given ``lower`` of order ``(count − 1) // 2``.
+
+    The same key when the count is odd or the next one ties with it, else the
+    smallest key above it.
+    """
+    n_lights = keys.shape[0]
+    at_most = np.zeros(m, np.float32)
+    above = np.full(m, _ABSENT, np.int32)
+    one, zero = np.float32(1), np.float32(0)
+    for light in range(n_lights):
+        row = keys[light]
+        for i in range(m):
+            k = row[i]
+            at_most[i] += one if k <= lower[i] else zero
+            above[i] = k if (k > lower[i]) & (k < above[i]) else above[i]
+    for i in range(m):
+        same = np.int32(count[i]) // 2 == order[i] or at_most[i] > order[i] + 1
+        out[i] = lower[i] if same else above[i]
+
+
+@njit(cache=True, nogil=True)
+def _float_keys(row, out):
+    """int32 keys that order like the float32 values of ``row`` (negatives: low bits flipped)."""
+    bits = row.view(np.int32)
+    for i in range(row.shape[0]):
+        x = bits[i]
+        out[i] = x ^ ((x >> 31) & _LOW_BITS)
+
+
+@njit(cache=True, nogil=True)
+def _key_values(keys, m, out):
+    """The float32 values behind keys of :func:`_float_keys` (the map is its own inverse)."""
+    bits = out[:m].view(np.int32)
+    for i in range(m):
+        x = keys[i]
+        bits[i] = x ^ ((x >> 31) & _LOW_BITS)
+
+
+@njit(cache=True, nogil=True)
+def _key_value(key):
+    """One non-negative value's float32 from its key (a median's middle observations)."""
+    bits = np.empty(1, np.int32)
+    bits[0] = key
+    return bits.view(np.float32)[0]
