@@ -22,11 +22,12 @@ from typing import Any
 from drivers.errors import DeviceError
 from rig.clock import Clock
 from rig.devices import ARM_ROLE, DEVICE_ROLES
+from rig.kinds import RAIL_ROLE
 from rig.registry import KindRegistry
 
 __all__ = ["ROLES", "open_device", "register"]
 
-ROLES = (*DEVICE_ROLES, ARM_ROLE, "camera")
+ROLES = (*DEVICE_ROLES, ARM_ROLE, RAIL_ROLE, "camera")
 
 _REGISTRY = KindRegistry("drivers", ROLES)
 

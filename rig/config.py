@@ -1,6 +1,8 @@
-"""The rig config: geometry, motion and timing of a Wang-style rig, and its devices.
+"""The rig config: its kind, geometry, motion and timing, and its devices.
 
-A turntable carries the sample; a light arc rotates about the vertical axis and
+``kind`` names the rig design: ``wang`` (the default, below), ``virtex`` or
+``bonn`` (their geometry is their own section, ``rig.kinds``). On a Wang rig a
+turntable carries the sample; a light arc rotates about the vertical axis and
 carries N lamps (and the laser unit); a fixed camera arc carries M cameras. All
 positions are in the *world* (turntable) frame: origin at the turntable centre
 on the reference plane (the top of the holder plate), z up, x towards the
@@ -15,7 +17,7 @@ from __future__ import annotations
 import reprlib
 import tomllib
 from pathlib import Path
-from typing import Annotated, Literal
+from typing import Literal
 
 import numpy as np
 import tomli_w
@@ -24,6 +26,8 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 from rig.camera import PinholeCamera, look_at
 from rig.config_migration import CONFIG_VERSION, migrate_rig_config
 from rig.devices import (
+    ARM_ROLE,
+    DEVICE_ROLES,
     CameraConnection,
     DynamixelServos,
     GenicamConnection,
@@ -39,9 +43,12 @@ from rig.devices import (
 )
 from rig.errors import ConfigError
 from rig.geometry import direction_vector
+from rig.kinds import RAIL_ROLE, RIG_KINDS, BonnLab, VirtexStage
+from rig.parts import Axis, Lamp, SignedPolar
 from rig.targets import Targets
 
 __all__ = [
+    "RIG_KINDS",
     "Axis",
     "CameraArc",
     "CameraSpec",
@@ -61,34 +68,9 @@ __all__ = [
     "write_rig_config",
 ]
 
-SignedPolar = Annotated[float, Field(ge=-90, le=90, description="signed polar angle on an arc")]
-
 
 class _Closed(BaseModel):
     model_config = ConfigDict(extra="forbid", frozen=True)
-
-
-class Axis(_Closed):
-    """Motion limits and timing of one rotary axis (trapezoidal velocity profile)."""
-
-    speed_deg_s: float = Field(gt=0, description="cruise speed")
-    accel_deg_s2: float = Field(gt=0, description="acceleration and deceleration")
-    settle_s: float = Field(0.2, ge=0, description="wait after the move before exposing")
-    min_deg: float = 0.0
-    max_deg: float = 360.0
-
-    @model_validator(mode="after")
-    def _range(self) -> Axis:
-        if self.max_deg <= self.min_deg:
-            raise ValueError(f"max_deg ({self.max_deg}) must exceed min_deg ({self.min_deg})")
-        return self
-
-    def move_time_s(self, delta_deg) -> np.ndarray:
-        """Time of a point-to-point move of ``delta_deg`` (no settle), broadcast."""
-        d = np.abs(np.asarray(delta_deg, dtype=np.float64))
-        v, a = self.speed_deg_s, self.accel_deg_s2
-        d_ramp = v * v / a  # distance spent accelerating and decelerating
-        return np.where(d < d_ramp, 2.0 * np.sqrt(d / a), d / v + v / a)
 
 
 class Turntable(_Closed):
@@ -96,14 +78,6 @@ class Turntable(_Closed):
 
     axis: Axis = Axis(speed_deg_s=30.0, accel_deg_s2=60.0, settle_s=0.3)
     device: TurntableDevice = ModbusDrive(port=5020)
-
-
-class Lamp(_Closed):
-    id: str
-    theta_deg: SignedPolar
-    kind: Literal["point", "spot", "directional"] = "point"
-    intensity: float = Field(1.0, gt=0, description="relative radiant intensity")
-    spot_cutoff_deg: float = Field(60.0, gt=0, le=90, description="spot lamps: half-angle")
 
 
 class LampBank(_Closed):
@@ -257,6 +231,7 @@ class RigConfig(_Closed):
 
     version: Literal[2] = Field(CONFIG_VERSION, description="layout of this config")
     name: str = "default"
+    kind: Literal["wang", "bonn", "virtex"] = Field("wang", description="the rig design")
     turntable: Turntable = Turntable()
     light_arc: LightArc = LightArc()
     lamp_bank: LampBank = LampBank()
@@ -265,11 +240,70 @@ class RigConfig(_Closed):
     holder: Holder = Holder()
     targets: Targets = Targets()
     calibration: str | None = Field(None, description="path of a calibration file")
+    virtex: VirtexStage | None = Field(None, description="kind 'virtex': the lamp ring")
+    bonn: BonnLab | None = Field(None, description="kind 'bonn': lamp, rail and arm")
 
     @model_validator(mode="before")
     @classmethod
     def _migrate(cls, data):
-        return migrate_rig_config(data) if isinstance(data, dict) else data
+        if not isinstance(data, dict):
+            return data
+        data = migrate_rig_config(data)
+        if data.get("kind") in ("virtex", "bonn") and "camera_arc" not in data:
+            # one camera: straight above the VirTex stage, on the Bonn lab's rail
+            data = {**data, "camera_arc": {"cameras": [{"id": "cam0", "theta_deg": 0.0}]}}
+        return data
+
+    @model_validator(mode="after")
+    def _kind_sections(self) -> RigConfig:
+        for other in ("virtex", "bonn"):
+            if other != self.kind and getattr(self, other) is not None:
+                raise ValueError(
+                    f"[{other}] describes a {other!r} rig but kind is {self.kind!r}; "
+                    f"set kind = {other!r} or remove [{other}]"
+                )
+        if self.kind != "wang" and getattr(self, self.kind) is None:
+            raise ValueError(f"kind {self.kind!r} needs its [{self.kind}] section")
+        cameras = self.camera_arc.cameras
+        if self.kind == "bonn" and len(cameras) != 1:
+            raise ValueError(
+                f"camera_arc.cameras: the Bonn lab has one camera, on its rail; got "
+                f"{[c.id for c in cameras]}"
+            )
+        if self.kind == "virtex":
+            oblique = [c.id for c in cameras if c.theta_deg != 0.0]
+            if oblique:
+                raise ValueError(
+                    f"camera_arc.cameras {oblique}: a VirTex stage's camera looks straight "
+                    "down at the sample; set theta_deg = 0"
+                )
+        return self
+
+    @property
+    def lamps(self) -> tuple[Lamp, ...]:
+        """The rig's lamps, in lamp-bank channel order."""
+        if self.kind == "virtex":
+            return self.virtex.lamps()
+        if self.kind == "bonn":
+            return self.bonn.lamps()
+        return self.light_arc.lamps
+
+    @property
+    def device_roles(self) -> tuple[str, ...]:
+        """The device roles this kind of rig has, cameras aside, in the order it opens them
+        (a Wang rig: ``rig.devices.DEVICE_ROLES``)."""
+        roles = {"virtex": ("lamp_bank",), "bonn": (ARM_ROLE, RAIL_ROLE, "lamp_bank")}
+        return roles.get(self.kind, DEVICE_ROLES)
+
+    def device_section(self, role: str):
+        """The config section of ``role`` (one of :attr:`device_roles`): it has a ``device``."""
+        if role not in self.device_roles:
+            raise ConfigError(
+                f"a {self.kind!r} rig has no {role}; its devices are {list(self.device_roles)}"
+            )
+        if self.kind == "bonn" and role in (ARM_ROLE, RAIL_ROLE):
+            return getattr(self.bonn, role)
+        return getattr(self, role)
 
     def camera(self, camera_id: str) -> CameraSpec:
         for cam in self.camera_arc.cameras:
@@ -279,10 +313,10 @@ class RigConfig(_Closed):
         raise ConfigError(f"unknown camera {camera_id!r}; this rig has {valid}")
 
     def lamp(self, lamp_id: str) -> Lamp:
-        for lamp in self.light_arc.lamps:
+        for lamp in self.lamps:
             if lamp.id == lamp_id:
                 return lamp
-        valid = [lamp.id for lamp in self.light_arc.lamps]
+        valid = [lamp.id for lamp in self.lamps]
         raise ConfigError(f"unknown lamp {lamp_id!r}; this rig has {valid}")
 
     def camera_model(self, camera_id: str, *, turntable_deg: float = 0.0) -> PinholeCamera:

@@ -1,4 +1,4 @@
-"""Kinematics of the Wang-style rig: actuator positions ↔ sample-frame directions.
+"""Kinematics of the Wang rig and the VirTex stage: actuator positions ↔ sample-frame directions.
 
 The turntable turns the sample by α about z, so a world direction with azimuth
 ψ has sample azimuth ψ − α. Cameras sit at fixed signed polar angles on the
@@ -9,6 +9,10 @@ centre.
 The inverse picks, among all cameras and lamps, the pair and axis positions that
 come closest to a wanted (view, light) pair, breaking ties by the motion from
 the current position; what it cannot hit is reported as an angular residual.
+
+A VirTex stage (``kind = "virtex"``) has no axes: its sample frame is the
+stage's, the camera looks down the z axis and lamp *i* sits at its ring
+azimuth; poses keep both axes at 0. (The Bonn lab's kinematics: ``rig.bonn``.)
 """
 
 from __future__ import annotations
@@ -17,6 +21,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from rig import bonn
 from rig.config import Axis, RigConfig, arc_direction
 from rig.errors import KinematicsError
 from rig.geometry import Sampling, angular_distance_deg, direction_angles, direction_vector
@@ -93,7 +98,7 @@ def forward(
     """
     cam = config.camera(camera)
     view_w = arc_direction(cam.theta_deg, config.camera_arc.azimuth_deg)
-    light_w = arc_direction(_source_theta(config, lamp), arc_deg)
+    light_w = _source_direction(config, lamp, arc_deg)
     view = np.array(direction_angles(rotate_z(view_w, -turntable_deg)))
     light = np.array(direction_angles(rotate_z(light_w, -turntable_deg)))
     return view, light
@@ -103,9 +108,8 @@ def lamp_position_mm(
     config: RigConfig, lamp: str, *, arc_deg: float, turntable_deg: float
 ) -> np.ndarray:
     """(3,) position of lamp ``lamp`` in the sample frame, mm (on the light arc's radius)."""
-    theta = config.lamp(lamp).theta_deg
-    world = config.light_arc.radius_mm * arc_direction(theta, arc_deg)
-    return rotate_z(world, -turntable_deg)
+    radius = config.virtex.radius_mm if config.kind == "virtex" else config.light_arc.radius_mm
+    return rotate_z(radius * _source_direction(config, lamp, arc_deg), -turntable_deg)
 
 
 def laser_source_mm(
@@ -117,6 +121,21 @@ def laser_source_mm(
         raise KinematicsError(f"laser mount {mount} does not exist; valid are 0..{len(mounts) - 1}")
     world = config.laser.radius_mm * arc_direction(mounts[mount], arc_deg)
     return rotate_z(world, -turntable_deg)
+
+
+def _source_direction(config: RigConfig, source: str, arc_deg: float) -> np.ndarray:
+    """World unit vector towards lamp or laser mount ``source`` with the arc at ``arc_deg``."""
+    _wang_or_virtex(config)
+    if config.kind == "virtex":
+        lamp = config.lamp(source)
+        index = [lamp.id for lamp in config.lamps].index(lamp.id)
+        return direction_vector(lamp.theta_deg, config.virtex.azimuth_deg(index))
+    return arc_direction(_source_theta(config, source), arc_deg)
+
+
+def _wang_or_virtex(config: RigConfig) -> None:
+    if config.kind == "bonn":
+        raise KinematicsError("the Bonn lab's kinematics are rig.bonn's, not rig.kinematics'")
 
 
 def _source_theta(config: RigConfig, source: str) -> float:
@@ -148,6 +167,9 @@ def inverse(
     current : (turntable_deg, arc_deg) now; free axes stay put and ties go to
         the smaller move.
     """
+    _wang_or_virtex(config)
+    if config.kind == "virtex":
+        return _inverse_virtex(config, view_deg, light_deg, sources)
     tt_axis, arc_axis = config.turntable.axis, config.light_arc.axis
     cur_tt, cur_arc = current if current is not None else (tt_axis.min_deg, arc_axis.min_deg)
     want_v = direction_vector(*view_deg)
@@ -156,8 +178,8 @@ def inverse(
     cams = config.camera_arc.cameras
     cam_theta = np.array([c.theta_deg for c in cams])
     if sources == "lamps":
-        src_ids = [lamp.id for lamp in config.light_arc.lamps]
-        src_theta = np.array([lamp.theta_deg for lamp in config.light_arc.lamps])
+        src_ids = [lamp.id for lamp in config.lamps]
+        src_theta = np.array([lamp.theta_deg for lamp in config.lamps])
     elif sources == "laser":
         src_theta = np.array(config.laser.mount_theta_deg)
         src_ids = [f"laser{i}" for i in range(len(src_theta))]
@@ -196,6 +218,25 @@ def inverse(
         view_residual_deg=float(view_err[m]),
         light_residual_deg=float(light_err[m, n]),
     )
+
+
+def _inverse_virtex(config: RigConfig, view_deg, light_deg, sources: str) -> RigPose:
+    """The stage's camera and the lamp nearest ``light_deg``; nothing moves."""
+    if sources != "lamps":
+        raise KinematicsError("a VirTex stage has no laser; its sources are its lamps")
+    lamps = config.lamps
+    lamp_dirs = np.array([_source_direction(config, lamp.id, 0.0) for lamp in lamps])
+    light_err = angular_distance_deg(lamp_dirs, direction_vector(*light_deg))
+    n = int(np.argmin(np.round(light_err, 6)))
+    return RigPose(
+        turntable_deg=0.0,
+        arc_deg=0.0,
+        camera=config.camera_arc.cameras[0].id,
+        lamp=lamps[n].id,
+        view_residual_deg=float(angular_distance_deg(np.array([0, 0, 1.0]),
+                                                     direction_vector(*view_deg))),
+        light_residual_deg=float(light_err[n]),
+    )  # fmt: skip
 
 
 def laser_plane(
@@ -242,13 +283,14 @@ def sampling_residuals(config: RigConfig, sampling: Sampling) -> list[dict]:
     always hits) and as a light (with a frontal view). Returns one row per ring:
     ``theta_deg``, ``count``, ``max_view_residual_deg``, ``max_light_residual_deg``.
     """
+    solve = bonn.inverse if config.kind == "bonn" else inverse
     rows = []
     for theta, idx in sampling.rings().items():
         view_err = light_err = 0.0
         for d in sampling.directions[idx]:
             d = (float(d[0]), float(d[1]))
-            view_err = max(view_err, inverse(config, d, (0.0, 0.0)).view_residual_deg)
-            light_err = max(light_err, inverse(config, (0.0, 0.0), d).light_residual_deg)
+            view_err = max(view_err, solve(config, d, (0.0, 0.0)).view_residual_deg)
+            light_err = max(light_err, solve(config, (0.0, 0.0), d).light_residual_deg)
         rows.append(
             {
                 "theta_deg": theta,

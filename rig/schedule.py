@@ -106,8 +106,28 @@ def _wanted_pairs(plan: Plan):
         yield from _pairs("mdf", c.mdf.views, c.mdf.laser_locations)
 
 
+# What a VirTex stage cannot capture, and why (it has one zenith camera, fixed lamps).
+_NOT_ON_VIRTEX = {
+    "btf": "its one camera looks straight down, so it sees one view direction",
+    "mdf": "it has no laser unit",
+    "fixed": "it has no turntable or arc to position",
+}
+# A VirTex stage realises a wanted direction only as closely as this (deg).
+_VIRTEX_TOLERANCE_DEG = 0.5
+
+
 def _check_plan_fits_rig(plan: Plan, config: RigConfig) -> None:
     problems = []
+    if config.kind == "virtex":
+        for capture, why in _NOT_ON_VIRTEX.items():
+            if getattr(plan.captures, capture) is not None:
+                problems.append(
+                    f"captures.{capture}: a VirTex stage captures photometric stereo only "
+                    f"(captures.ps): {why}; remove [captures.{capture}] or use a rig config "
+                    "of another kind"
+                )
+        if problems:
+            raise PlanError("plan vs rig config", problems)
     if plan.captures.mdf is not None:
         period = 1.0 / config.laser.frame_rate_hz
         if plan.exposure.laser_exposure_s > period:
@@ -128,6 +148,26 @@ def _check_plan_fits_rig(plan: Plan, config: RigConfig) -> None:
         raise PlanError("plan vs rig config", problems)
 
 
+def _check_on_virtex(config: RigConfig, kind: str, view, light, pose) -> None:
+    """Refuse a pair the stage would only approximate, naming it and what the stage has."""
+    problems = []
+    if pose.view_residual_deg > _VIRTEX_TOLERANCE_DEG:
+        problems.append(
+            f"captures.{kind}.views: view {view} is {pose.view_residual_deg:.1f}° from the "
+            "stage camera's view (0, 0); a VirTex stage sees the sample from above only"
+        )
+    if pose.light_residual_deg > _VIRTEX_TOLERANCE_DEG:
+        stage = config.virtex
+        azimuths = ", ".join(f"{stage.azimuth_deg(i):g}" for i in range(stage.lamp_count))
+        problems.append(
+            f"captures.{kind}.lights: light {light} is {pose.light_residual_deg:.1f}° from the "
+            f"nearest lamp ({pose.lamp}); the stage's lamps are at theta_deg "
+            f"{stage.lamp_theta_deg:g}, phi_deg {azimuths}"
+        )
+    if problems:
+        raise PlanError("plan vs rig config", problems)
+
+
 def _fixed_groups(plan: Plan, config: RigConfig, groups: dict) -> int:
     """Add the plan's fixed shots to ``groups`` (as BTF steps); their count."""
     everyone = tuple(c.id for c in config.camera_arc.cameras)
@@ -144,7 +184,14 @@ def _fixed_groups(plan: Plan, config: RigConfig, groups: dict) -> int:
 
 
 def compile_plan(plan: Plan, config: RigConfig) -> Schedule:
-    """Ordered steps for ``plan`` on the rig ``config``, with the estimate."""
+    """Ordered steps for ``plan`` on the rig ``config``, with the estimate.
+
+    A Bonn lab's plan compiles to ``rig.bonn_plan.BonnSchedule`` (one step per pair).
+    """
+    if config.kind == "bonn":
+        from rig.bonn_plan import compile_bonn  # it builds on this module's estimate
+
+        return compile_bonn(plan, config)
     _check_plan_fits_rig(plan, config)
     groups: dict[tuple, dict[str, Shot]] = defaultdict(dict)
     poses_cache: dict[tuple, object] = {}
@@ -157,6 +204,8 @@ def compile_plan(plan: Plan, config: RigConfig) -> Schedule:
         if pose is None:
             sources = "laser" if kind == "mdf" else "lamps"
             pose = poses_cache[key] = inverse(config, view, light, sources=sources)
+        if config.kind == "virtex":
+            _check_on_virtex(config, kind, view, light, pose)
         max_v = max(max_v, pose.view_residual_deg)
         max_l = max(max_l, pose.light_residual_deg)
         gkey = (kind, round(pose.turntable_deg, 6), round(pose.arc_deg, 6), pose.lamp)

@@ -6,7 +6,8 @@ estimate (:func:`rig.schedule.estimate`), the simulator's capture timing
 
 - Motion: turntable and arc move at once, each on its trapezoidal profile
   (:meth:`rig.config.Axis.move_time_s`); the step waits for the slower, then
-  for the longer settle time of the axes that moved.
+  for the longer settle time of the axes that moved. A VirTex stage does not
+  move.
 - Lamp: the bank waits its warm-up after each switch: on (the light settles)
   and off (the sensors confirm it dark), so twice per lamp step.
 - Capture: the cameras of a step fire together, so each exposure costs its
@@ -54,8 +55,12 @@ class StepTiming:
 def motion_s(config: RigConfig, start, target) -> tuple[np.ndarray, np.ndarray]:
     """Move and settle time (s) from ``start`` to ``target`` = (turntable_deg, arc_deg).
 
-    Both may be arrays (broadcast): the planner prices many targets at once.
+    Both may be arrays (broadcast): the planner prices many targets at once. A
+    VirTex stage has no axes: nothing moves, nothing settles.
     """
+    if config.kind == "virtex":
+        zero = np.zeros(np.broadcast(np.asarray(target[0]), np.asarray(target[1])).shape)
+        return zero, zero
     tt, arc = config.turntable.axis, config.light_arc.axis
     d_tt = np.abs(np.asarray(target[0], dtype=np.float64) - start[0])
     d_arc = np.abs(np.asarray(target[1], dtype=np.float64) - start[1])

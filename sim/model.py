@@ -11,6 +11,7 @@ from functools import cached_property
 
 import numpy as np
 
+from rig import bonn
 from rig.camera import PinholeCamera
 from rig.kinematics import lamp_position_mm, laser_plane, laser_source_mm, rotate_z
 from sim.holder import RECESS_GREY, SceneMesh, assemble, plate_albedo
@@ -96,8 +97,13 @@ class SceneModel:
         """Exact surface hits of rays on the faces something found for them."""
         return SurfaceHits.build(self.mesh, shape, pixels, origin, dirs, faces, self.albedo)
 
-    def camera(self, camera_id: str) -> PinholeCamera:
-        return self.scene.rig.camera_model(camera_id)
+    def camera(self, camera_id: str, snapshot: WorldSnapshot | None = None) -> PinholeCamera:
+        """The camera's model in the sample frame (turntable at 0); in the Bonn lab,
+        where ``snapshot``'s arm and rail put it."""
+        rig = self.scene.rig
+        if rig.kind == "bonn" and snapshot is not None:
+            return bonn.camera_model(rig, camera_id, snapshot.plate_rotation(), snapshot.rail_deg)
+        return rig.camera_model(camera_id)
 
     def camera_rays(self, camera: PinholeCamera, turntable_deg: float):
         """Pinhole rays through every pixel centre in the sample frame.
@@ -117,9 +123,12 @@ class SceneModel:
         out = {}
         for lamp_id in sorted(snapshot.lamps_on):
             lamp = rig.lamp(lamp_id)
-            pos = lamp_position_mm(
-                rig, lamp_id, arc_deg=snapshot.arc_deg, turntable_deg=snapshot.turntable_deg
-            )
+            if rig.kind == "bonn":
+                pos = bonn.lamp_position_mm(rig, snapshot.plate_rotation())
+            else:
+                pos = lamp_position_mm(
+                    rig, lamp_id, arc_deg=snapshot.arc_deg, turntable_deg=snapshot.turntable_deg
+                )
             out[lamp_id] = LightSource.from_lamp(
                 lamp, pos, self.scene.spec.radiometry.intensity_w_sr
             )

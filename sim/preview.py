@@ -67,7 +67,7 @@ def write_preview(
     with Simulator(scene if isinstance(scene, Scene) else load_scene(scene)) as sim:
         rig = sim.scene.rig
         cam_ids = _pick([c.id for c in rig.camera_arc.cameras], cameras)
-        lamp_ids = _pick([lamp.id for lamp in rig.light_arc.lamps], lamps)
+        lamp_ids = _pick([lamp.id for lamp in rig.lamps], lamps)
         for cam in cam_ids:
             for lamp in lamp_ids:
                 frame = sim.render_state(

@@ -1,8 +1,9 @@
 """The whole simulated rig: every device peer on one world, and the camera server.
 
 ``SimulatedRig`` is what ``rig sim SCENE`` serves. It starts, through
-``sim.peers.start_peer``, the peer of every device section's ``kind`` (with
-the default rig: the turntable drive and lamp bank on Modbus, the light-arc
+``sim.peers.start_peer``, the peer of every device section's ``kind`` of the
+rig's kind (``RigConfig.device_roles``; a VirTex stage: its lamp bank only;
+with the default Wang rig: the turntable drive and lamp bank on Modbus, the light-arc
 bus on Dynamixel 2.0 on a pty, the laser brick speaking NXT direct commands on
 a pty as Bluetooth SPP) and the camera server (frames rendered by the
 ``Simulator`` from the world's state, for every camera whatever its kind), and
@@ -19,8 +20,9 @@ from typing import Any, Literal
 
 from rig.clock import Clock, RealClock
 from rig.config import RigConfig
-from rig.devices import DEVICE_ROLES, SimCameraConnection
+from rig.devices import ARM_ROLE, DEVICE_ROLES, SimCameraConnection
 from rig.errors import ConfigError
+from rig.kinds import RAIL_ROLE
 from sim.peers import CameraFaults, CameraServer, Peer, start_peer
 from sim.scene import Scene, load_scene
 from sim.simulator import Simulator
@@ -29,7 +31,7 @@ from sim.world import World
 __all__ = ["FAULT_PEERS", "SimulatedRig"]
 
 log = logging.getLogger(__name__)
-FAULT_PEERS = (*DEVICE_ROLES, "cameras")
+FAULT_PEERS = (*DEVICE_ROLES, ARM_ROLE, RAIL_ROLE, "cameras")
 
 
 class SimulatedRig:
@@ -76,14 +78,16 @@ class SimulatedRig:
     def start(self) -> SimulatedRig:
         try:
             self.simulator = Simulator(self.scene)
-            for role in DEVICE_ROLES:
+            for role in self.scene.rig.device_roles:
                 self.peers[role] = start_peer(
                     role,
-                    getattr(self.scene.rig, role),
+                    self.scene.rig.device_section(role),
                     self.world,
                     faults=self._faults.get(role),
                     serial=self._transport == "rtu",
                 )
+            if ARM_ROLE in self.peers:  # the plate's pose is the arm's tool pose
+                self.world.arm_joints = self.peers[ARM_ROLE].state.joints_rad
             simulator = self.simulator
             self.cameras = CameraServer(
                 self.world,
@@ -103,7 +107,12 @@ class SimulatedRig:
         if self.cameras is None:
             raise RuntimeError("SimulatedRig.rig_config: start() the rig first")
         config = self.scene.rig
-        update = {role: peer.connect(getattr(config, role)) for role, peer in self.peers.items()}
+        update = {
+            role: peer.connect(config.device_section(role)) for role, peer in self.peers.items()
+        }
+        if config.kind == "bonn":  # the arm and the rail are the Bonn lab's section's
+            lab = {role: update.pop(role) for role in (ARM_ROLE, RAIL_ROLE) if role in update}
+            update["bonn"] = config.bonn.model_copy(update=lab)
         cameras = tuple(
             cam.model_copy(
                 update={

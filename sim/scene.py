@@ -32,7 +32,7 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from rig.config import RigConfig, default_rig_config, format_validation_error, read_toml
+from rig.config import RigConfig, format_validation_error, read_toml
 from rig.errors import ConfigError
 from sim.materials import ImageAlbedo, MaterialSpec
 from sim.samples import generator
@@ -95,6 +95,10 @@ class SampleSpec(_Closed):
 
 class RigSpec(_Closed):
     config: Path | None = Field(None, description="rig config TOML (default rig if absent)")
+    kind: Literal["wang", "bonn", "virtex"] | None = Field(
+        None, description="the rig's kind (its section's defaults unless given); default: "
+        "the config's"
+    )
     overrides: dict[str, Any] = Field(default_factory=dict, description="RigConfig fields")
 
 
@@ -298,9 +302,14 @@ def _rig(spec: SceneSpec, base_dir: Path, source: str, problems: list[str]) -> R
             problems.append(f"rig.config: {err}")
             return None
     else:
-        base = default_rig_config().model_dump(mode="json")
+        base = {}  # the default rig of the kind
+    data = _merge(base, spec.rig.overrides)
+    if spec.rig.kind is not None:
+        data["kind"] = spec.rig.kind
+        if spec.rig.kind != "wang":
+            data.setdefault(spec.rig.kind, {})
     try:
-        rig = RigConfig.model_validate(_merge(base, spec.rig.overrides))
+        rig = RigConfig.model_validate(data)
     except ValidationError as err:
         problems += _lines(("rig",), err, RigConfig)
         return None
@@ -349,8 +358,10 @@ def _report(source: str, problems: list[str]) -> str:
     return f"scene {source}: {len(problems)} problem(s)\n{lines}"
 
 
-def load_scene(path: str | Path) -> Scene:
+def load_scene(path: str | Path, *, kind: str | None = None) -> Scene:
     """Read and validate a scene TOML file; every problem names its field.
+
+    ``kind`` (``wang``, ``bonn``, ``virtex``) replaces the scene's ``rig.kind``.
 
     Raises
     ------
@@ -359,4 +370,7 @@ def load_scene(path: str | Path) -> Scene:
         problem as ``field: what is wrong (got value)``.
     """
     path = Path(path)
-    return scene_from_dict(read_toml(path, "scene"), source=str(path), base_dir=path.parent)
+    data = read_toml(path, "scene")
+    if kind is not None and isinstance(data.get("rig", {}), dict):
+        data["rig"] = {**data.get("rig", {}), "kind": kind}
+    return scene_from_dict(data, source=str(path), base_dir=path.parent)

@@ -166,9 +166,9 @@ class Simulator:
         """
         exposure = self._exposure(exposure_s)
         with self._lock:
-            camera = self.model.camera(camera_id)
+            camera = self.model.camera(camera_id, snapshot)
             spec = self.scene.rig.camera(camera_id)
-            hits = self._pixel_hits(camera_id, snapshot.turntable_deg)
+            hits = self._pixel_hits(camera_id, snapshot)
             radiance = _area_average(
                 self._radiance(camera_id, hits, snapshot), self.scene.spec.render.supersample
             )
@@ -315,12 +315,15 @@ class Simulator:
             raise ValueError(f"exposure_s must be > 0, got {exposure_s}")
         return float(exposure)
 
-    def _pixel_hits(self, camera_id: str, turntable_deg: float) -> SurfaceHits:
-        key = (camera_id, round(float(turntable_deg), 9))
+    def _pixel_hits(self, camera_id: str, snapshot: WorldSnapshot) -> SurfaceHits:
+        key = (camera_id, *_pose_key(snapshot))
+        turntable_deg = snapshot.turntable_deg
         if key in self._hits:
             self._hits.move_to_end(key)
             return self._hits[key]
-        camera = _supersampled(self.model.camera(camera_id), self.scene.spec.render.supersample)
+        camera = _supersampled(
+            self.model.camera(camera_id, snapshot), self.scene.spec.render.supersample
+        )
         faces = self._raster.face_ids(camera, turntable_deg)
         self.counters["gl_pass"] += 1
         origin, dirs = self.model.camera_rays(camera, turntable_deg)
@@ -334,8 +337,7 @@ class Simulator:
             offset = self.scene.spec.params("shadows").offset_mm
 
             def shadows(lamp_id, light):
-                key = (camera_id, round(snapshot.turntable_deg, 9), lamp_id,
-                       round(snapshot.arc_deg, 9))  # fmt: skip
+                key = (camera_id, *_pose_key(snapshot), lamp_id, round(snapshot.arc_deg, 9))
                 if key not in self._shadows:
                     self.counters["raycast.shadows"] += 1
                     self._shadows.put(key, visible_from(self.model, hits, light.position,
@@ -374,6 +376,14 @@ class Simulator:
                 self.model, self.scene.spec.params("interreflection")
             )
         return self._reference.indirect(camera_id, snapshot)
+
+
+def _pose_key(snapshot: WorldSnapshot) -> tuple:
+    """What places the cameras relative to the sample: the turntable, or the Bonn
+    lab's plate orientation and rail (rounded: the caches' keys)."""
+    rotation = snapshot.sample_rotation or ()
+    return (round(snapshot.turntable_deg, 9), round(snapshot.rail_deg, 9),
+            *(round(r, 9) for r in rotation))  # fmt: skip
 
 
 def _supersampled(camera: PinholeCamera, k: int) -> PinholeCamera:

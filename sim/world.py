@@ -5,16 +5,20 @@ goal moves the light arc, an NXT output command tilts the laser) and the camera
 server renders from it, so the camera sees exactly what the motors did. Motion
 takes time: each axis follows the trapezoidal profile of its rig-config limits
 on the injected clock (the ``motion_timing`` effect), and a peer can inject a
-stall that stops the axis short of its target.
+stall that stops the axis short of its target. In the Bonn lab the plate's
+orientation is where the arm's controller peer holds it (its joints, through
+the arm's kinematics) and the rail is one more axis.
 """
 
 from __future__ import annotations
 
 import threading
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
+from rig.bonn import plate_rotation
 from rig.clock import Clock
 from rig.config import Axis, RigConfig
 
@@ -77,6 +81,15 @@ class WorldSnapshot:
     laser_on: bool
     laser_tilt_deg: float
     laser_mount: int
+    rail_deg: float = 0.0  # the Bonn lab's camera rail
+    # the Bonn lab's plate orientation (sample → lab, row-major 3×3) where the arm holds it
+    sample_rotation: tuple[float, ...] | None = None
+
+    def plate_rotation(self) -> np.ndarray:
+        """(3, 3) the plate's orientation, sample → lab (identity where no arm holds it)."""
+        if self.sample_rotation is None:
+            return np.eye(3)
+        return np.array(self.sample_rotation, dtype=np.float64).reshape(3, 3)
 
 
 @dataclass
@@ -88,15 +101,19 @@ class World:
     turntable: AxisMotion = field(init=False)
     arc: AxisMotion = field(init=False)
     laser_tilt: AxisMotion = field(init=False)
+    rail: AxisMotion | None = field(init=False)  # the Bonn lab's camera rail
     lamps_on: set[str] = field(default_factory=set)
     dead_lamps: set[str] = field(default_factory=set)  # injected: switched on, stays dark
     laser_on: bool = False
     laser_mount: int = 0
+    # the Bonn lab's arm: its joints (rad) now, from its controller peer
+    arm_joints: Callable[[], np.ndarray] | None = None
     _lock: threading.Lock = field(default_factory=threading.Lock, repr=False)
 
     def __post_init__(self) -> None:
         self.turntable = AxisMotion(self.config.turntable.axis)
         self.arc = AxisMotion(self.config.light_arc.axis)
+        self.rail = AxisMotion(self.config.bonn.rail.axis) if self.config.kind == "bonn" else None
         sweep = self.config.laser
         self.laser_tilt = AxisMotion(
             Axis(
@@ -110,6 +127,8 @@ class World:
 
     def axis(self, name: str) -> AxisMotion:
         axes = {"turntable": self.turntable, "arc": self.arc, "laser_tilt": self.laser_tilt}
+        if self.rail is not None:
+            axes["rail"] = self.rail
         try:
             return axes[name]
         except KeyError:
@@ -147,6 +166,8 @@ class World:
                 self.laser_on = False
 
     def snapshot(self) -> WorldSnapshot:
+        joints = self.arm_joints() if self.arm_joints is not None else None
+        rotation = None if joints is None else plate_rotation(self.config, joints)
         with self._lock:
             t = self.clock.now()
             return WorldSnapshot(
@@ -157,4 +178,6 @@ class World:
                 laser_on=self.laser_on,
                 laser_tilt_deg=self.laser_tilt.position(t),
                 laser_mount=self.laser_mount,
+                rail_deg=self.rail.position(t) if self.rail is not None else 0.0,
+                sample_rotation=None if rotation is None else tuple(rotation.ravel().tolist()),
             )

@@ -297,6 +297,7 @@ class DynamixelArc:
 
 
 @register("light_arc", "dynamixel")
+@register("rail", "dynamixel")
 def open_light_arc(section: LightArc, *, clock: Clock) -> DynamixelArc:
-    """The light arc of a rig config, on its Dynamixel servos."""
+    """The light arc of a rig config (or the Bonn lab's rail), on its Dynamixel servos."""
     return DynamixelArc(section.device, axis=section.axis, clock=clock)

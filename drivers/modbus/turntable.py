@@ -225,6 +225,7 @@ class ModbusTurntable:
 
 
 @register("turntable", "modbus")
+@register("rail", "modbus")
 def open_turntable(section: Turntable, *, clock: Clock) -> ModbusTurntable:
-    """The turntable of a rig config, on its Modbus drive."""
+    """The turntable of a rig config (or the Bonn lab's rail), on its Modbus drive."""
     return ModbusTurntable(section.device, axis=section.axis, clock=clock)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import signal
 import threading
 import tomllib
+from enum import Enum
 from pathlib import Path
 from typing import Annotated, Literal
 
@@ -14,9 +15,14 @@ from rich.markup import escape
 from typer.core import TyperGroup
 
 from orchestrator.cli.common import console
+from rig.config import RIG_KINDS
 from rig.errors import ConfigError
 
 __all__ = ["app", "parse_faults"]
+
+
+# what --config-kind accepts: the rig kinds
+Kind = Enum("Kind", {kind: kind for kind in RIG_KINDS}, type=str)
 
 
 class _DefaultServe(TyperGroup):
@@ -76,6 +82,14 @@ def serve(
             "laser, cameras), e.g. cameras.dropped_frames=1; repeatable",
         ),
     ] = None,
+    config_kind: Annotated[
+        Kind | None,
+        typer.Option(
+            "--config-kind",
+            help="simulate this kind of rig (its default geometry unless the scene gives it); "
+            "default: the scene's",
+        ),
+    ] = None,
 ) -> None:
     """Start all device peers and the camera server; write the rig config that reaches them.
 
@@ -85,6 +99,7 @@ def serve(
     from rig.clock import RealClock, ScaledClock
     from rig.config import write_rig_config
     from sim.rig import SimulatedRig
+    from sim.scene import load_scene
 
     if transport not in ("tcp", "rtu"):
         raise ConfigError(f"--transport {transport!r}: valid are 'tcp' and 'rtu'")
@@ -95,8 +110,9 @@ def serve(
         sig: signal.signal(sig, lambda *_: stop.set()) for sig in (signal.SIGINT, signal.SIGTERM)
     }
     try:
+        the_scene = load_scene(scene, kind=config_kind.value if config_kind else None)
         with SimulatedRig(
-            scene, clock=clock, transport=mode, faults=parse_faults(fault or [])
+            the_scene, clock=clock, transport=mode, faults=parse_faults(fault or [])
         ) as sim:
             path = write_rig_config(sim.rig_config(), config_out)
             console.print(

@@ -1,11 +1,12 @@
 """The device facade: the one object a session drives.
 
 ``RigDevices`` composes the drivers of one rig (turntable, light arc, lamp
-bank, laser unit, cameras) behind the step vocabulary of a session: move both
-axes in parallel and wait until they have settled, switch a lamp or the
-laser, trigger every camera of a step together and read them, sweep the laser
-sheet while the cameras record. Drivers are synchronous and retry on their
-own; a ``DeviceError`` reaching the facade has survived those retries.
+bank, laser unit, cameras; a VirTex stage has only its lamps and camera)
+behind the step vocabulary of a session: move both axes in parallel and wait
+until they have settled, switch a lamp or the laser, trigger every camera of a
+step together and read them, sweep the laser sheet while the cameras record.
+Drivers are synchronous and retry on their own; a ``DeviceError`` reaching the
+facade has survived those retries.
 
 ``build_devices(config, clock=..., scale=...)`` opens, through
 ``drivers.open_device``, the driver each device section's ``kind`` names. Tests
@@ -148,8 +149,8 @@ class RigDevices:
         config: RigConfig,
         *,
         clock: Clock,
-        turntable: Axis,
-        arc: Axis,
+        turntable: Axis | None,
+        arc: Axis | None,
         lamps: LampBank,
         laser: LaserUnit | None,
         cameras: Mapping[str, Camera],
@@ -164,11 +165,15 @@ class RigDevices:
         self._position: dict[str, float | None] = {"turntable_deg": None, "arc_deg": None}
         self._tilt_deg = 0.0
 
+    @property
+    def _axes(self) -> list[Axis]:
+        return [axis for axis in (self.turntable, self.arc) if axis is not None]
+
     def home(self, *, laser: bool) -> None:
         """Lamps off, home the turntable and the arc; check the laser unit, tilt it to 0."""
         self.lamps.switch(frozenset())
-        self.turntable.home()
-        self.arc.home()
+        for axis in self._axes:
+            axis.home()
         self._position = {"turntable_deg": 0.0, "arc_deg": None}
         if laser:
             unit = self._laser_unit()
@@ -178,7 +183,18 @@ class RigDevices:
             self._tilt_deg = 0.0
 
     def move(self, *, turntable_deg: float, arc_deg: float) -> dict[str, float]:
-        """Move both axes at once, wait until both stop, then wait the longer settle time."""
+        """Move both axes at once, wait until both stop, then wait the longer settle time.
+
+        A rig without axes (a VirTex stage) stays where it is, which only the
+        pose (0, 0) asks for; it reports no actuator positions.
+        """
+        if not self._axes:
+            if turntable_deg != 0.0 or arc_deg != 0.0:
+                raise DeviceError(
+                    "rig", "move", f"this {self.config.kind} rig has no turntable or arc to "
+                    f"move to ({turntable_deg}°, {arc_deg}°)",
+                )  # fmt: skip
+            return {}
         moving_tt = self._position["turntable_deg"] != turntable_deg
         moving_arc = self._position["arc_deg"] != arc_deg
         if moving_tt:
@@ -274,7 +290,7 @@ class RigDevices:
     def all_off(self) -> None:
         """Lamps and laser off, axes stopped; every device tried, the first error raised."""
         errors = []
-        actions = [lambda: self.lamps.switch(frozenset()), self.turntable.stop]
+        actions = [lambda: self.lamps.switch(frozenset()), *(a.stop for a in self._axes)]
         if self.laser_unit is not None:
             actions += [lambda: self.laser_unit.set_laser(False), self.laser_unit.tilt.stop]
         for action in actions:
@@ -288,15 +304,13 @@ class RigDevices:
 
     def telemetry(self) -> dict:
         """Positions and lamps as the devices report them (for the events stream)."""
-        return {
-            "turntable_deg": float(self.turntable.position()),
-            "arc_deg": float(self.arc.position()),
-            "lamps_on": sorted(self.lamps.lamps_on()),
-        }
+        axes = {"turntable_deg": self.turntable, "arc_deg": self.arc}
+        positions = {name: float(a.position()) for name, a in axes.items() if a is not None}
+        return {**positions, "lamps_on": sorted(self.lamps.lamps_on())}
 
     def close(self) -> None:
         """Close every device, even if some fail; idempotent."""
-        devices = [self.turntable, self.arc, self.lamps, *self.cameras.values()]
+        devices = [*self._axes, self.lamps, *self.cameras.values()]
         if self.laser_unit is not None:
             devices.append(self.laser_unit)
         for device in devices:
@@ -326,7 +340,8 @@ def build_devices(
     the same way); what opened is closed again if a later one fails.
 
     ``scale`` is the plan's resolution factor (binned in software); with
-    ``laser=False`` the laser unit is not opened (plans without scans).
+    ``laser=False`` the laser unit is not opened (plans without scans). Only
+    the roles of the config's kind open (``RigConfig.device_roles``).
     """
     opened: list = []
 
@@ -336,11 +351,14 @@ def build_devices(
         return device
 
     try:
-        turntable = opening("turntable", config.turntable)
-        arc = opening("light_arc", config.light_arc)
-        lamp_ids = [lamp.id for lamp in config.light_arc.lamps]
+        roles = config.device_roles
+        turntable = opening("turntable", config.turntable) if "turntable" in roles else None
+        arc = opening("light_arc", config.light_arc) if "light_arc" in roles else None
+        lamp_ids = [lamp.id for lamp in config.lamps]
         lamps = opening("lamp_bank", config.lamp_bank, lamp_ids=lamp_ids)
-        unit = opening("laser", config.laser) if laser else None
+        unit = opening("laser", config.laser) if laser and "laser" in roles else None
+        lab = {role: opening(role, config.device_section(role)) for role in ("arm", "rail")
+               if role in roles}  # fmt: skip
         cameras = {}
         for spec in config.camera_arc.cameras:
             camera = opening("camera", spec)
@@ -353,6 +371,10 @@ def build_devices(
         for device in reversed(opened):
             device.close()
         raise
+    if lab:
+        from orchestrator.daemon.bonn_devices import BonnDevices  # it builds on RigDevices
+
+        return BonnDevices(config, clock=clock, lamps=lamps, cameras=cameras, **lab)
     return RigDevices(
         config, clock=clock, turntable=turntable, arc=arc, lamps=lamps, laser=unit, cameras=cameras
     )

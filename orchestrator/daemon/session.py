@@ -41,6 +41,9 @@ from orchestrator.daemon.devices import Captured, DeviceSet
 from orchestrator.daemon.protocol import ArraySpec, FrameHeader
 from orchestrator.daemon.state import IllegalTransition, SessionEvent, SessionState, StateMachine
 from rig.archive import Archive, ArchiveError, ArchiveFull, FrameFormat, FrameRecord, StepRecord
+from rig.bonn import forward as bonn_forward
+from rig.bonn import plate_rotation
+from rig.bonn_plan import BonnStep
 from rig.calfile import load_calibration
 from rig.clock import Clock
 from rig.config import RigConfig
@@ -311,7 +314,10 @@ class Session:
         with self._lock:
             self._progress.step_index = step.index
         started_at = self.clock.now()
-        actuators = devices.move(turntable_deg=step.turntable_deg, arc_deg=step.arc_deg)
+        if isinstance(step, BonnStep):  # the arm turns the plate, the rail moves the camera
+            actuators = devices.place(rail_deg=step.rail_deg, joints_deg=step.joints_deg)
+        else:
+            actuators = devices.move(turntable_deg=step.turntable_deg, arc_deg=step.arc_deg)
         self.outbox.publish("telemetry", {"session": self.id, "step": step.index, **actuators})
         if self.machine.state == SessionState.ABORTED:  # the move took long: light nothing
             raise _Aborted
@@ -343,17 +349,21 @@ class Session:
         self._stream(step, frames)
         self._progressed(step, sum(len(f) for f in frames.values()))
 
-    def _record(self, step: Step, actuators: dict, started_at: float, **source) -> StepRecord:
+    def _record(
+        self, step: Step | BonnStep, actuators: dict, started_at: float, **source
+    ) -> StepRecord:
         views, light = {}, None
-        for shot in step.shots:
-            view, light = forward(
-                self.config,
-                turntable_deg=step.turntable_deg,
-                arc_deg=step.arc_deg,
-                camera=shot.camera,
-                lamp=step.source,
-            )
-            views[shot.camera] = (float(view[0]), float(view[1]))
+        if isinstance(step, BonnStep):  # the directions the arm and the rail were sent to
+            rotation = plate_rotation(self.config, np.radians(step.joints_deg))
+            view, light = bonn_forward(self.config, rotation, step.rail_deg)
+            views[step.camera] = (float(view[0]), float(view[1]))
+        else:
+            for shot in step.shots:
+                view, light = forward(
+                    self.config, turntable_deg=step.turntable_deg, arc_deg=step.arc_deg,
+                    camera=shot.camera, lamp=step.source,
+                )  # fmt: skip
+                views[shot.camera] = (float(view[0]), float(view[1]))
         return StepRecord(
             index=step.index,
             kind=step.kind,

@@ -139,7 +139,9 @@ def slot_normtextures(
     for light, (step, camera) in enumerate(item.captures):
         record = records[step]
         frame = archive.read_frame(step, camera, 0)
-        turntable = record.actuators["turntable_deg"]
+        # the lens (intrinsics, distortion) matters, not the pose: the markers give it
+        # (a rig without a turntable, as the Bonn lab, records none)
+        turntable = record.actuators.get("turntable_deg", 0.0)
         lens = frame_camera(archive, config, camera, turntable)
         reg = register_capture(frame, config, record, camera, size=size, camera=lens).registration
         if not reg.valid:

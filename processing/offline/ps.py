@@ -171,7 +171,9 @@ def _lights(config: RigConfig, steps) -> NearLights | DistantLights:
         directions = np.array([direction_vector(*s.light_deg) for s in steps])
         return DistantLights(directions, intensities)
     positions = [
-        lamp_position_mm(config, s.lamp, **{k: s.actuators[k] for k in _AXES}) for s in steps
+        # a rig without axes (a VirTex stage) records none: its axes are at 0
+        lamp_position_mm(config, s.lamp, **{k: s.actuators.get(k, 0.0) for k in _AXES})
+        for s in steps
     ]
     return NearLights(np.array(positions), intensities)
 

@@ -82,7 +82,7 @@ def views_of(archive: Archive, kind: str) -> list[View]:
     for step in archive.step_table():
         if step.kind != kind:
             continue
-        turntable = round(float(step.actuators["turntable_deg"]), 1) % 360.0
+        turntable = round(float(step.actuators.get("turntable_deg", 0.0)), 1) % 360.0
         for camera in step.cameras:
             views.setdefault((camera, turntable), []).append(step.index)
     return [

@@ -285,7 +285,7 @@ class LampBankPeer(_ModbusPeer):
         faults: Mapping[str, Any] | None = None,
     ):
         self.world = world
-        self.lamp_ids = tuple(lamp_ids or (lamp.id for lamp in world.config.light_arc.lamps))
+        self.lamp_ids = tuple(lamp_ids or (lamp.id for lamp in world.config.lamps))
         self.registers = registers or LampBankRegisters()
         super().__init__(
             SimDevice(id=unit_id, simdata=self._simdata(), action=self._action),
@@ -372,10 +372,11 @@ class LampBankPeer(_ModbusPeer):
             )
 
 
-def _start(peer_class, section, world: World, faults: Mapping[str, Any], serial: bool):
+def _start(peer_class, section, world: World, faults: Mapping[str, Any], serial: bool, **axis):
     device = section.device
     return peer_class(
         world,
+        **axis,
         registers=device.registers,
         unit_id=device.unit_id,
         transport="rtu" if serial else "tcp",
@@ -390,6 +391,14 @@ def start_drive(
 ) -> TurntableDrivePeer:
     """A drive with the section's register map and unit id, started (TCP, or RTU on a pty)."""
     return _start(TurntableDrivePeer, section, world, faults, serial)
+
+
+@register_peer("rail", "modbus")
+def start_rail_drive(
+    section, world: World, *, faults: Mapping[str, Any], serial: bool
+) -> TurntableDrivePeer:
+    """The Bonn lab's rail on a stepper drive: the world's rail axis, started."""
+    return _start(TurntableDrivePeer, section, world, faults, serial, axis="rail")
 
 
 @register_peer("lamp_bank", "modbus")

@@ -22,6 +22,7 @@ from typing import Any, Protocol
 
 from rig.devices import ARM_ROLE, DEVICE_ROLES
 from rig.errors import ConfigError
+from rig.kinds import RAIL_ROLE
 from rig.registry import KindRegistry
 from sim.world import World
 
@@ -38,7 +39,7 @@ class Peer(Protocol):
         """Stop answering and release ports and threads; idempotent."""
 
 
-_REGISTRY = KindRegistry("sim.peers", (*DEVICE_ROLES, ARM_ROLE))
+_REGISTRY = KindRegistry("sim.peers", (*DEVICE_ROLES, ARM_ROLE, RAIL_ROLE))
 
 
 def register_peer(role: str, kind: str) -> Callable[[Callable], Callable]:

@@ -1,6 +1,7 @@
 """The user's multi-process setup, on the command line: `rig sim serve` in one process,
 `rig daemon` in another, `rig submit` / `rig status` / `rig resume` as clients. The daemon
-is killed with SIGKILL mid-session; a new one resumes the archive with every step once."""
+is killed with SIGKILL mid-session; a new one resumes the archive with every step once —
+on the Wang rig and on the Bonn lab (`rig sim --config-kind bonn`)."""
 
 from __future__ import annotations
 
@@ -13,6 +14,7 @@ import time
 import tomllib
 from pathlib import Path
 
+import pytest
 import tomli_w
 
 from orchestrator import client
@@ -81,7 +83,8 @@ def _wait(predicate, what: str, timeout_s: float = 60.0):
         time.sleep(0.1)
 
 
-def test_sim_serve_daemon_submit_kill_resume(tmp_path):
+@pytest.mark.parametrize("kind", ["wang", "bonn"])
+def test_sim_serve_daemon_submit_kill_resume(tmp_path, kind):
     scene = tomllib.loads((ROOT / "examples/scenes/bumps.toml").read_text())
     scene["render"]["scale"] = 0.2
     (tmp_path / "scene.toml").write_text(tomli_w.dumps(scene))
@@ -89,7 +92,8 @@ def test_sim_serve_daemon_submit_kill_resume(tmp_path):
     config, archive = tmp_path / "sim-rig.toml", tmp_path / "session.zarr"
     connect = f"tcp://127.0.0.1:{_free_base_port()}"
     port = connect.rsplit(":", 1)[1]
-    sim = _start("sim", str(tmp_path / "scene.toml"), "--config-out", str(config), "--speed", "4")
+    sim = _start("sim", str(tmp_path / "scene.toml"), "--config-out", str(config), "--speed", "4",
+                 "--config-kind", kind)  # fmt: skip
     daemon = again = None
     try:
         _wait(lambda: config.exists() or sim.poll() is not None, "the sim's rig config")

@@ -330,6 +330,12 @@ def test_resume_of_a_finished_session_is_refused(saturated):
     _fails_cleanly(result, 1, str(saturated), "finished", "nothing to resume")
 
 
+def test_sim_serve_rejects_an_unknown_rig_kind():
+    result = runner.invoke(app, ["sim", "examples/scenes/bumps.toml", "--config-kind", "tripod"])
+    assert result.exit_code == 2
+    assert "tripod" in result.output and "'virtex'" in result.output
+
+
 @pytest.mark.parametrize(
     ("args", "message"),
     [

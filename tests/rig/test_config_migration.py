@@ -142,3 +142,13 @@ def test_bad_device_sections_name_the_field_and_what_is_valid(tmp_path, text, me
     path.write_text(text)
     with pytest.raises(ConfigError, match=message):
         load_rig_config(path)
+
+
+def test_a_config_stored_before_rig_kinds_is_the_same_wang_rig():
+    # model_dump(mode="json") of the default rig as stored before configs named their kind
+    stored = json.loads((Path(__file__).parent / "data" / "rig_config_layout2.json").read_text())
+    assert "kind" not in stored
+    config = RigConfig.model_validate(stored)
+    assert config.kind == "wang"
+    assert config == RigConfig()
+    assert [lamp.id for lamp in config.lamps] == [lamp.id for lamp in config.light_arc.lamps]

@@ -96,3 +96,15 @@ def _build_error(sample):
 @pytest.mark.parametrize("path", SCENES, ids=[p.stem for p in SCENES])
 def test_example_scenes_are_valid(path):
     assert load_scene(path).spec.sample.generator
+
+
+def test_the_scene_or_the_caller_picks_the_rig_kind():
+    from sim.scene import load_scene
+
+    scene = load_scene("examples/scenes/virtex.toml")
+    assert scene.rig.kind == "virtex" and len(scene.rig.lamps) == 6
+    wang = load_scene("examples/scenes/bumps.toml")
+    assert wang.rig.kind == "wang"
+    stage = load_scene("examples/scenes/bumps.toml", kind="virtex")
+    assert stage.rig.kind == "virtex" and [c.theta_deg for c in stage.rig.camera_arc.cameras] == [0]
+    assert stage.rig.device_roles == ("lamp_bank",)

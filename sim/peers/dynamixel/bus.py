@@ -255,3 +255,11 @@ def start_bus(
 ) -> DynamixelBusPeer:
     """The section's servos on a pty, turning the world's arc, started."""
     return DynamixelBusPeer(world, servos=section.device, faults=faults).start()
+
+
+@register_peer("rail", "dynamixel")
+def start_rail_bus(
+    section, world: World, *, faults: Mapping[str, Any], serial: bool
+) -> DynamixelBusPeer:
+    """The Bonn lab's rail servos on a pty, moving the world's rail axis, started."""
+    return DynamixelBusPeer(world, servos=section.device, axis="rail", faults=faults).start()

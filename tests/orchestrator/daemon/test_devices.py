@@ -77,6 +77,26 @@ def test_a_device_that_fails_to_open_closes_those_opened_before(world, peers):
     devices.close()
 
 
+def test_a_virtex_stage_opens_its_lamps_and_camera_and_never_moves():
+    from sim.rig import SimulatedRig
+    from sim.scene import load_scene
+
+    clock = VirtualClock()
+    with SimulatedRig(load_scene("examples/scenes/virtex.toml"), clock=clock) as sim:
+        devices = build_devices(sim.rig_config(), clock=clock, laser=False)
+        try:
+            assert devices.turntable is None and devices.arc is None
+            devices.home(laser=False)
+            assert devices.move(turntable_deg=0.0, arc_deg=0.0) == {}
+            with pytest.raises(DeviceError, match=r"virtex rig has no turntable or arc"):
+                devices.move(turntable_deg=30.0, arc_deg=0.0)
+            devices.lamp("lamp5", True)
+            assert devices.telemetry() == {"lamps_on": ["lamp5"]}
+            devices.all_off()
+        finally:
+            devices.close()
+
+
 def _dark(camera_id, snapshot, exposure_s):
     spec = default_rig_config().camera(camera_id)
     return np.zeros((spec.height, spec.width, spec.channels), dtype=np.uint8)

@@ -1,0 +1,130 @@
+"""Registration on the simulated Bonn lab against the simulator's truth (docs/btf.md).
+
+The scene of ``tests/processing/registration/sim_views.py`` (flat Lambertian sample 0.01 mm
+below the plate, smooth albedo, frames rendered with 3 × 3 area sampling) on the Bonn lab:
+its one lamp directional. For each (view, light) pair the real drivers turn the plate with
+the arm and move the camera along the rail against the simulated lab's peers; the camera
+server's frame of the world state is registered with ``register_frame`` and compared with
+``Simulator.btf_truth`` of the pair (ray cast) on the texel grid: mean marker reprojection,
+corner error against the Bonn camera model's projection, texture RMSE.
+
+Run as ``python -m tests.sim.bonn_registration`` for the table (one row per pair).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from drivers import open_device
+from processing.registration import marker_corners_mm, register_frame
+from rig import bonn
+from rig.clock import VirtualClock
+from rig.devices import Retry
+from sim import scene_from_dict
+from sim.rig import SimulatedRig
+from sim.sensor import full_scale
+
+SIZE = 64
+PAIRS = (
+    ((0.0, 0.0), (34.0, 90.0)),
+    ((17.0, 60.0), (51.0, 200.0)),
+    ((34.0, 150.0), (17.0, 0.0)),
+    ((51.0, 300.0), (34.0, 30.0)),
+    ((51.0, 20.0), (68.0, 180.0)),
+    ((68.0, 90.0), (0.0, 0.0)),
+)
+_FAST = Retry(timeout_s=0.5, retries=2, backoff_s=0.01)
+
+
+def bonn_scene():
+    albedo = {"kind": "noise", "rgb": [0.6, 0.5, 0.4], "variation": 0.3, "scale_mm": 8.0}
+    return scene_from_dict({
+        "name": "bonn-registration",
+        "effects": [],
+        "sample": {"generator": "flat", "depth_mm": 0.01, "materials": ["m"]},
+        "materials": {"m": {"albedo": albedo}},
+        "rig": {"kind": "bonn", "overrides": {"bonn": {"lamp_kind": "directional"}}},
+        "render": {"scale": 0.5, "supersample": 3},
+    })  # fmt: skip
+
+
+def measure(pairs=PAIRS) -> list[dict]:
+    """One row per pair: markers, reprojection, corner error, texture RMSE (relative)."""
+    clock = VirtualClock()
+    rows = []
+    with SimulatedRig(bonn_scene(), clock=clock) as sim:
+        config = sim.rig_config()
+        arm_section = config.bonn.arm.model_copy(
+            update={"device": config.bonn.arm.device.model_copy(update={"retry": _FAST})}
+        )
+        arm = open_device("arm", arm_section, clock=clock)
+        rail = open_device("rail", config.bonn.rail, clock=clock)
+        try:
+            arm.home()
+            rail.home()
+            sim.world.set_lamp(config.bonn.lamp_id, True)
+            for view, light in pairs:
+                pose = bonn.inverse(config, view, light)
+                arm.move_to(bonn.plate_tool_pose(config, pose.rotation))
+                rail.move_to(pose.rail_deg)
+                arm.wait_until_settled()
+                rail.wait_until_settled()
+                rows.append(_row(sim, config, view, light, pose))
+        finally:
+            arm.close()
+            rail.close()
+    return rows
+
+
+def _row(sim, config, view, light, pose) -> dict:
+    frame = sim.simulator.render("cam0", sim.world.snapshot())
+    rotation = sim.world.snapshot().plate_rotation()  # where the arm really holds the plate
+    camera = bonn.camera_model(sim.scene.rig, "cam0", rotation, sim.world.position("rail"))
+    result = register_frame(frame.image, config.holder, size=SIZE, camera=camera)
+    plate = marker_corners_mm(config.holder)[result.detection.ids].reshape(-1, 2)
+    projected, _ = camera.project(np.column_stack([plate, np.zeros(len(plate))]))
+    corner = np.linalg.norm(result.detection.corners_px.reshape(-1, 2) - projected, axis=1)
+    got_view, got_light = bonn.forward(config, rotation, sim.world.position("rail"))
+    truth = _true_texture(sim, config, tuple(got_view), tuple(got_light), frame)
+    inner = (slice(1, -1), slice(1, -1))
+    valid = result.normtexture.valid[inner]
+    diff = result.normtexture.texture[inner][valid].astype(np.float64) - truth[inner][valid]
+    return {
+        "view": view, "light": light, "rail_deg": pose.rail_deg,
+        "tilt_deg": bonn.tilt_deg(config, pose.rotation), "markers": len(result.detection),
+        "valid": bool(result.valid), "reproj_px": result.homography.mean_reprojection_px,
+        "corner_px": float(corner.mean()),
+        "rmse": float(np.sqrt(np.mean(diff**2)) / truth[inner][valid].mean()),
+    }  # fmt: skip
+
+
+def _true_texture(sim, config, view, light, frame, supersample: int = 4) -> np.ndarray:
+    """(N, N, 3) DN: texel averages of ``btf_truth`` × irradiance × the camera's DN scale."""
+    n, s = SIZE, supersample
+    fine = sim.simulator.btf_truth(view, light, n * s).astype(np.float64)
+    radiometry = sim.scene.spec.radiometry
+    lab = config.bonn
+    irradiance = radiometry.intensity_w_sr * lab.lamp_intensity / (lab.lamp_distance_mm / 1e3) ** 2
+    dn = irradiance * frame.exposure_s / radiometry.full_scale_exposure
+    return fine.reshape(n, s, n, s, 3).mean((1, 3)) * dn * full_scale(frame.bit_depth)
+
+
+def main() -> None:
+    rows = measure()
+    print("| view θ, φ | light θ, φ | rail ° | tilt ° | markers | reproj. px | "
+          "corner vs model px | texture RMSE % |\n|---|---|---|---|---|---|---|---|")  # fmt: skip
+    for r in rows:
+        print(
+            f"| {r['view'][0]:.0f}°, {r['view'][1]:.0f}° | {r['light'][0]:.0f}°, "
+            f"{r['light'][1]:.0f}° | {r['rail_deg']:.1f} | {r['tilt_deg']:.1f} | {r['markers']} | "
+            f"{r['reproj_px']:.3f} | {r['corner_px']:.3f} | {100 * r['rmse']:.2f} |"
+        )
+    print(
+        f"mean reprojection {np.mean([r['reproj_px'] for r in rows]):.3f} px, corner error "
+        f"{np.mean([r['corner_px'] for r in rows]):.3f} px, texture RMSE "
+        f"{100 * np.mean([r['rmse'] for r in rows]):.2f} %"
+    )
+
+
+if __name__ == "__main__":
+    main()
