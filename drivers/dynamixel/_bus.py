@@ -11,6 +11,7 @@ status error → ``DeviceError`` (a wrong address, a value beyond a limit).
 from __future__ import annotations
 
 import logging
+import termios
 from collections.abc import Callable, Mapping
 from typing import TypeVar
 
@@ -152,13 +153,7 @@ class DynamixelBus:
                     self.device, operation, f"sync write: {self.packets.getTxRxResult(result)}"
                 )
 
-        with_retries(
-            attempt,
-            retry=self.connection.retry,
-            clock=self._clock,
-            device=self.device,
-            operation=operation,
-        )
+        self._retried(attempt, operation)
 
     def sync_read(
         self, address: int, size: int, ids: tuple[int, ...], *, operation: str
@@ -174,13 +169,7 @@ class DynamixelBus:
                 raise _comm_error(self.device, operation, result, self.packets, ids)
             return {i: bytes(group.data_dict[i]) for i in ids}
 
-        return with_retries(
-            attempt,
-            retry=self.connection.retry,
-            clock=self._clock,
-            device=self.device,
-            operation=operation,
-        )
+        return self._retried(attempt, operation)
 
     def close(self) -> None:
         """Close the serial port and release the device; idempotent."""
@@ -191,6 +180,29 @@ class DynamixelBus:
             self._lock.release()
 
     # -- one transaction, retried --------------------------------------------------------
+    def _retried(self, attempt: Callable[[], T], operation: str) -> T:
+        """``attempt`` under the connection's retries; the serial port failing beneath the
+        SDK (adapter unplugged, pty gone: termios/OS errors) is a ``DeviceError`` naming
+        the port, not retried."""
+
+        def guarded() -> T:
+            try:
+                return attempt()
+            except (serial.SerialException, OSError, termios.error) as err:
+                raise DeviceError(
+                    self.device,
+                    operation,
+                    f"serial port {self.connection.serial_port!r} failed: {err}",
+                ) from err
+
+        return with_retries(
+            guarded,
+            retry=self.connection.retry,
+            clock=self._clock,
+            device=self.device,
+            operation=operation,
+        )
+
     def _txrx(self, servo_id: int, operation: str, send: Callable[[], tuple]) -> T:
         def attempt():
             value, result, error = send()
@@ -212,13 +224,7 @@ class DynamixelBus:
                 )
             return value
 
-        return with_retries(
-            attempt,
-            retry=self.connection.retry,
-            clock=self._clock,
-            device=self.device,
-            operation=operation,
-        )
+        return self._retried(attempt, operation)
 
     def _raise_hardware_error(self, servo_id: int, operation: str) -> None:
         bits, result, _ = self.packets.read1ByteTxRx(self.port, servo_id, HARDWARE_ERROR_STATUS)

@@ -168,3 +168,13 @@ def test_a_servo_missing_from_the_bus_times_out(world, clock):
         with pytest.raises(DeviceTimeout, match="servo 2: no status packet"):
             driver.enable()
         driver.close()
+
+
+def test_a_vanished_bus_is_a_device_error_naming_the_port(arc, bus):
+    """The adapter unplugged (the peer's pty closed): the SDK's termios/OS error becomes a
+    ``DeviceError`` naming the light arc and its port, for the daemon to pause on."""
+    port = bus.serial_port
+    bus.stop()
+    with pytest.raises(DeviceError, match=re.escape(f"serial port {port!r} failed")) as caught:
+        arc.stop()
+    assert caught.value.device == "light arc"
