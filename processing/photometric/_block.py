@@ -165,7 +165,7 @@ def _shared_weighted_sums(obs, weights, lights):
     n = weights.shape[1]
     colour = obs.ndim == 3
     planes = np.ascontiguousarray(np.moveaxis(obs, 2, 0)) if colour else obs[None]
-    weights = np.ascontiguousarray(weights, dtype=np.float64)
+    weights = np.ascontiguousarray(weights)
     upper = np.empty((6, n))
     moment = np.empty((planes.shape[0], 3, n))
     energy = np.empty((planes.shape[0], n))

@@ -228,7 +228,7 @@ def pinv_store(normals, albedo, sq, clipped, lit, pixel, n_lights, condition, ou
 def weighted_sums(weights, planes, lights, upper, moment, energy, weight_sum, used):
     """The per-pixel sums of a weighted fit with one shared light matrix, in one pass.
 
-    weights : (L, n) float64; planes : (C, L, n) float64 observations per
+    weights : (L, n) float32 or float64; planes : (C, L, n) float64 observations per
     channel; lights : (L, 3) float64. Out: upper (6, n) ``Σ w s_i s_j`` for
     (i, j) in (00, 01, 02, 11, 12, 22); moment (C, 3, n) ``Σ w I s``; energy
     (C, n) ``Σ w I²``; weight_sum (n,) ``Σ w``; used (n,) float64, the

@@ -13,8 +13,9 @@ Two strategies, compared in ``docs/photometric.md``:
     The scale is the median absolute residual (MAD) of the observations in
     play, with a floor so noise-free data keeps unit weights.
 
-Both return weights in [0, 1] of shape (L, n); saturated observations always
-get 0.
+Both return float32 weights in [0, 1] of shape (L, n) (weights need no more
+digits; the sums of the fit take them into float64); saturated observations
+always get 0.
 """
 
 from __future__ import annotations
@@ -52,7 +53,7 @@ def threshold_weights(
     """0/1 weights from thresholds relative to each pixel's own values."""
     ref = reference_level(grey, highlight_fraction)
     keep = usable & (grey >= shadow_fraction * ref) & (grey <= ref)
-    return keep.astype(np.float64)
+    return keep.astype(np.float32)
 
 
 def irls_weights(
@@ -90,7 +91,7 @@ def irls_weights(
             settings,
             weights,
         )
-        return weights.astype(np.float64)
+        return weights
     ref = reference_level(grey, highlight_fraction)
     support = usable & (grey >= shadow_fraction * ref)
     weights = (support & (grey <= ref)).astype(np.float32)
@@ -115,7 +116,7 @@ def irls_weights(
         tukey = np.square(np.clip(np.subtract(1.0, u2, out=u2), 0.0, None, out=u2), out=u2)
         # An observation the current fit puts in attached shadow carries no information.
         weights = np.multiply(tukey, support & (predicted > shadow_level), out=tukey)
-    return weights.astype(np.float64)
+    return weights
 
 
 def _median(magnitude: np.ndarray, support: np.ndarray) -> np.ndarray:

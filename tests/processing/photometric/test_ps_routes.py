@@ -13,6 +13,7 @@ from numpy.testing import assert_allclose, assert_array_equal
 from processing.photometric import DistantLights, PhotometricError, Reason, solve
 from processing.photometric._block import solve_block
 from processing.photometric._inputs import check_stack
+from processing.photometric._irls_kernel import _ABSENT, _float_keys, _select
 from processing.photometric._robust import _median, irls_weights
 from processing.photometric._solve import _check_options, _read_chunk
 from tests.processing.photometric.ps_synthetic import ring_directions
@@ -140,7 +141,47 @@ def test_compiled_irls_weights_match_the_per_pixel_light_steps():
     per_pixel = np.broadcast_to(DIRS[:, None, :], (*grey.shape, 3))
     compiled = irls_weights(grey, usable, DIRS, **options)
     stepwise = irls_weights(grey, usable, per_pixel, **options)
-    assert compiled.dtype == np.float64 and compiled.shape == grey.shape
+    assert compiled.dtype == np.float32 and compiled.shape == grey.shape
     # float32 sums over the lights in another order: weights agree to ~1e-4
     assert_allclose(compiled, stepwise, atol=5e-4)
     assert 0 < (compiled == 0).mean() < 0.5  # shadows, highlights and clipped observations out
+
+
+def test_compiled_irls_weights_match_the_numpy_steps_on_tied_values():
+    # Observations on a few levels tie many times over (the reference level, a
+    # flat pixel's residuals): the compiled order statistics must stay exact.
+    images = scene(np.float64, False, exclusions=True, seed=4)
+    grey = np.round(images.reshape(len(DIRS), -1) * 6) / 6
+    grey[:, 20:23] = 0.5  # one value under every lamp
+    usable = np.ones(grey.shape, bool)
+    options = {
+        "shadow_fraction": 0.05,
+        "highlight_fraction": 0.1,
+        "iterations": 3,
+        "max_condition": 100.0,
+    }
+    per_pixel = np.broadcast_to(DIRS[:, None, :], (*grey.shape, 3))
+    compiled = irls_weights(grey, usable, DIRS, **options)
+    stepwise = irls_weights(grey, usable, per_pixel, **options)
+    assert_allclose(compiled, stepwise, atol=5e-4)
+
+
+@pytest.mark.parametrize("levels", [3, 50, 2**20])
+def test_compiled_selection_is_exact_with_ties_signs_and_absent_keys(levels):
+    # The reweighting's order statistics: rank (count − 1) // 2 and the next one,
+    # absent keys sorting last. Few levels tie many keys at the answer.
+    rng = np.random.default_rng(levels)
+    n_keys, m = 40, 64
+    values = (rng.integers(-levels, levels, (n_keys, m)) / levels).astype(np.float32)
+    keys = np.empty(values.shape, np.int32)
+    for row, out in zip(values, keys, strict=True):
+        _float_keys(row, out)
+    absent = rng.random(keys.shape) < 0.3
+    keys[absent] = _ABSENT
+    count = (~absent).sum(axis=0)
+    order = np.maximum((count - 1) // 2, 0).astype(np.int32)
+    lower, upper = np.empty(m, np.int32), np.empty(m, np.int32)
+    _select(keys, m, order, lower, upper)
+    ordered = np.sort(keys, axis=0)
+    assert_array_equal(lower, ordered[order, np.arange(m)])
+    assert_array_equal(upper, ordered[order + 1, np.arange(m)])
