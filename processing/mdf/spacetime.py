@@ -26,9 +26,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from processing.mdf._errors import MdfError
-from processing.mdf._reason import Reason
+from processing.mdf._fit_kernel import METHOD_CODES, fit_peaks, log_table
 from processing.mdf._spacetime_kernel import fold_block
-from processing.mdf.peaks import PeakMethod, peak_offset, peak_radius
+from processing.mdf.peaks import PeakMethod, peak_radius
 
 __all__ = ["PixelPeaks", "SpaceTimeTracker", "space_time_peaks"]
 
@@ -143,23 +143,15 @@ class SpaceTimeTracker:
         if self._count == 0:
             raise MdfError("SpaceTimeTracker.result: no frame was added")
         self._fold()
-        best = self._best.astype(np.float32)
-        low = self._low.astype(np.float32)
-        contrast = best - low
-        lit = contrast >= self.min_contrast
-        # A window is complete only if it was copied for the final maximum.
-        complete = self._snapped & (self._index >= self._r)
-        complete &= self._index <= self._count - 1 - self._r
-        # Fit only where there is a complete window of a lit pixel.
-        fit = np.flatnonzero(lit & complete)
-        window = np.take(self._window, fit, axis=1).astype(np.float64)
-        window -= low[fit]
-        offset, ok = peak_offset(window, method=self.method)
-        reason = np.full(contrast.shape, Reason.UNLIT, np.uint8)
-        reason[lit] = Reason.AT_SEQUENCE_EDGE
-        reason[fit] = np.where(ok, Reason.OK, Reason.FIT_FAILED)
-        time = np.full(contrast.shape, -1.0, np.float32)
-        time[fit[ok]] = self._index[fit[ok]] + offset[ok]
+        size = self._best.shape[0]
+        time = np.empty(size, np.float32)
+        contrast = np.empty(size, np.float32)
+        reason = np.empty(size, np.uint8)
+        fit_peaks(
+            self._window, self._best, self._low, self._index, self._snapped, self._count,
+            self._r, np.float32(self.min_contrast), METHOD_CODES[self.method],
+            log_table(self._dtype), time, contrast, reason,
+        )  # fmt: skip
         h, w = self.shape
         return PixelPeaks(
             time=time.reshape(h, w),
