@@ -14,6 +14,7 @@ from processing.mdf import (
     peak_radius,
     space_time_peaks,
 )
+from processing.mdf._fit_kernel import METHOD_CODES, fit_peaks, log_table
 
 
 def sweep(centres, n_frames, *, sigma=1.2, peak=180.0, ambient=12.0, noise=0.0, seed=0):
@@ -132,3 +133,43 @@ def test_block_size_and_a_result_midway_change_nothing(seed, block, pause):
     np.testing.assert_array_equal(got.reason, reference.reason)
     np.testing.assert_array_equal(got.time, reference.time)
     np.testing.assert_array_equal(got.contrast, reference.contrast)
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.float32])
+@pytest.mark.parametrize("method", PEAK_METHODS)
+def test_compiled_fit_equals_the_numpy_detectors(method, dtype):
+    # Windows as the fold leaves them: ties with the maximum, dark samples at
+    # the background, flat windows, peaks at the first and last frame, windows
+    # never taken; compared with peak_offset pixel by pixel.
+    rng = np.random.default_rng(7)
+    r, n, frames = peak_radius(method), 4000, 30
+    window = rng.integers(0, 200, (2 * r + 1, n)).astype(dtype)
+    window[rng.random(window.shape) < 0.3] = 0
+    window[r] = window.max(axis=0)
+    tie = rng.random(n) < 0.2
+    window[r - 1, tie] = window[r, tie]
+    window[:, 300:350] = window[r, 300:350]  # flat
+    low = np.minimum(window.min(axis=0), rng.integers(0, 3, n).astype(dtype))
+    low[300:325] = 0  # flat, high above the background
+    best = window[r].copy()
+    index = rng.integers(0, frames, n).astype(np.int32)
+    index[:100], index[100:200] = 0, frames - 1
+    snapped = rng.random(n) < 0.95
+    time = np.empty(n, np.float32)
+    contrast = np.empty(n, np.float32)
+    reason = np.empty(n, np.uint8)
+    fit_peaks(window, best, low, index, snapped, frames, r, np.float32(15.0),
+              METHOD_CODES[method], log_table(np.dtype(dtype)), time, contrast, reason)  # fmt: skip
+
+    expect_contrast = best.astype(np.float32) - low.astype(np.float32)
+    lit = expect_contrast >= 15
+    complete = snapped & (index >= r) & (index <= frames - 1 - r)
+    off, ok = peak_offset(window.astype(np.float64) - low.astype(np.float32), method=method)
+    expect = np.where(lit, np.where(complete, np.where(ok, Reason.OK, Reason.FIT_FAILED),
+                                    Reason.AT_SEQUENCE_EDGE), Reason.UNLIT)  # fmt: skip
+    assert {Reason.OK, Reason.FIT_FAILED, Reason.AT_SEQUENCE_EDGE, Reason.UNLIT} <= set(expect)
+    np.testing.assert_array_equal(reason, expect)
+    np.testing.assert_array_equal(contrast, expect_contrast)
+    good = expect == Reason.OK
+    np.testing.assert_array_equal(time[good], (index + off).astype(np.float32)[good])
+    assert np.all(time[~good] == -1)
