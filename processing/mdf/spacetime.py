@@ -6,16 +6,17 @@ above a prescribed threshold the pixel saw a lit mesostructure point at that
 time, otherwise the point was occluded (-1). The time is refined to a fraction
 of a frame with a sub-pixel peak detector.
 
-The tracker streams in blocks of frames: it buffers ``block`` frames after
-the last ``2r`` it has seen and folds the block in at once — a running
+The tracker streams in blocks of frames: it copies each frame into a ring
+of ``2r + block`` frames and folds a full block in at once — a running
 maximum with its frame index, a running minimum (the background: the
 contrast max - min is what is thresholded, so bright albedo is not mistaken
 for laser light) and, per pixel, the ``2r+1`` samples around its maximum,
 copied once ``r`` frames have followed it. Per frame that is a copy into the
-buffer plus its share of one compiled pass over the block
+ring plus its share of one compiled pass over the block
 (:mod:`processing.mdf._spacetime_kernel`: running max, min and the frame that
-raised the maximum, per tile of pixels). Memory is ``O((4r+1+block)·H·W)``
-whatever the sequence length.
+raised the maximum, per tile of pixels). :meth:`SpaceTimeTracker.result` is
+one compiled pass over the pixels (:mod:`processing.mdf._fit_kernel`).
+Memory is ``O((4r+1+block)·H·W)`` whatever the sequence length.
 """
 
 from __future__ import annotations
@@ -27,7 +28,7 @@ import numpy as np
 
 from processing.mdf._errors import MdfError
 from processing.mdf._fit_kernel import METHOD_CODES, fit_peaks, log_table
-from processing.mdf._spacetime_kernel import fold_block
+from processing.mdf._spacetime_kernel import TILE, fold_block
 from processing.mdf.peaks import PeakMethod, peak_radius
 
 __all__ = ["PixelPeaks", "SpaceTimeTracker", "space_time_peaks"]
@@ -69,11 +70,12 @@ class SpaceTimeTracker:
         UNLIT, in frame units.
     block : int
         Frames buffered and folded in at once (memory ``block`` frames; the
-        per-frame cost falls with it up to ~16).
+        per-frame cost is lowest around 4–8 for 1024×768 frames: larger
+        blocks fall out of the cache between the copy and the fold).
     """
 
     def __init__(
-        self, shape, *, method: PeakMethod = "gaussian", min_contrast: float, block: int = 16
+        self, shape, *, method: PeakMethod = "gaussian", min_contrast: float, block: int = 8
     ):
         if len(shape) != 2 or min(shape) < 1:
             raise MdfError(f"SpaceTimeTracker: shape must be (H, W), got {shape}")
@@ -98,14 +100,15 @@ class SpaceTimeTracker:
     def _allocate(self, dtype: np.dtype) -> None:
         size = self.shape[0] * self.shape[1]
         self._dtype = dtype
-        # Rows 0..2r-1: the last 2r frames folded in; then the block being filled.
-        self._buffer = np.zeros((2 * self._r + self._block, size), dtype)
+        # A ring: frame f in row f % rows, the last 2r frames folded and the block being filled.
+        self._ring = np.zeros((2 * self._r + self._block, size), dtype)
         self._window = np.zeros((2 * self._r + 1, size), dtype)
         self._best = np.full(size, _lowest(dtype), dtype)
         self._can_matter = _lowest(dtype) + self.min_contrast
         self._low = np.full(size, _highest(dtype), dtype)
         self._index = np.zeros(size, np.int32)
         self._snapped = np.zeros(size, bool)
+        self._waiting = np.zeros(-(-size // TILE), bool)
 
     def update(self, frame) -> None:
         """Add the next frame, (H, W) or (H, W, C), any numeric dtype.
@@ -118,24 +121,20 @@ class SpaceTimeTracker:
             raise MdfError(f"frame {self._count} has shape {f.shape}, the scan has {self.shape}")
         if self._dtype is None:
             self._allocate(f.dtype)
-        self._buffer[2 * self._r + self._count - self._folded] = f.ravel()
+        self._ring[self._count % self._ring.shape[0]] = f.ravel()
         self._count += 1
         if self._count - self._folded == self._block:
             self._fold()
 
     def _fold(self) -> None:
         """Fold the buffered frames into the running maximum, minimum and windows."""
-        r, first = self._r, self._folded
-        n_new = self._count - first
-        if n_new == 0:
+        first = self._folded
+        if self._count == first:
             return
         fold_block(
-            self._buffer, n_new, first, r, self._can_matter,
-            self._best, self._low, self._index, self._snapped, self._window,
+            self._ring, self._count - first, first, self._r, self._can_matter,
+            self._best, self._low, self._index, self._snapped, self._window, self._waiting,
         )  # fmt: skip
-        # Keep the last 2r frames in front of the next block.
-        if 2 * r:
-            self._buffer[: 2 * r] = self._buffer[n_new : n_new + 2 * r].copy()
         self._folded = self._count
 
     def result(self) -> PixelPeaks:

@@ -51,8 +51,12 @@ def test_streaming_equals_batch(seed, n_frames, method, dtype):
     tracker = SpaceTimeTracker((5, 7), method=method, min_contrast=15.0)
     for frame in stack:
         tracker.update(frame)
-    got = tracker.result()
-    # Batch: first maximum, window from the stack, background = minimum.
+    assert_batch_peaks(tracker.result(), stack, method, 15.0)
+
+
+def assert_batch_peaks(got, stack, method, min_contrast):
+    """``got`` equals a batch computation: first maximum, its window, background = minimum."""
+    n_frames = len(stack)
     f = stack.astype(np.float64)
     k = f.argmax(axis=0)
     r = peak_radius(method)
@@ -62,14 +66,33 @@ def test_streaming_equals_batch(seed, n_frames, method, dtype):
     idx = np.clip(k[None] + np.arange(-r, r + 1)[:, None, None], 0, n_frames - 1)
     window = np.take_along_axis(f, idx, axis=0) - low
     off, ok = peak_offset(window, method=method)
-    expect = np.where(contrast < 15.0, Reason.UNLIT, Reason.OK)
-    expect = np.where((contrast >= 15.0) & ~complete, Reason.AT_SEQUENCE_EDGE, expect)
-    expect = np.where((contrast >= 15.0) & complete & ~ok, Reason.FIT_FAILED, expect)
+    lit = contrast >= min_contrast
+    expect = np.where(lit, Reason.OK, Reason.UNLIT)
+    expect = np.where(lit & ~complete, Reason.AT_SEQUENCE_EDGE, expect)
+    expect = np.where(lit & complete & ~ok, Reason.FIT_FAILED, expect)
     np.testing.assert_array_equal(got.reason, expect)
     good = expect == Reason.OK
     np.testing.assert_allclose(got.time[good], (k + off)[good], atol=1e-4)
     assert np.all(got.time[~good] == -1)
     np.testing.assert_allclose(got.contrast, contrast, atol=1e-3)
+
+
+@pytest.mark.parametrize("method", PEAK_METHODS)
+@pytest.mark.parametrize("block", [1, 3, 8])
+def test_many_tiles_of_pixels_equal_batch(method, block):
+    # Over 3 tiles of the fold (4096 pixels each): the first peaks at frame 7
+    # everywhere, so its windows wait for frames of a block that raises
+    # nothing there; the others at random times, some at the sequence edges.
+    rng = np.random.default_rng(block)
+    centres = rng.uniform(-1, 26, (40, 256))
+    centres[:16] = 7.0
+    stack = sweep(centres, 26, noise=3.0, seed=block)
+    tracker = SpaceTimeTracker((40, 256), method=method, min_contrast=20.0, block=block)
+    for frame in stack:
+        tracker.update(frame)
+    got = tracker.result()
+    assert {Reason.OK, Reason.AT_SEQUENCE_EDGE} <= set(got.reason.ravel().tolist())
+    assert_batch_peaks(got, stack, method, 20.0)
 
 
 def test_unlit_and_sequence_edge_pixels_are_flagged():
