@@ -41,11 +41,11 @@ def log_table(dtype: np.dtype) -> np.ndarray:
 
 
 @njit(cache=True, nogil=True)
-def fit_peaks(window, best, low, index, snapped, frames, r, min_contrast, method, logs,
+def fit_peaks(window, best, low, index, held, frames, r, min_contrast, method, logs,
               time, contrast, reason):  # fmt: skip
     """Fill ``time``, ``contrast`` and ``reason`` (each (N,)) from the running state.
 
-    window : (2r + 1, N) the samples around each maximum (valid where ``snapped``);
+    window : (2r + 1, N) the samples around frame ``held`` (int32, -1: none);
     best, low : (N,) running maximum and minimum; index : (N,) int32 frame of
     the maximum; frames : frames seen; r : the window's radius; min_contrast :
     float32 threshold; method : a :data:`METHOD_CODES` value; logs :
@@ -61,7 +61,7 @@ def fit_peaks(window, best, low, index, snapped, frames, r, min_contrast, method
             reason[p] = _UNLIT
             continue
         at = index[p]
-        if not snapped[p] or at < r or at > frames - 1 - r:
+        if held[p] != at or at < r or at > frames - 1 - r:
             reason[p] = _EDGE
             continue
         for j in range(2 * r + 1):

@@ -22,15 +22,15 @@ _RUN = 255
 
 
 @njit(cache=True, nogil=True)
-def fold_block(ring, n_new, first, r, can_matter, best, low, index, snapped, window, waiting):
+def fold_block(ring, n_new, first, r, can_matter, best, low, index, held, window, waiting):
     """Fold frames ``first … first + n_new - 1`` into the running state.
 
     ring : (rows, N) frame f in row ``f % rows``, holding at least the last
     ``n_new + 2r`` frames; best, low : (N,) running maximum and minimum (the
     frames' dtype); index : (N,) int32 frame of the maximum (the earliest on
-    ties); snapped : (N,) bool, whether ``window`` holds the samples around
-    it; window : (2r + 1, N) those samples; can_matter : the lowest maximum
-    that can still be lit (windows below it are not needed); waiting : bool
+    ties); held : (N,) int32, the frame whose samples around it ``window``
+    holds (-1: none); window : (2r + 1, N) those samples; can_matter : the lowest maximum
+    that can still be lit, in the frames' dtype (windows below it are not needed); waiting : bool
     per tile of :data:`TILE` pixels, whether a window in it waits for frames.
     """
     size = best.shape[0]
@@ -38,6 +38,7 @@ def fold_block(ring, n_new, first, r, can_matter, best, low, index, snapped, win
     last = first + n_new - 1
     kind = ring.dtype.type
     mark = np.empty(TILE, ring.dtype)
+    need = np.empty(TILE, np.uint8)
     zero = kind(0)
     for tile in range(waiting.shape[0]):
         t0 = tile * TILE
@@ -72,22 +73,27 @@ def fold_block(ring, n_new, first, r, can_matter, best, low, index, snapped, win
             raised = True
             base = np.int32(first + k0 - 1)
             for i in range(m):
-                if marks[i] > 0:
-                    at_tile[i] = base + np.int32(marks[i])
-                    snapped[t0 + i] = False  # a new maximum: its window is still to take
+                at_tile[i] = base + np.int32(marks[i]) if marks[i] > 0 else at_tile[i]
         if not (raised or waiting[tile]):
             continue
-        wait = False
+        # Pixels whose window is still to take, in a vector pass: noise raises
+        # the maximum of dark pixels at random, a branch per pixel would stall.
+        held_tile = held[t0:t1]
+        pending = need[:m]
+        count = 0
         for i in range(m):
-            p = t0 + i
-            if snapped[p] or b[i] < can_matter:
-                continue
-            at = at_tile[i]
-            if at + r > last:
-                wait = True
-                continue
-            # clamped at the sequence start
-            for j in range(2 * r + 1):
-                window[j, p] = ring[max(at - r + j, 0) % rows, p]
-            snapped[p] = True
+            pending[i] = (held_tile[i] != at_tile[i]) & (b[i] >= can_matter)
+            count += pending[i]
+        wait = False
+        for i in range(m if count else 0):
+            if pending[i]:
+                p = t0 + i
+                at = at_tile[i]
+                if at + r > last:
+                    wait = True
+                    continue
+                # clamped at the sequence start
+                for j in range(2 * r + 1):
+                    window[j, p] = ring[max(at - r + j, 0) % rows, p]
+                held[p] = at
         waiting[tile] = wait

@@ -104,10 +104,10 @@ class SpaceTimeTracker:
         self._ring = np.zeros((2 * self._r + self._block, size), dtype)
         self._window = np.zeros((2 * self._r + 1, size), dtype)
         self._best = np.full(size, _lowest(dtype), dtype)
-        self._can_matter = _lowest(dtype) + self.min_contrast
+        self._can_matter = _can_matter(dtype, self.min_contrast)
         self._low = np.full(size, _highest(dtype), dtype)
         self._index = np.zeros(size, np.int32)
-        self._snapped = np.zeros(size, bool)
+        self._held = np.full(size, -1, np.int32)
         self._waiting = np.zeros(-(-size // TILE), bool)
 
     def update(self, frame) -> None:
@@ -133,7 +133,7 @@ class SpaceTimeTracker:
             return
         fold_block(
             self._ring, self._count - first, first, self._r, self._can_matter,
-            self._best, self._low, self._index, self._snapped, self._window, self._waiting,
+            self._best, self._low, self._index, self._held, self._window, self._waiting,
         )  # fmt: skip
         self._folded = self._count
 
@@ -147,7 +147,7 @@ class SpaceTimeTracker:
         contrast = np.empty(size, np.float32)
         reason = np.empty(size, np.uint8)
         fit_peaks(
-            self._window, self._best, self._low, self._index, self._snapped, self._count,
+            self._window, self._best, self._low, self._index, self._held, self._count,
             self._r, np.float32(self.min_contrast), METHOD_CODES[self.method],
             log_table(self._dtype), time, contrast, reason,
         )  # fmt: skip
@@ -158,6 +158,14 @@ class SpaceTimeTracker:
             reason=reason.reshape(h, w),
             frames=self._count,
         )
+
+
+def _can_matter(dtype: np.dtype, min_contrast: float):
+    # The lowest maximum that can be min_contrast above a darker sample, in the dtype.
+    if not np.issubdtype(dtype, np.integer):
+        return dtype.type(-np.inf)
+    info = np.iinfo(dtype)
+    return dtype.type(min(np.ceil(info.min + min_contrast), info.max))
 
 
 def _lowest(dtype: np.dtype):

@@ -177,16 +177,16 @@ def test_compiled_fit_equals_the_numpy_detectors(method, dtype):
     best = window[r].copy()
     index = rng.integers(0, frames, n).astype(np.int32)
     index[:100], index[100:200] = 0, frames - 1
-    snapped = rng.random(n) < 0.95
+    held = np.where(rng.random(n) < 0.95, index, -1).astype(np.int32)
     time = np.empty(n, np.float32)
     contrast = np.empty(n, np.float32)
     reason = np.empty(n, np.uint8)
-    fit_peaks(window, best, low, index, snapped, frames, r, np.float32(15.0),
+    fit_peaks(window, best, low, index, held, frames, r, np.float32(15.0),
               METHOD_CODES[method], log_table(np.dtype(dtype)), time, contrast, reason)  # fmt: skip
 
     expect_contrast = best.astype(np.float32) - low.astype(np.float32)
     lit = expect_contrast >= 15
-    complete = snapped & (index >= r) & (index <= frames - 1 - r)
+    complete = (held == index) & (index >= r) & (index <= frames - 1 - r)
     off, ok = peak_offset(window.astype(np.float64) - low.astype(np.float32), method=method)
     expect = np.where(lit, np.where(complete, np.where(ok, Reason.OK, Reason.FIT_FAILED),
                                     Reason.AT_SEQUENCE_EDGE), Reason.UNLIT)  # fmt: skip
