@@ -28,10 +28,11 @@ def fold_block(ring, n_new, first, r, can_matter, best, low, index, held, window
     ring : (rows, N) frame f in row ``f % rows``, holding at least the last
     ``n_new + 2r`` frames; best, low : (N,) running maximum and minimum (the
     frames' dtype); index : (N,) int32 frame of the maximum (the earliest on
-    ties); held : (N,) int32, the frame whose samples around it ``window``
-    holds (-1: none); window : (2r + 1, N) those samples; can_matter : the lowest maximum
-    that can still be lit, in the frames' dtype (windows below it are not needed); waiting : bool
-    per tile of :data:`TILE` pixels, whether a window in it waits for frames.
+    ties; kept only for maxima ≥ can_matter, the others are never lit);
+    held : (N,) int32 the frame whose surrounding samples ``window`` holds
+    (-1: none); window : (2r + 1, N) those samples; can_matter : the lowest
+    maximum that can still be lit, in the frames' dtype; waiting : bool per
+    tile of :data:`TILE` pixels, whether a window in it waits for frames.
     """
     size = best.shape[0]
     rows = ring.shape[0]
@@ -40,6 +41,7 @@ def fold_block(ring, n_new, first, r, can_matter, best, low, index, held, window
     mark = np.empty(TILE, ring.dtype)
     need = np.empty(TILE, np.uint8)
     zero = kind(0)
+    below = kind(can_matter - 1)  # ≥ can_matter is > below, for whole numbers and floats alike
     for tile in range(waiting.shape[0]):
         t0 = tile * TILE
         t1 = min(t0 + TILE, size)
@@ -57,9 +59,11 @@ def fold_block(ring, n_new, first, r, can_matter, best, low, index, held, window
                 # Three loops of their own, in the frames' dtype, each a max or
                 # a min: a select between arrays, or a product with a bool,
                 # does not vectorise (3-10× slower). Tags grow, so the mark is
-                # the last frame that raised the maximum (a tie does not raise).
+                # the last frame that raised the maximum (a tie does not raise)
+                # to where it can matter: a pixel that ends lit reached its
+                # maximum that way, and raises in the dark (noise) mark nothing.
                 for i in range(m):
-                    marks[i] = max(marks[i], tag if row[i] > b[i] else zero)
+                    marks[i] = max(marks[i], tag if row[i] > max(b[i], below) else zero)
                 for i in range(m):
                     b[i] = max(row[i], b[i])
                 for i in range(m):
