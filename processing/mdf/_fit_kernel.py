@@ -45,7 +45,7 @@ def fit_peaks(window, best, low, index, held, frames, r, min_contrast, method, l
               time, contrast, reason):  # fmt: skip
     """Fill ``time``, ``contrast`` and ``reason`` (each (N,)) from the running state.
 
-    window : (2r + 1, N) the samples around frame ``held`` (int32, -1: none);
+    window : (N, 2r + 1) the samples around frame ``held`` (int32, -1: none);
     best, low : (N,) running maximum and minimum; index : (N,) int32 frame of
     the maximum; frames : frames seen; r : the window's radius; min_contrast :
     float32 threshold; method : a :data:`METHOD_CODES` value; logs :
@@ -65,7 +65,7 @@ def fit_peaks(window, best, low, index, held, frames, r, min_contrast, method, l
             reason[p] = _EDGE
             continue
         for j in range(2 * r + 1):
-            f[j] = np.float64(window[j, p]) - np.float64(floor_p)
+            f[j] = np.float64(window[p, j]) - np.float64(floor_p)
         if method == 0:
             offset, ok = _gaussian(f[r - 1], f[r], f[r + 1], logs)
         elif method == 1:

@@ -6,7 +6,8 @@ maximum. Then, per pixel of the tile, the window around a new maximum is
 copied once ``r`` frames have followed it — only in tiles that raised a
 maximum in this block or still wait for frames of an earlier one, as most
 tiles of a sweep do neither. The frames sit in a ring, so nothing is moved
-between blocks (see ``docs/mdf.md``).
+between blocks; a pixel's window is contiguous, ``(N, 2r+1)``, so taking it
+touches one cache line, not 2r+1 (see ``docs/mdf.md``).
 """
 
 from __future__ import annotations
@@ -30,7 +31,7 @@ def fold_block(ring, n_new, first, r, can_matter, best, low, index, held, window
     frames' dtype); index : (N,) int32 frame of the maximum (the earliest on
     ties; kept only for maxima ≥ can_matter, the others are never lit);
     held : (N,) int32 the frame whose surrounding samples ``window`` holds
-    (-1: none); window : (2r + 1, N) those samples; can_matter : the lowest
+    (-1: none); window : (N, 2r + 1) those samples; can_matter : the lowest
     maximum that can still be lit, in the frames' dtype; waiting : bool per
     tile of :data:`TILE` pixels, whether a window in it waits for frames.
     """
@@ -98,6 +99,6 @@ def fold_block(ring, n_new, first, r, can_matter, best, low, index, held, window
                     continue
                 # clamped at the sequence start
                 for j in range(2 * r + 1):
-                    window[j, p] = ring[max(at - r + j, 0) % rows, p]
+                    window[p, j] = ring[max(at - r + j, 0) % rows, p]
                 held[p] = at
         waiting[tile] = wait

@@ -102,7 +102,7 @@ class SpaceTimeTracker:
         self._dtype = dtype
         # A ring: frame f in row f % rows, the last 2r frames folded and the block being filled.
         self._ring = np.zeros((2 * self._r + self._block, size), dtype)
-        self._window = np.zeros((2 * self._r + 1, size), dtype)
+        self._window = np.zeros((size, 2 * self._r + 1), dtype)
         self._best = np.full(size, _lowest(dtype), dtype)
         self._can_matter = _can_matter(dtype, self.min_contrast)
         self._low = np.full(size, _highest(dtype), dtype)

@@ -181,7 +181,7 @@ def test_compiled_fit_equals_the_numpy_detectors(method, dtype):
     time = np.empty(n, np.float32)
     contrast = np.empty(n, np.float32)
     reason = np.empty(n, np.uint8)
-    fit_peaks(window, best, low, index, held, frames, r, np.float32(15.0),
+    fit_peaks(np.ascontiguousarray(window.T), best, low, index, held, frames, r, np.float32(15.0),
               METHOD_CODES[method], log_table(np.dtype(dtype)), time, contrast, reason)  # fmt: skip
 
     expect_contrast = best.astype(np.float32) - low.astype(np.float32)
