@@ -51,7 +51,6 @@ def fit_peaks(window, best, low, index, held, frames, r, min_contrast, method, l
     float32 threshold; method : a :data:`METHOD_CODES` value; logs :
     :func:`log_table` of the frames' dtype.
     """
-    f = np.empty(7)
     for p in range(best.shape[0]):
         floor_p = np.float32(low[p])
         c = np.float32(best[p]) - floor_p
@@ -64,14 +63,16 @@ def fit_peaks(window, best, low, index, held, frames, r, min_contrast, method, l
         if held[p] != at or at < r or at > frames - 1 - r:
             reason[p] = _EDGE
             continue
-        for j in range(2 * r + 1):
-            f[j] = np.float64(window[p, j]) - np.float64(floor_p)
+        # Samples above the background as float64 scalars (no array: kept in registers).
+        w, fl = window[p], np.float64(floor_p)
         if method == 0:
-            offset, ok = _gaussian(f[r - 1], f[r], f[r + 1], logs)
+            offset, ok = _gaussian(w[r - 1] - fl, w[r] - fl, w[r + 1] - fl, logs)
         elif method == 1:
-            offset, ok = _centroid(f[r - 2 : r + 3])
+            offset, ok = _centroid(w[r - 2] - fl, w[r - 1] - fl, w[r] - fl, w[r + 1] - fl,
+                                   w[r + 2] - fl)  # fmt: skip
         else:
-            offset, ok = _blais_rioux(f[r - 3 : r + 4])
+            offset, ok = _blais_rioux(w[r - 3] - fl, w[r - 2] - fl, w[r - 1] - fl, w[r] - fl,
+                                      w[r + 1] - fl, w[r + 2] - fl, w[r + 3] - fl)  # fmt: skip
         if ok:
             reason[p] = _OK
             time[p] = np.float32(at + min(max(offset, -1.0), 1.0))
@@ -97,25 +98,23 @@ def _gaussian(f0, f1, f2, logs):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _centroid(f):
-    lowest = min(f[0], f[1], f[2], f[3], f[4])
-    total = 0.0
-    moment = 0.0
-    for j in range(5):
-        w = f[j] - lowest
-        total += w
-        moment += (j - 2.0) * w
+def _centroid(f0, f1, f2, f3, f4):
+    lowest = min(f0, f1, f2, f3, f4)
+    w0, w1, w2, w3, w4 = f0 - lowest, f1 - lowest, f2 - lowest, f3 - lowest, f4 - lowest
+    # Summed in numpy's order (first sample first), so the values match it exactly.
+    total = w0 + w1 + w2 + w3 + w4
+    moment = -2.0 * w0 + -1.0 * w1 + 0.0 * w2 + 1.0 * w3 + 2.0 * w4
     if total > 0:
         return moment / total, True
     return 0.0, False
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _blais_rioux(f):
-    # g(i) = f(i-2) + f(i-1) - f(i+1) - f(i+2) at i = -1, 0, 1 (f holds -3..3).
-    g_m = f[0] + f[1] - f[3] - f[4]
-    g_0 = f[1] + f[2] - f[4] - f[5]
-    g_p = f[2] + f[3] - f[5] - f[6]
+def _blais_rioux(f0, f1, f2, f3, f4, f5, f6):
+    # g(i) = f(i-2) + f(i-1) - f(i+1) - f(i+2) at i = -1, 0, 1 (f0..f6 are samples -3..3).
+    g_m = f0 + f1 - f3 - f4
+    g_0 = f1 + f2 - f4 - f5
+    g_p = f2 + f3 - f5 - f6
     if g_0 <= 0 and g_p > 0:
         return -g_0 / (g_p - g_0), True
     if g_m < 0 and g_0 >= 0:
