@@ -97,8 +97,12 @@ def fold_block(ring, n_new, first, r, can_matter, best, low, index, held, window
                 if at + r > last:
                     wait = True
                     continue
-                # clamped at the sequence start
+                # Frames before the sequence start read as its first; one
+                # division per window, not one per sample.
+                row = max(at - r, 0) % rows
                 for j in range(2 * r + 1):
-                    window[p, j] = ring[max(at - r + j, 0) % rows, p]
+                    window[p, j] = ring[row, p]
+                    if at - r + j >= 0:
+                        row = row + 1 if row + 1 < rows else 0
                 held[p] = at
         waiting[tile] = wait
