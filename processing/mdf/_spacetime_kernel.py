@@ -3,9 +3,11 @@
 Per tile of pixels, frame by frame, SIMD over the pixels: the running
 maximum, the running minimum, and a mark of the frame that last raised the
 maximum. Then, per pixel of the tile, the window around a new maximum is
-copied once ``r`` frames have followed it. The numpy fold it replaced took a
-max and a min reduction over the block, then gathered the block of every
-raised pixel to find its frame (see ``docs/mdf.md``).
+copied once ``r`` frames have followed it — only in tiles that raised a
+maximum in this block or still wait for frames of an earlier one, as most
+tiles of a sweep do neither. The frames sit in a ring, so nothing is moved
+between blocks; a pixel's window is contiguous, ``(N, 2r+1)``, so taking it
+touches one cache line, not 2r+1 (see ``docs/mdf.md``).
 """
 
 from __future__ import annotations
@@ -14,59 +16,93 @@ import numpy as np
 from numba import njit
 
 #: Pixels per tile: the tile's running state stays in L1 while the block streams.
-_TILE = 4096
+TILE = 4096
 #: Frames per run of marks: a mark (1-based frame within the run) fits any
 #: frame dtype, uint8 included.
 _RUN = 255
 
 
 @njit(cache=True, nogil=True)
-def fold_block(buffer, n_new, first, r, can_matter, best, low, index, snapped, window):
-    """Fold buffer rows ``2r … 2r + n_new`` (frames ``first …``) into the running state.
+def fold_block(ring, n_new, first, r, can_matter, best, low, index, held, window, waiting):
+    """Fold frames ``first … first + n_new - 1`` into the running state.
 
-    buffer : (2r + block, N) the last 2r folded frames, then the new ones;
-    best, low : (N,) running maximum and minimum (the frames' dtype);
-    index : (N,) int32 frame of the maximum (the earliest on ties);
-    snapped : (N,) bool, whether ``window`` holds the samples around it;
-    window : (2r + 1, N) those samples; can_matter : the lowest maximum
-    that can still be lit (windows below it are not needed).
+    ring : (rows, N) frame f in row ``f % rows``, holding at least the last
+    ``n_new + 2r`` frames; best, low : (N,) running maximum and minimum (the
+    frames' dtype); index : (N,) int32 frame of the maximum (the earliest on
+    ties; kept only for maxima ≥ can_matter, the others are never lit);
+    held : (N,) int32 the frame whose surrounding samples ``window`` holds
+    (-1: none); window : (N, 2r + 1) those samples; can_matter : the lowest
+    maximum that can still be lit, in the frames' dtype; waiting : bool per
+    tile of :data:`TILE` pixels, whether a window in it waits for frames.
     """
     size = best.shape[0]
+    rows = ring.shape[0]
     last = first + n_new - 1
-    kind = buffer.dtype.type
-    mark = np.empty(_TILE, buffer.dtype)
+    kind = ring.dtype.type
+    mark = np.empty(TILE, ring.dtype)
+    need = np.empty(TILE, np.uint8)
     zero = kind(0)
-    for t0 in range(0, size, _TILE):
-        t1 = min(t0 + _TILE, size)
+    below = kind(can_matter - 1)  # ≥ can_matter is > below, for whole numbers and floats alike
+    for tile in range(waiting.shape[0]):
+        t0 = tile * TILE
+        t1 = min(t0 + TILE, size)
         m = t1 - t0
         b = best[t0:t1]
         lo = low[t0:t1]
+        at_tile = index[t0:t1]
         marks = mark[:m]
+        raised = False
         for k0 in range(0, n_new, _RUN):
             marks[:] = 0
             for k in range(k0, min(k0 + _RUN, n_new)):
-                row = buffer[2 * r + k, t0:t1]
+                row = ring[(first + k) % rows, t0:t1]
                 tag = kind(k - k0 + 1)
                 # Three loops of their own, in the frames' dtype, each a max or
                 # a min: a select between arrays, or a product with a bool,
                 # does not vectorise (3-10× slower). Tags grow, so the mark is
-                # the last frame that raised the maximum (a tie does not raise).
+                # the last frame that raised the maximum (a tie does not raise)
+                # to where it can matter: a pixel that ends lit reached its
+                # maximum that way, and raises in the dark (noise) mark nothing.
                 for i in range(m):
-                    marks[i] = max(marks[i], tag if row[i] > b[i] else zero)
+                    marks[i] = max(marks[i], tag if row[i] > max(b[i], below) else zero)
                 for i in range(m):
                     b[i] = max(row[i], b[i])
                 for i in range(m):
                     lo[i] = min(row[i], lo[i])
+            # Most tiles raise nothing in most blocks: one vector pass says so.
+            top = zero
             for i in range(m):
-                if marks[i] > 0:
-                    index[t0 + i] = first + k0 + np.int32(marks[i]) - 1
-                    snapped[t0 + i] = False  # a new maximum: its window is still to take
-        for i in range(m):
-            p = t0 + i
-            at = index[p]
-            if snapped[p] or b[i] < can_matter or at + r > last:
+                top = max(top, marks[i])
+            if top == 0:
                 continue
-            # buffer row of frame f: f - first + 2r (clamped at the sequence start)
-            for j in range(2 * r + 1):
-                window[j, p] = buffer[max(at - first + r + j, 0), p]
-            snapped[p] = True
+            raised = True
+            base = np.int32(first + k0 - 1)
+            for i in range(m):
+                at_tile[i] = base + np.int32(marks[i]) if marks[i] > 0 else at_tile[i]
+        if not (raised or waiting[tile]):
+            continue
+        # Pixels whose window is still to take, in a vector pass: noise raises
+        # the maximum of dark pixels at random, a branch per pixel would stall.
+        held_tile = held[t0:t1]
+        pending = need[:m]
+        count = 0
+        for i in range(m):
+            pending[i] = (held_tile[i] != at_tile[i]) & (b[i] >= can_matter)
+            count += pending[i]
+        wait = False
+        for i in range(m if count else 0):
+            if pending[i]:
+                p = t0 + i
+                at = at_tile[i]
+                if at + r > last:
+                    wait = True
+                    continue
+                # Frames before the sequence start read as its first; one
+                # division per window, not one per sample.
+                row = max(at - r, 0) % rows
+                for j in range(2 * r + 1):
+                    window[p, j] = ring[row, p]
+                    if at - r + j >= 0:
+                        row = row + 1 if row + 1 < rows else 0
+                held[p] = at
+        waiting[tile] = wait

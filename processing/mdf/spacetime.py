@@ -6,16 +6,17 @@ above a prescribed threshold the pixel saw a lit mesostructure point at that
 time, otherwise the point was occluded (-1). The time is refined to a fraction
 of a frame with a sub-pixel peak detector.
 
-The tracker streams in blocks of frames: it buffers ``block`` frames after
-the last ``2r`` it has seen and folds the block in at once — a running
+The tracker streams in blocks of frames: it copies each frame into a ring
+of ``2r + block`` frames and folds a full block in at once — a running
 maximum with its frame index, a running minimum (the background: the
 contrast max - min is what is thresholded, so bright albedo is not mistaken
 for laser light) and, per pixel, the ``2r+1`` samples around its maximum,
 copied once ``r`` frames have followed it. Per frame that is a copy into the
-buffer plus its share of one compiled pass over the block
+ring plus its share of one compiled pass over the block
 (:mod:`processing.mdf._spacetime_kernel`: running max, min and the frame that
-raised the maximum, per tile of pixels). Memory is ``O((4r+1+block)·H·W)``
-whatever the sequence length.
+raised the maximum, per tile of pixels). :meth:`SpaceTimeTracker.result` is
+one compiled pass over the pixels (:mod:`processing.mdf._fit_kernel`).
+Memory is ``O((4r+1+block)·H·W)`` whatever the sequence length.
 """
 
 from __future__ import annotations
@@ -26,9 +27,9 @@ from dataclasses import dataclass
 import numpy as np
 
 from processing.mdf._errors import MdfError
-from processing.mdf._reason import Reason
-from processing.mdf._spacetime_kernel import fold_block
-from processing.mdf.peaks import PeakMethod, peak_offset, peak_radius
+from processing.mdf._fit_kernel import METHOD_CODES, fit_peaks, log_table
+from processing.mdf._spacetime_kernel import TILE, fold_block
+from processing.mdf.peaks import PeakMethod, peak_radius
 
 __all__ = ["PixelPeaks", "SpaceTimeTracker", "space_time_peaks"]
 
@@ -69,11 +70,12 @@ class SpaceTimeTracker:
         UNLIT, in frame units.
     block : int
         Frames buffered and folded in at once (memory ``block`` frames; the
-        per-frame cost falls with it up to ~16).
+        per-frame cost is lowest around 4–8 for 1024×768 frames: larger
+        blocks fall out of the cache between the copy and the fold).
     """
 
     def __init__(
-        self, shape, *, method: PeakMethod = "gaussian", min_contrast: float, block: int = 16
+        self, shape, *, method: PeakMethod = "gaussian", min_contrast: float, block: int = 8
     ):
         if len(shape) != 2 or min(shape) < 1:
             raise MdfError(f"SpaceTimeTracker: shape must be (H, W), got {shape}")
@@ -98,14 +100,15 @@ class SpaceTimeTracker:
     def _allocate(self, dtype: np.dtype) -> None:
         size = self.shape[0] * self.shape[1]
         self._dtype = dtype
-        # Rows 0..2r-1: the last 2r frames folded in; then the block being filled.
-        self._buffer = np.zeros((2 * self._r + self._block, size), dtype)
-        self._window = np.zeros((2 * self._r + 1, size), dtype)
+        # A ring: frame f in row f % rows, the last 2r frames folded and the block being filled.
+        self._ring = np.zeros((2 * self._r + self._block, size), dtype)
+        self._window = np.zeros((size, 2 * self._r + 1), dtype)
         self._best = np.full(size, _lowest(dtype), dtype)
-        self._can_matter = _lowest(dtype) + self.min_contrast
+        self._can_matter = _can_matter(dtype, self.min_contrast)
         self._low = np.full(size, _highest(dtype), dtype)
         self._index = np.zeros(size, np.int32)
-        self._snapped = np.zeros(size, bool)
+        self._held = np.full(size, -1, np.int32)
+        self._waiting = np.zeros(-(-size // TILE), bool)
 
     def update(self, frame) -> None:
         """Add the next frame, (H, W) or (H, W, C), any numeric dtype.
@@ -118,24 +121,20 @@ class SpaceTimeTracker:
             raise MdfError(f"frame {self._count} has shape {f.shape}, the scan has {self.shape}")
         if self._dtype is None:
             self._allocate(f.dtype)
-        self._buffer[2 * self._r + self._count - self._folded] = f.ravel()
+        self._ring[self._count % self._ring.shape[0]] = f.ravel()
         self._count += 1
         if self._count - self._folded == self._block:
             self._fold()
 
     def _fold(self) -> None:
         """Fold the buffered frames into the running maximum, minimum and windows."""
-        r, first = self._r, self._folded
-        n_new = self._count - first
-        if n_new == 0:
+        first = self._folded
+        if self._count == first:
             return
         fold_block(
-            self._buffer, n_new, first, r, self._can_matter,
-            self._best, self._low, self._index, self._snapped, self._window,
+            self._ring, self._count - first, first, self._r, self._can_matter,
+            self._best, self._low, self._index, self._held, self._window, self._waiting,
         )  # fmt: skip
-        # Keep the last 2r frames in front of the next block.
-        if 2 * r:
-            self._buffer[: 2 * r] = self._buffer[n_new : n_new + 2 * r].copy()
         self._folded = self._count
 
     def result(self) -> PixelPeaks:
@@ -143,23 +142,15 @@ class SpaceTimeTracker:
         if self._count == 0:
             raise MdfError("SpaceTimeTracker.result: no frame was added")
         self._fold()
-        best = self._best.astype(np.float32)
-        low = self._low.astype(np.float32)
-        contrast = best - low
-        lit = contrast >= self.min_contrast
-        # A window is complete only if it was copied for the final maximum.
-        complete = self._snapped & (self._index >= self._r)
-        complete &= self._index <= self._count - 1 - self._r
-        # Fit only where there is a complete window of a lit pixel.
-        fit = np.flatnonzero(lit & complete)
-        window = np.take(self._window, fit, axis=1).astype(np.float64)
-        window -= low[fit]
-        offset, ok = peak_offset(window, method=self.method)
-        reason = np.full(contrast.shape, Reason.UNLIT, np.uint8)
-        reason[lit] = Reason.AT_SEQUENCE_EDGE
-        reason[fit] = np.where(ok, Reason.OK, Reason.FIT_FAILED)
-        time = np.full(contrast.shape, -1.0, np.float32)
-        time[fit[ok]] = self._index[fit[ok]] + offset[ok]
+        size = self._best.shape[0]
+        time = np.empty(size, np.float32)
+        contrast = np.empty(size, np.float32)
+        reason = np.empty(size, np.uint8)
+        fit_peaks(
+            self._window, self._best, self._low, self._index, self._held, self._count,
+            self._r, np.float32(self.min_contrast), METHOD_CODES[self.method],
+            log_table(self._dtype), time, contrast, reason,
+        )  # fmt: skip
         h, w = self.shape
         return PixelPeaks(
             time=time.reshape(h, w),
@@ -167,6 +158,14 @@ class SpaceTimeTracker:
             reason=reason.reshape(h, w),
             frames=self._count,
         )
+
+
+def _can_matter(dtype: np.dtype, min_contrast: float):
+    # The lowest maximum that can be min_contrast above a darker sample, in the dtype.
+    if not np.issubdtype(dtype, np.integer):
+        return dtype.type(-np.inf)
+    info = np.iinfo(dtype)
+    return dtype.type(min(np.ceil(info.min + min_contrast), info.max))
 
 
 def _lowest(dtype: np.dtype):

@@ -14,6 +14,7 @@ from processing.mdf import (
     peak_radius,
     space_time_peaks,
 )
+from processing.mdf._fit_kernel import METHOD_CODES, fit_peaks, log_table
 
 
 def sweep(centres, n_frames, *, sigma=1.2, peak=180.0, ambient=12.0, noise=0.0, seed=0):
@@ -50,8 +51,12 @@ def test_streaming_equals_batch(seed, n_frames, method, dtype):
     tracker = SpaceTimeTracker((5, 7), method=method, min_contrast=15.0)
     for frame in stack:
         tracker.update(frame)
-    got = tracker.result()
-    # Batch: first maximum, window from the stack, background = minimum.
+    assert_batch_peaks(tracker.result(), stack, method, 15.0)
+
+
+def assert_batch_peaks(got, stack, method, min_contrast):
+    """``got`` equals a batch computation: first maximum, its window, background = minimum."""
+    n_frames = len(stack)
     f = stack.astype(np.float64)
     k = f.argmax(axis=0)
     r = peak_radius(method)
@@ -61,14 +66,33 @@ def test_streaming_equals_batch(seed, n_frames, method, dtype):
     idx = np.clip(k[None] + np.arange(-r, r + 1)[:, None, None], 0, n_frames - 1)
     window = np.take_along_axis(f, idx, axis=0) - low
     off, ok = peak_offset(window, method=method)
-    expect = np.where(contrast < 15.0, Reason.UNLIT, Reason.OK)
-    expect = np.where((contrast >= 15.0) & ~complete, Reason.AT_SEQUENCE_EDGE, expect)
-    expect = np.where((contrast >= 15.0) & complete & ~ok, Reason.FIT_FAILED, expect)
+    lit = contrast >= min_contrast
+    expect = np.where(lit, Reason.OK, Reason.UNLIT)
+    expect = np.where(lit & ~complete, Reason.AT_SEQUENCE_EDGE, expect)
+    expect = np.where(lit & complete & ~ok, Reason.FIT_FAILED, expect)
     np.testing.assert_array_equal(got.reason, expect)
     good = expect == Reason.OK
     np.testing.assert_allclose(got.time[good], (k + off)[good], atol=1e-4)
     assert np.all(got.time[~good] == -1)
     np.testing.assert_allclose(got.contrast, contrast, atol=1e-3)
+
+
+@pytest.mark.parametrize("method", PEAK_METHODS)
+@pytest.mark.parametrize("block", [1, 3, 8])
+def test_many_tiles_of_pixels_equal_batch(method, block):
+    # Over 3 tiles of the fold (4096 pixels each): the first peaks at frame 7
+    # everywhere, so its windows wait for frames of a block that raises
+    # nothing there; the others at random times, some at the sequence edges.
+    rng = np.random.default_rng(block)
+    centres = rng.uniform(-1, 26, (40, 256))
+    centres[:16] = 7.0
+    stack = sweep(centres, 26, noise=3.0, seed=block)
+    tracker = SpaceTimeTracker((40, 256), method=method, min_contrast=20.0, block=block)
+    for frame in stack:
+        tracker.update(frame)
+    got = tracker.result()
+    assert {Reason.OK, Reason.AT_SEQUENCE_EDGE} <= set(got.reason.ravel().tolist())
+    assert_batch_peaks(got, stack, method, 20.0)
 
 
 def test_unlit_and_sequence_edge_pixels_are_flagged():
@@ -132,3 +156,43 @@ def test_block_size_and_a_result_midway_change_nothing(seed, block, pause):
     np.testing.assert_array_equal(got.reason, reference.reason)
     np.testing.assert_array_equal(got.time, reference.time)
     np.testing.assert_array_equal(got.contrast, reference.contrast)
+
+
+@pytest.mark.parametrize("dtype", [np.uint8, np.uint16, np.float32])
+@pytest.mark.parametrize("method", PEAK_METHODS)
+def test_compiled_fit_equals_the_numpy_detectors(method, dtype):
+    # Windows as the fold leaves them: ties with the maximum, dark samples at
+    # the background, flat windows, peaks at the first and last frame, windows
+    # never taken; compared with peak_offset pixel by pixel.
+    rng = np.random.default_rng(7)
+    r, n, frames = peak_radius(method), 4000, 30
+    window = rng.integers(0, 200, (2 * r + 1, n)).astype(dtype)
+    window[rng.random(window.shape) < 0.3] = 0
+    window[r] = window.max(axis=0)
+    tie = rng.random(n) < 0.2
+    window[r - 1, tie] = window[r, tie]
+    window[:, 300:350] = window[r, 300:350]  # flat
+    low = np.minimum(window.min(axis=0), rng.integers(0, 3, n).astype(dtype))
+    low[300:325] = 0  # flat, high above the background
+    best = window[r].copy()
+    index = rng.integers(0, frames, n).astype(np.int32)
+    index[:100], index[100:200] = 0, frames - 1
+    held = np.where(rng.random(n) < 0.95, index, -1).astype(np.int32)
+    time = np.empty(n, np.float32)
+    contrast = np.empty(n, np.float32)
+    reason = np.empty(n, np.uint8)
+    fit_peaks(np.ascontiguousarray(window.T), best, low, index, held, frames, r, np.float32(15.0),
+              METHOD_CODES[method], log_table(np.dtype(dtype)), time, contrast, reason)  # fmt: skip
+
+    expect_contrast = best.astype(np.float32) - low.astype(np.float32)
+    lit = expect_contrast >= 15
+    complete = (held == index) & (index >= r) & (index <= frames - 1 - r)
+    off, ok = peak_offset(window.astype(np.float64) - low.astype(np.float32), method=method)
+    expect = np.where(lit, np.where(complete, np.where(ok, Reason.OK, Reason.FIT_FAILED),
+                                    Reason.AT_SEQUENCE_EDGE), Reason.UNLIT)  # fmt: skip
+    assert {Reason.OK, Reason.FIT_FAILED, Reason.AT_SEQUENCE_EDGE, Reason.UNLIT} <= set(expect)
+    np.testing.assert_array_equal(reason, expect)
+    np.testing.assert_array_equal(contrast, expect_contrast)
+    good = expect == Reason.OK
+    np.testing.assert_array_equal(time[good], (index + off).astype(np.float32)[good])
+    assert np.all(time[~good] == -1)
