@@ -13,6 +13,7 @@ the operator resumes — unlocks the stop first, then sends the move again.
 from __future__ import annotations
 
 import logging
+from collections.abc import Callable
 
 import numpy as np
 
@@ -68,17 +69,9 @@ class BonnDevices(RigDevices):
             "tool_rx_deg": float(rx), "tool_ry_deg": float(ry), "tool_rz_deg": float(rz),
         }  # fmt: skip
 
-    def all_off(self) -> None:
-        """Lamps off, arm and rail stopped; every device tried, the first error raised."""
-        errors = []
-        for action in (super().all_off, self.arm.stop, self.rail.stop):
-            try:
-                action()
-            except DeviceError as err:
-                log.warning("switching off: %s", err)
-                errors.append(err)
-        if errors:
-            raise errors[0]
+    def _off_actions(self) -> list[Callable[[], object]]:
+        """The rig's, then the arm and the rail stopped."""
+        return [*super()._off_actions(), self.arm.stop, self.rail.stop]
 
     def telemetry(self) -> dict:
         return {**super().telemetry(), "rail_deg": float(self.rail.position())}

@@ -17,7 +17,7 @@ build ``RigDevices`` from in-process soft devices with the same interfaces
 from __future__ import annotations
 
 import logging
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
@@ -287,13 +287,17 @@ class RigDevices:
                     Captured(frame.image, sub, float(frame.exposure_s), float(frame.timestamp))
                 )
 
-    def all_off(self) -> None:
-        """Lamps and laser off, axes stopped; every device tried, the first error raised."""
-        errors = []
+    def _off_actions(self) -> list[Callable[[], object]]:
+        """What switching the rig off does, one device each: lamps and laser off, axes stopped."""
         actions = [lambda: self.lamps.switch(frozenset()), *(a.stop for a in self._axes)]
         if self.laser_unit is not None:
             actions += [lambda: self.laser_unit.set_laser(False), self.laser_unit.tilt.stop]
-        for action in actions:
+        return actions
+
+    def all_off(self) -> None:
+        """Every one of :meth:`_off_actions` tried, the first error raised."""
+        errors = []
+        for action in self._off_actions():
             try:
                 action()
             except DeviceError as err:
