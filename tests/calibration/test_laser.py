@@ -43,7 +43,7 @@ def test_general_fit_from_many_heights_reports_residual():
     angle = 52.0
     offsets = 3.0 - heights / np.tan(np.deg2rad(angle)) + rng.normal(0, 0.02, 5)
     got = laser_plane_angle(heights, offsets, offset_std_mm=0.02)
-    assert abs(got.angle_deg - angle) < 0.1  # the laser plane's stated tolerance (docs/calibration.md)
+    assert abs(got.angle_deg - angle) < 0.1  # docs/calibration.md's tolerance
     assert 0 < got.residual_mm < 0.05
     assert got.heights == 5
     assert 0 < got.angle_std_deg < 0.2

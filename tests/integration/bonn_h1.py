@@ -37,6 +37,7 @@ def main() -> None:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     parser.add_argument("out", type=Path)
     parser.add_argument("--views", type=int, default=81)
+    parser.add_argument("--supersample", type=int, default=3, help="area samples per pixel side")
     args = parser.parse_args()
     h1 = [tuple(map(float, d)) for d in Sampling.named("H1").directions]
     views = h1[: args.views]
@@ -44,7 +45,7 @@ def main() -> None:
     (args.out / "plan.toml").write_text(_plan(views))
     clock = VirtualClock()
     start = time.perf_counter()
-    scene = bonn_scene()
+    scene = bonn_scene(supersample=args.supersample)
     with SimulatedRig(scene, clock=clock) as sim:
         config = sim.rig_config()
         final = run_local(args.out / "plan.toml", config, archive=args.out / "s.zarr", clock=clock)

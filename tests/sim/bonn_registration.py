@@ -36,7 +36,7 @@ PAIRS = (
 _FAST = Retry(timeout_s=0.5, retries=2, backoff_s=0.01)
 
 
-def bonn_scene():
+def bonn_scene(*, supersample: int = 3):
     albedo = {"kind": "noise", "rgb": [0.6, 0.5, 0.4], "variation": 0.3, "scale_mm": 8.0}
     return scene_from_dict({
         "name": "bonn-registration",
@@ -44,7 +44,7 @@ def bonn_scene():
         "sample": {"generator": "flat", "depth_mm": 0.01, "materials": ["m"]},
         "materials": {"m": {"albedo": albedo}},
         "rig": {"kind": "bonn", "overrides": {"bonn": {"lamp_kind": "directional"}}},
-        "render": {"scale": 0.5, "supersample": 3},
+        "render": {"scale": 0.5, "supersample": supersample},
     })  # fmt: skip
 
 
