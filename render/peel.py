@@ -171,10 +171,12 @@ class SilhouettePeel:
 
 
 def mdf_silhouettes(ctx, mesh, vbo, ibo, texture: MdfTexture | None, *, peel: int,
-                    texture_scale: float, uv_scale: float) -> SilhouettePeel | None:  # fmt: skip
+                    texture_scale: float, uv_scale: float,
+                    asked: bool = True) -> SilhouettePeel | None:  # fmt: skip
     """The depth peeling of the MDF ``texture`` on ``mesh`` (a renderer's buffers;
     ``texture_scale``, ``uv_scale`` as :class:`SilhouettePeel`'s), or None: no
-    texture (drawn without the MDF), or an open mesh (logged as a warning).
+    texture (drawn without the MDF), or an open mesh (a warning where the MDF was
+    ``asked`` for, else an info line: the MDF only came with the material).
 
     Raises
     ------
@@ -187,7 +189,8 @@ def mdf_silhouettes(ctx, mesh, vbo, ibo, texture: MdfTexture | None, *, peel: in
         return None
     holes = open_edges(mesh)
     if holes:
-        _log.warning(
+        _log.log(
+            logging.WARNING if asked else logging.INFO,
             "mesh %r is open (%d edges bound one face only) and MDF silhouettes need a closed "
             "object: drawn without them, with the mesh's own outline", mesh.name, holes,
         )  # fmt: skip

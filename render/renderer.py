@@ -118,6 +118,7 @@ class Renderer:
             )
         if not (np.isfinite(ambient) and 0 <= ambient <= 1):
             raise RenderError(f"ambient = {ambient}: valid is a fraction 0 … 1 of each light")
+        asked_mdf = mdf is not None
         mdf = material.mdf is not None if mdf is None else bool(mdf)
         self.ctx = gl_context()
         self.mesh = mesh
@@ -175,6 +176,7 @@ class Renderer:
         self.silhouettes = mdf_silhouettes(
             self.ctx, mesh, self.vbo, self.ibo, self.mdf and self.mdf.texture, peel=peel,
             texture_scale=float(tile) / material.sample_mm, uv_scale=self.uv_scale,
+            asked=asked_mdf,
         )  # fmt: skip
         self._program(1)  # a shader this GL cannot compile fails here, not at the first frame
 

@@ -140,3 +140,14 @@ def test_constant_mdf_shrinks_a_sphere_to_the_analytic_outline(pca_model):
     unsure = np.abs(rho - np.sqrt(radius**2 - depth**2)) < 1.5 * pixel
     np.testing.assert_array_equal(mask[~unsure], expected[~unsure])
     assert abs(np.sqrt(mask.sum() / np.pi) * pixel - 40.0) < pixel
+
+
+def test_open_mesh_with_the_mdf_not_asked_for_only_informs(with_mdf, caplog):
+    """The MDF that merely came with the material: an open mesh is no warning (an info line)."""
+    with (
+        caplog.at_level(logging.INFO, logger="render.peel"),
+        Renderer(with_mdf, plane(size_mm=60.0, segments=4)) as renderer,
+    ):
+        assert renderer.silhouettes is None
+    [record] = [r for r in caplog.records if "is open" in r.getMessage()]
+    assert record.levelno == logging.INFO
