@@ -39,19 +39,23 @@ def _on_peers(config, peers, **laser_device):
     return config.model_copy(update={**update, "camera_arc": cameras})
 
 
+def _with_camera_server(config, server):
+    """``config`` whose one camera is served by the camera ``server``."""
+    spec = config.camera_arc.cameras[0]
+    connection = spec.connection.model_copy(update={"url": server.url})
+    cam = config.camera_arc.model_copy(
+        update={"cameras": (spec.model_copy(update={"connection": connection}),)}
+    )
+    return config.model_copy(update={"camera_arc": cam})
+
+
 def _render(camera_id, snapshot, exposure_s):
     raise AssertionError("no frame is captured here")
 
 
 def test_every_role_opens_and_a_second_daemon_is_refused(world, peers):
     with CameraServer(world, _render) as cameras:
-        config = _on_peers(world.config, peers)
-        spec = config.camera_arc.cameras[0]
-        connection = spec.connection.model_copy(update={"url": cameras.url})
-        cam = config.camera_arc.model_copy(
-            update={"cameras": (spec.model_copy(update={"connection": connection}),)}
-        )
-        config = config.model_copy(update={"camera_arc": cam})
+        config = _with_camera_server(_on_peers(world.config, peers), cameras)
         devices = build_devices(config, clock=world.clock)
         try:
             devices.home(laser=True)
@@ -107,13 +111,8 @@ def test_a_scan_spreads_its_frames_over_the_whole_sweep(world, peers, half_sweep
     """A coarse step covers the sweep from end to end; a step finer than the sheet
     moves between frames at the camera's rate (1°/s at 7.5 Hz) is taken at that rate."""
     with CameraServer(world, _dark) as cameras:
-        config = _on_peers(world.config, peers)
+        config = _with_camera_server(_on_peers(world.config, peers), cameras)
         spec = config.camera_arc.cameras[0]
-        connection = spec.connection.model_copy(update={"url": cameras.url})
-        cam = config.camera_arc.model_copy(
-            update={"cameras": (spec.model_copy(update={"connection": connection}),)}
-        )
-        config = config.model_copy(update={"camera_arc": cam})
         devices = build_devices(config, clock=world.clock)
         try:
             devices.home(laser=True)
