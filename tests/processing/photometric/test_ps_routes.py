@@ -126,12 +126,8 @@ def test_irls_scale_is_the_median_of_the_supported_residuals(n_lights):
     assert_allclose(_median(np.abs(residual), support), expected, rtol=1e-6)
 
 
-def test_compiled_irls_weights_match_the_per_pixel_light_steps():
-    # Distant lamps reweight compiled; the same lamps given per pixel (as near
-    # lamps are) take the numpy steps. Both must give the same weights.
-    images = scene(np.float64, False, exclusions=True)
-    grey = images.reshape(len(DIRS), -1)
-    usable = np.random.default_rng(3).random(grey.shape) > 0.05
+def _irls_both_ways(grey, usable):
+    """IRLS weights with the lamps given once (compiled) and per pixel (numpy steps)."""
     options = {
         "shadow_fraction": 0.05,
         "highlight_fraction": 0.1,
@@ -139,8 +135,19 @@ def test_compiled_irls_weights_match_the_per_pixel_light_steps():
         "max_condition": 100.0,
     }
     per_pixel = np.broadcast_to(DIRS[:, None, :], (*grey.shape, 3))
-    compiled = irls_weights(grey, usable, DIRS, **options)
-    stepwise = irls_weights(grey, usable, per_pixel, **options)
+    return (
+        irls_weights(grey, usable, DIRS, **options),
+        irls_weights(grey, usable, per_pixel, **options),
+    )
+
+
+def test_compiled_irls_weights_match_the_per_pixel_light_steps():
+    # Distant lamps reweight compiled; the same lamps given per pixel (as near
+    # lamps are) take the numpy steps. Both must give the same weights.
+    images = scene(np.float64, False, exclusions=True)
+    grey = images.reshape(len(DIRS), -1)
+    usable = np.random.default_rng(3).random(grey.shape) > 0.05
+    compiled, stepwise = _irls_both_ways(grey, usable)
     assert compiled.dtype == np.float32 and compiled.shape == grey.shape
     # float32 sums over the lights in another order: weights agree to ~1e-4
     assert_allclose(compiled, stepwise, atol=5e-4)
@@ -154,15 +161,7 @@ def test_compiled_irls_weights_match_the_numpy_steps_on_tied_values():
     grey = np.round(images.reshape(len(DIRS), -1) * 6) / 6
     grey[:, 20:23] = 0.5  # one value under every lamp
     usable = np.ones(grey.shape, bool)
-    options = {
-        "shadow_fraction": 0.05,
-        "highlight_fraction": 0.1,
-        "iterations": 3,
-        "max_condition": 100.0,
-    }
-    per_pixel = np.broadcast_to(DIRS[:, None, :], (*grey.shape, 3))
-    compiled = irls_weights(grey, usable, DIRS, **options)
-    stepwise = irls_weights(grey, usable, per_pixel, **options)
+    compiled, stepwise = _irls_both_ways(grey, usable)
     assert_allclose(compiled, stepwise, atol=5e-4)
 
 
