@@ -5,7 +5,9 @@ maximum, the running minimum, and a mark of the frame that last raised the
 maximum. Then, per pixel of the tile, the window around a new maximum is
 copied once ``r`` frames have followed it — only in tiles that raised a
 maximum in this block or still wait for frames of an earlier one, as most
-tiles of a sweep do neither. The frames sit in a ring, so nothing is moved
+tiles of a sweep do neither. The frames are read where they lie: in the
+caller's block, or in the tracker's ring (frames copied one at a time, and
+the last 2r frames of a block, which later windows need), so nothing is moved
 between blocks; a pixel's window is contiguous, ``(N, 2r+1)``, so taking it
 touches one cache line, not 2r+1 (see ``docs/mdf.md``).
 """
@@ -23,13 +25,17 @@ _RUN = 255
 
 
 @njit(cache=True, nogil=True)
-def fold_block(ring, n_new, first, r, can_matter, best, low, index, held, window, waiting):
+def fold_block(ring, block, block_first, first, n_new, r, can_matter,
+               best, low, index, held, window, waiting):  # fmt: skip
     """Fold frames ``first … first + n_new - 1`` into the running state.
 
-    ring : (rows, N) frame f in row ``f % rows``, holding at least the last
-    ``n_new + 2r`` frames; best, low : (N,) running maximum and minimum (the
-    frames' dtype); index : (N,) int32 frame of the maximum (the earliest on
-    ties; kept only for maxima ≥ can_matter, the others are never lit);
+    Frame f ≥ ``block_first`` is row ``f - block_first`` of ``block`` (B, N),
+    an earlier one row ``f % rows`` of ``ring`` (rows, N); together they hold
+    frames ``first - 2r … first + n_new - 1`` (a fold from the ring alone
+    passes an empty block from ``first + n_new``). best, low : (N,) running
+    maximum and minimum (the frames' dtype); index : (N,) int32 frame of the
+    maximum (the earliest on ties; kept only for maxima ≥ can_matter, the
+    others are never lit);
     held : (N,) int32 the frame whose surrounding samples ``window`` holds
     (-1: none); window : (N, 2r + 1) those samples; can_matter : the lowest
     maximum that can still be lit, in the frames' dtype; waiting : bool per
@@ -55,20 +61,20 @@ def fold_block(ring, n_new, first, r, can_matter, best, low, index, held, window
         for k0 in range(0, n_new, _RUN):
             marks[:] = 0
             for k in range(k0, min(k0 + _RUN, n_new)):
-                row = ring[(first + k) % rows, t0:t1]
+                f = first + k
+                row = block[f - block_first, t0:t1] if f >= block_first else ring[f % rows, t0:t1]
                 tag = kind(k - k0 + 1)
-                # Three loops of their own, in the frames' dtype, each a max or
-                # a min: a select between arrays, or a product with a bool,
-                # does not vectorise (3-10× slower). Tags grow, so the mark is
-                # the last frame that raised the maximum (a tie does not raise)
-                # to where it can matter: a pixel that ends lit reached its
+                # One loop of maxima and minima in the frames' dtype, so it
+                # vectorises: a select between arrays, or a product with a
+                # bool, does not (3-10× slower). Tags grow, so the mark is the
+                # last frame that raised the maximum (a tie does not raise) to
+                # where it can matter: a pixel that ends lit reached its
                 # maximum that way, and raises in the dark (noise) mark nothing.
                 for i in range(m):
-                    marks[i] = max(marks[i], tag if row[i] > max(b[i], below) else zero)
-                for i in range(m):
-                    b[i] = max(row[i], b[i])
-                for i in range(m):
-                    lo[i] = min(row[i], lo[i])
+                    sample, held_max = row[i], b[i]
+                    marks[i] = max(marks[i], tag if sample > max(held_max, below) else zero)
+                    b[i] = max(sample, held_max)
+                    lo[i] = min(sample, lo[i])
             # Most tiles raise nothing in most blocks: one vector pass says so.
             top = zero
             for i in range(m):
@@ -101,8 +107,12 @@ def fold_block(ring, n_new, first, r, can_matter, best, low, index, held, window
                 # division per window, not one per sample.
                 row = max(at - r, 0) % rows
                 for j in range(2 * r + 1):
-                    window[p, j] = ring[row, p]
-                    if at - r + j >= 0:
-                        row = row + 1 if row + 1 < rows else 0
+                    f = max(at - r + j, 0)
+                    if f >= block_first:
+                        window[p, j] = block[f - block_first, p]
+                    else:
+                        window[p, j] = ring[row, p]
+                        if at - r + j >= 0:
+                            row = row + 1 if row + 1 < rows else 0
                 held[p] = at
         waiting[tile] = wait

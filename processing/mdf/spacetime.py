@@ -14,7 +14,10 @@ for laser light) and, per pixel, the ``2r+1`` samples around its maximum,
 copied once ``r`` frames have followed it. Per frame that is a copy into the
 ring plus its share of one compiled pass over the block
 (:mod:`processing.mdf._spacetime_kernel`: running max, min and the frame that
-raised the maximum, per tile of pixels). :meth:`SpaceTimeTracker.result` is
+raised the maximum, per tile of pixels). Frames that come as an array
+(:meth:`SpaceTimeTracker.update_block`) are folded where they lie, and only
+the last ``2r`` of them are copied into the ring: that saves the copy, a
+read and a write of every frame. :meth:`SpaceTimeTracker.result` is
 one compiled pass over the pixels (:mod:`processing.mdf._fit_kernel`).
 Memory is ``O((4r+1+block)·H·W)`` whatever the sequence length.
 """
@@ -114,17 +117,54 @@ class SpaceTimeTracker:
         """Add the next frame, (H, W) or (H, W, C), any numeric dtype.
 
         Integer frames up to 16 bits are tracked in their own dtype (a quarter
-        or half of the memory traffic of float32); others in float32.
+        or half of the memory traffic of float32); others in float32. The
+        frame is copied: the caller may reuse its buffer.
         """
-        f = _native_intensity(frame)
-        if f.shape != self.shape:
-            raise MdfError(f"frame {self._count} has shape {f.shape}, the scan has {self.shape}")
-        if self._dtype is None:
-            self._allocate(f.dtype)
+        f = self._checked(_native_intensity(frame, ndim=2), self._count)
         self._ring[self._count % self._ring.shape[0]] = f.ravel()
         self._count += 1
         if self._count - self._folded == self._block:
             self._fold()
+
+    def update_block(self, frames) -> None:
+        """Add the next frames, (B, H, W) or (B, H, W, C), in order.
+
+        The same as :meth:`update` for each frame, without copying the block:
+        it is folded where it lies, and only the last ``2r`` frames (those the
+        next frames' windows may need) are copied. The tracker keeps no
+        reference to ``frames`` after the call.
+        """
+        f = _native_intensity(frames, ndim=3)
+        if len(f) == 0:
+            return
+        self._checked(f[0], self._count)
+        rows = np.ascontiguousarray(f).reshape(len(f), -1)
+        self._fold()  # the frames buffered by update() come first
+        start, n = self._count, rows.shape[0]
+        for first in range(start, start + n, self._block):
+            fold_block(
+                self._ring, rows, start, first, min(self._block, start + n - first), self._r,
+                self._can_matter, self._best, self._low, self._index, self._held, self._window,
+                self._waiting,
+            )  # fmt: skip
+        self._count = self._folded = start + n
+        # The next frames' windows reach back 2r frames; older ones are in the ring already.
+        ring = self._ring.shape[0]
+        for frame in range(max(start, self._count - 2 * self._r), self._count):
+            self._ring[frame % ring] = rows[frame - start]
+
+    def _checked(self, frame: np.ndarray, number: int) -> np.ndarray:
+        # The frame's (H, W) intensity, after the first fixed the scan's dtype.
+        if frame.shape != self.shape:
+            raise MdfError(f"frame {number} has shape {frame.shape}, the scan has {self.shape}")
+        if self._dtype is None:
+            self._allocate(frame.dtype)
+        elif frame.dtype != self._dtype:
+            raise MdfError(
+                f"frame {number} is {frame.dtype}, the scan's frames are {self._dtype}: "
+                "feed one dtype per scan"
+            )
+        return frame
 
     def _fold(self) -> None:
         """Fold the buffered frames into the running maximum, minimum and windows."""
@@ -132,8 +172,9 @@ class SpaceTimeTracker:
         if self._count == first:
             return
         fold_block(
-            self._ring, self._count - first, first, self._r, self._can_matter,
-            self._best, self._low, self._index, self._held, self._window, self._waiting,
+            self._ring, self._ring[:0], self._count, first, self._count - first, self._r,
+            self._can_matter, self._best, self._low, self._index, self._held, self._window,
+            self._waiting,
         )  # fmt: skip
         self._folded = self._count
 
@@ -176,16 +217,18 @@ def _highest(dtype: np.dtype):
     return np.iinfo(dtype).max if np.issubdtype(dtype, np.integer) else np.inf
 
 
-def _native_intensity(frame) -> np.ndarray:
-    f = np.asarray(frame)
-    if f.ndim == 3:
-        f = f.max(axis=2)
-    if f.ndim != 2:
-        raise MdfError(f"frame must be (H, W) or (H, W, C), got shape {np.shape(frame)}")
+def _native_intensity(frames, *, ndim: int) -> np.ndarray:
+    # (…, H, W) intensity of frames with ndim axes, or one more for colour.
+    f = np.asarray(frames)
+    if f.ndim == ndim + 1:
+        f = f.max(axis=-1)
+    if f.ndim != ndim:
+        what = "(H, W) or (H, W, C)" if ndim == 2 else "(B, H, W) or (B, H, W, C)"
+        raise MdfError(f"frames must be {what}, got shape {np.shape(frames)}")
     if f.dtype in (np.uint8, np.uint16):
         return f
     # Non-finite samples (a broken float frame) count as dark.
-    return np.nan_to_num(f.astype(np.float32), nan=0.0, posinf=0.0, neginf=0.0)
+    return np.nan_to_num(f.astype(np.float32), copy=False, nan=0.0, posinf=0.0, neginf=0.0)
 
 
 def space_time_peaks(
@@ -195,7 +238,8 @@ def space_time_peaks(
 
     Parameters
     ----------
-    frames : iterable of (H, W) or (H, W, C) arrays
+    frames : iterable of (H, W) or (H, W, C) arrays, or a (F, H, W) or (F, H, W, C) array
+        An array is folded where it lies (:meth:`SpaceTimeTracker.update_block`).
     method, min_contrast
         As :class:`SpaceTimeTracker`.
 
@@ -203,6 +247,10 @@ def space_time_peaks(
     -------
     PixelPeaks
     """
+    if isinstance(frames, np.ndarray) and frames.ndim in (3, 4) and len(frames):
+        tracker = SpaceTimeTracker(frames.shape[1:3], method=method, min_contrast=min_contrast)
+        tracker.update_block(frames)
+        return tracker.result()
     tracker = None
     for frame in frames:
         if tracker is None:
