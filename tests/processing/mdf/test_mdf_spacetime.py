@@ -196,3 +196,120 @@ def test_compiled_fit_equals_the_numpy_detectors(method, dtype):
     good = expect == Reason.OK
     np.testing.assert_array_equal(time[good], (index + off).astype(np.float32)[good])
     assert np.all(time[~good] == -1)
+
+
+def feed_blocks(tracker, stack, sizes):
+    """Feed ``stack`` in blocks of ``sizes`` (cycled) through a reused buffer
+    that is overwritten after each call, as a caller reading chunks would."""
+    buffer = np.empty_like(stack)
+    start, k = 0, 0
+    while start < len(stack):
+        part = stack[start : start + sizes[k % len(sizes)]]
+        chunk = buffer[: len(part)]
+        chunk[:] = part
+        tracker.update_block(chunk)
+        buffer[:] = 255  # brighter than any frame: the tracker must hold no reference
+        start, k = start + len(part), k + 1
+    return tracker.result()
+
+
+def frame_by_frame(stack, method, block=8):
+    tracker = SpaceTimeTracker(stack.shape[1:3], method=method, min_contrast=20.0, block=block)
+    for frame in stack:
+        tracker.update(frame)
+    return tracker.result()
+
+
+def assert_same_peaks(got, expect):
+    np.testing.assert_array_equal(got.reason, expect.reason)
+    np.testing.assert_array_equal(got.time, expect.time)
+    np.testing.assert_array_equal(got.contrast, expect.contrast)
+    assert got.frames == expect.frames
+
+
+@pytest.mark.parametrize("method", PEAK_METHODS)
+@pytest.mark.parametrize("size", [1, 3, 8])
+@pytest.mark.parametrize("n_frames", [1, 7, 25, 31])
+def test_blocks_equal_frames_with_peaks_at_block_and_sequence_edges(method, size, n_frames):
+    # Peaks on every frame, so some sit on the first and last frame of a
+    # block (the caller's and the tracker's, 8) and of the sequence.
+    centres = np.tile(np.arange(-1.0, n_frames + 1), (3, 1))
+    centres[1] += 0.4
+    centres[2] -= 0.3
+    stack = sweep(centres, n_frames, noise=2.0, seed=n_frames)
+    tracker = SpaceTimeTracker(centres.shape, method=method, min_contrast=20.0)
+    got = feed_blocks(tracker, stack, [size])
+    assert_same_peaks(got, frame_by_frame(stack, method))
+    assert_batch_peaks(got, stack, method, 20.0)
+    if n_frames > 2 * peak_radius(method):
+        assert {Reason.OK, Reason.AT_SEQUENCE_EDGE} <= set(got.reason.ravel().tolist())
+
+
+@settings(max_examples=30)
+@given(
+    seed=st.integers(0, 2**31),
+    n_frames=st.integers(1, 40),
+    method=st.sampled_from(PEAK_METHODS),
+    dtype=st.sampled_from([np.uint8, np.uint16, np.float32]),
+    block=st.integers(1, 9),
+    sizes=st.lists(st.integers(1, 12), min_size=1, max_size=4),
+)
+def test_blocks_of_any_size_equal_frame_by_frame(seed, n_frames, method, dtype, block, sizes):
+    rng = np.random.default_rng(seed)
+    stack = (rng.random((n_frames, 5, 7)) * 200).astype(dtype)
+    stack[rng.random(stack.shape) < 0.5] = 0  # ties and flat runs
+    tracker = SpaceTimeTracker((5, 7), method=method, min_contrast=15.0, block=block)
+    got = feed_blocks(tracker, stack, sizes)
+    expect = SpaceTimeTracker((5, 7), method=method, min_contrast=15.0, block=block)
+    for frame in stack:
+        expect.update(frame)
+    assert_same_peaks(got, expect.result())
+
+
+@pytest.mark.parametrize("method", PEAK_METHODS)
+def test_blocks_and_single_frames_mixed_over_many_tiles(method):
+    # Over 3 tiles of the fold: frames one at a time, then blocks, then one at
+    # a time again, with a result midway; the same as frame by frame.
+    rng = np.random.default_rng(5)
+    centres = rng.uniform(-1, 40, (40, 256))
+    centres[:16] = 9.0  # windows that wait across the switch
+    stack = sweep(centres, 41, noise=3.0, seed=5)
+    tracker = SpaceTimeTracker((40, 256), method=method, min_contrast=20.0, block=4)
+    for frame in stack[:6]:
+        tracker.update(frame)
+    tracker.update_block(stack[6:10])
+    tracker.result()
+    tracker.update_block(stack[10:11])
+    tracker.update_block(stack[11:30])
+    for frame in stack[30:33]:
+        tracker.update(frame)
+    tracker.update_block(stack[33:])
+    assert_same_peaks(tracker.result(), frame_by_frame(stack, method, block=4))
+
+
+def test_a_stacked_sequence_is_folded_as_a_block():
+    centres = np.random.default_rng(2).uniform(0, 20, (6, 9))
+    grey = sweep(centres, 21, noise=1.0)
+    colour = np.stack([grey // 4, grey, grey // 2], axis=-1)
+    expect = frame_by_frame(grey, "gaussian")
+    assert_same_peaks(space_time_peaks(grey, min_contrast=20.0), expect)
+    assert_same_peaks(space_time_peaks(colour, min_contrast=20.0), expect)
+    strided = np.zeros((21, 6, 18), np.uint8)
+    strided[:, :, ::2] = grey
+    assert_same_peaks(space_time_peaks(strided[:, :, ::2], min_contrast=20.0), expect)
+    floats = space_time_peaks(grey.astype(np.float64), min_contrast=20.0)
+    np.testing.assert_array_equal(floats.reason, expect.reason)
+
+
+def test_block_inputs_are_checked():
+    tracker = SpaceTimeTracker((4, 4), min_contrast=1)
+    tracker.update_block(np.zeros((0, 4, 4), np.uint8))
+    assert tracker.frames == 0
+    with pytest.raises(MdfError, match="shape"):
+        tracker.update_block(np.zeros((2, 5, 4), np.uint8))
+    with pytest.raises(MdfError, match=r"\(B, H, W\)"):
+        tracker.update_block(np.zeros((4, 4), np.uint8))
+    tracker.update_block(np.zeros((2, 4, 4), np.uint8))
+    with pytest.raises(MdfError, match="uint16"):
+        tracker.update(np.zeros((4, 4), np.uint16))
+    assert tracker.frames == 2
