@@ -8,12 +8,15 @@
     the sequence stacked in memory, in frames/s.
 ``space_time``
     :class:`~processing.mdf.spacetime.SpaceTimeTracker` throughput on the same
-    sequence per peak detector, in frames/s, its time as a multiple of the
-    read (``ratio_to_read``), split into the streaming updates
+    sequence per peak detector, fed one frame at a time (``update``) or as
+    the stacked array (``update_block``, as :func:`space_time_peaks` does
+    with an array), in frames/s, its time as a multiple of the read
+    (``ratio_to_read``), split into the streaming updates
     (``streaming_ratio_to_read``, per frame) and the sub-frame fit of
     ``result()`` (``fit_ratio_to_read``, once per scan for every lit pixel,
     so it weighs less the longer the sequence), and its speed-up over the
-    argmax; all timed interleaved, best of 3.
+    argmax; all timed interleaved, in thread CPU time, best of 3, at each
+    sequence length.
 ``detector``
     Per peak detector: laser line error on a flat plate at full resolution
     (px, largest distance from the true strip over ±40 mm along it, median
@@ -79,7 +82,7 @@ def run_bench(
     scale: float = 0.25,
     texels: int = 64,
     sheet_sigma_mm: float = 0.8,
-    throughput_frames: int = 120,
+    throughput_frames=(120, 200),
     location_counts=LOCATION_COUNTS,
     step_factors=STEP_FACTORS,
     seed: int = 0,
@@ -89,7 +92,7 @@ def run_bench(
     Parameters
     ----------
     quick : bool
-        Small sizes for a smoke run (scale 0.125, 32 texels, 24 frames,
+        Small sizes for a smoke run (scale 0.125, 32 texels, 24 frames timed,
         locations (1, 5), steps (1×, 2×), detectors at 1/4 resolution).
     camera_id : str
         The view (a camera of the default rig).
@@ -99,12 +102,14 @@ def run_bench(
         Side of the texel grid for the accuracy rows.
     sheet_sigma_mm : float
         Gaussian half-width of the laser sheet.
-    throughput_frames : int
-        Frames of the 1024×768 sequence that is timed.
+    throughput_frames : tuple of int
+        Lengths of the 1024×768 sequences that are timed (a real scan has
+        sweep/step + 1 frames per laser location: 91 at the default step,
+        181–361 at the finer ones).
     """
     config = default_rig_config()
     if quick:
-        scale, texels, throughput_frames = 0.125, 32, 24
+        scale, texels, throughput_frames = 0.125, 32, (24,)
         location_counts, step_factors = (1, 5), (1.0, 2.0)
     camera = config.camera_model(camera_id)
     rows = _throughput(camera.height, camera.width, throughput_frames, seed)
@@ -116,12 +121,12 @@ def run_bench(
     return rows
 
 
-def _best(fn: Callable[[], object], repeats: int = 3) -> float:
+def _best(fn: Callable[[], object], repeats: int = 3, clock=time.perf_counter) -> float:
     times = []
     for _ in range(repeats):
-        start = time.perf_counter()
+        start = clock()
         fn()
-        times.append(time.perf_counter() - start)
+        times.append(clock() - start)
     return min(times)
 
 
@@ -138,8 +143,17 @@ def _stripe_sequence(height: int, width: int, n: int, seed: int) -> list[np.ndar
     return frames
 
 
-def _throughput(height: int, width: int, n: int, seed: int) -> list[dict]:
-    frames = _stripe_sequence(height, width, n, seed)
+def _throughput(height: int, width: int, lengths, seed: int) -> list[dict]:
+    rows = []
+    for n in lengths:
+        rows += _throughput_of(_stripe_sequence(height, width, n, seed))
+    return rows
+
+
+def _throughput_of(frames: list[np.ndarray]) -> list[dict]:
+    n = len(frames)
+    height, width = frames[0].shape
+    stacked = np.stack(frames)
 
     def read() -> None:
         acc = np.zeros_like(frames[0])
@@ -149,53 +163,59 @@ def _throughput(height: int, width: int, n: int, seed: int) -> list[dict]:
     # The streaming part (per frame) and the sub-frame fit (once per scan, every
     # lit pixel: all of them here) timed apart, so the per-frame cost is compared
     # with the per-frame floor and the fixed cost is shown as what it is.
-    split = {method: [np.inf, np.inf] for method in PEAK_METHODS}
+    feeds = {
+        "one at a time": lambda tracker: [tracker.update(f) for f in frames],
+        "stacked": lambda tracker: tracker.update_block(stacked),
+    }
+    split = {(m, feed): [np.inf, np.inf] for m in PEAK_METHODS for feed in feeds}
 
-    def track(method) -> None:
+    def track(method, feed) -> None:
         tracker = SpaceTimeTracker((height, width), method=method, min_contrast=20.0)
-        start = time.perf_counter()
-        for f in frames:
-            tracker.update(f)
-        middle = time.perf_counter()
+        start = time.thread_time()
+        feeds[feed](tracker)
+        middle = time.thread_time()
         tracker.result()
-        end = time.perf_counter()
-        split[method][0] = min(split[method][0], middle - start)
-        split[method][1] = min(split[method][1], end - middle)
+        end = time.thread_time()
+        split[method, feed][0] = min(split[method, feed][0], middle - start)
+        split[method, feed][1] = min(split[method, feed][1], end - middle)
 
-    stacked = np.stack(frames)
-    # Interleaved, best of 3: drifting load hits the floors and the trackers alike.
+    # Interleaved, best of 3, in thread CPU time: drifting load hits the floors
+    # and the trackers alike, and time spent preempted does not count.
     calls = {
         "read": read,
         "argmax": lambda: stacked.argmax(axis=0),
-        **{method: lambda m=method: track(m) for method in PEAK_METHODS},
+        **{key: lambda key=key: track(*key) for key in split},
     }
     seconds = dict.fromkeys(calls, np.inf)
     for _ in range(3):
         for name, call in calls.items():
-            seconds[name] = min(seconds[name], _best(call, repeats=1))
+            seconds[name] = min(seconds[name], _best(call, repeats=1, clock=time.thread_time))
     rows = [
         {
             "kind": "read",
-            "name": f"running max, {width}×{height} uint8",
+            "name": f"running max, {n} frames {width}×{height} uint8",
+            "frames": n,
             "frames_per_s": n / seconds["read"],
         },
         {
             "kind": "read",
-            "name": "argmax(axis=0) of the stacked sequence",
+            "name": f"argmax(axis=0) of the {n} frames stacked",
+            "frames": n,
             "frames_per_s": n / seconds["argmax"],
         },
     ]
-    for method in PEAK_METHODS:
-        streaming, fit = split[method]
+    for method, feed in split:
+        streaming, fit = split[method, feed]
         rows.append(
             {
                 "kind": "space_time",
-                "name": method,
-                "frames_per_s": n / seconds[method],
-                "ratio_to_read": seconds[method] / seconds["read"],
+                "name": f"{method}, {n} frames {feed}",
+                "frames": n,
+                "frames_per_s": n / seconds[method, feed],
+                "ratio_to_read": seconds[method, feed] / seconds["read"],
                 "streaming_ratio_to_read": streaming / seconds["read"],
                 "fit_ratio_to_read": fit / seconds["read"],
-                "speedup_vs_argmax": seconds["argmax"] / seconds[method],
+                "speedup_vs_argmax": seconds["argmax"] / seconds[method, feed],
             }
         )
     return rows

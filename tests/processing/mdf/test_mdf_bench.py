@@ -28,7 +28,11 @@ def test_quick_bench_rows():
     for r in tracked:  # best-of parts add up to at most the best-of whole
         parts = r["streaming_ratio_to_read"] + r["fit_ratio_to_read"]
         assert 0 < parts <= r["ratio_to_read"] * 1.001
-    assert kinds.count("space_time") == len(PEAK_METHODS)
+    assert {r["name"] for r in tracked} == {
+        f"{method}, 24 frames {feed}"
+        for method in PEAK_METHODS
+        for feed in ("one at a time", "stacked")
+    }
     assert kinds.count("detector") == len(PEAK_METHODS)
     accuracy = [r for r in rows if r["kind"] == "accuracy"]
     assert {(r["locations"], round(r["step_deg"], 4)) for r in accuracy} == {
