@@ -60,7 +60,8 @@ class PixelPeaks:
 
 
 class SpaceTimeTracker:
-    """Streaming per-pixel peak tracker; feed frames in order with :meth:`update`.
+    """Streaming per-pixel peak tracker; feed frames in order with :meth:`update`
+    (one at a time) or :meth:`update_block` (an array of them), in any mix.
 
     Parameters
     ----------
@@ -74,7 +75,9 @@ class SpaceTimeTracker:
     block : int
         Frames buffered and folded in at once (memory ``block`` frames; the
         per-frame cost is lowest around 4–8 for 1024×768 frames: larger
-        blocks fall out of the cache between the copy and the fold).
+        blocks fall out of the cache between the copy and the fold); an
+        array given to :meth:`update_block` is folded this many frames at a
+        time.
     """
 
     def __init__(
