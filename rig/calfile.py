@@ -21,8 +21,8 @@ import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from rig.camera import PinholeCamera
-from rig.config import format_validation_error, read_toml
 from rig.errors import ConfigError
+from rig.tomlfile import format_validation_error, read_toml
 
 __all__ = [
     "FORMAT_VERSION",

@@ -1,7 +1,7 @@
 """The geometry of the rig kinds other than the Wang rig: the VirTex stage and the Bonn lab.
 
 A rig config names its ``kind``; the Wang rig (seed 001: turntable, light arc,
-camera arc) is described by the config's own sections, the other kinds by one
+camera arc) is described by ``rig.sections``, the other kinds by one
 section each here:
 
 - ``virtex`` (seed 004): one camera straight above the sample and ``lamp_count``

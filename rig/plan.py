@@ -35,9 +35,9 @@ from pydantic import (
     model_validator,
 )
 
-from rig.config import file_text, format_validation_error, toml_data
 from rig.errors import ConfigError, PlanError
 from rig.geometry import Sampling
+from rig.tomlfile import file_text, format_validation_error, toml_data
 
 __all__ = [
     "BtfCapture",

@@ -14,9 +14,10 @@ from pydantic import BaseModel, ValidationError
 
 from orchestrator.daemon.protocol import MAX_PLAN_PAIRS
 from rig.archive import Archive
-from rig.config import RigConfig, format_validation_error
+from rig.config import RigConfig
 from rig.errors import PlanError, RigError
 from rig.plan import Plan
+from rig.tomlfile import format_validation_error
 
 __all__ = [
     "SessionError",

@@ -5,7 +5,8 @@ control ROUTER, publishes events on PUB (with a sequence number each, and a
 ``status`` snapshot every ``status_interval_s`` for late joiners), pushes frames
 to the workers and pulls their results. The session runs on its own thread and talks to the loop
 through an ``Outbox`` (thread-safe queues); the loop never blocks on a socket, so
-the daemon answers control requests while frames wait at the workers' HWM. A
+the daemon answers control requests while frames wait at the workers' HWM
+(``relay.Relay`` streams the frames and takes the results back). A
 new session is prepared (plan compiled, archive created) on a thread of its own
 (``control.Preparation``), so a large plan does not stop the answers either.
 """
@@ -13,7 +14,6 @@ new session is prepared (plan compiled, archive created) on a thread of its own
 from __future__ import annotations
 
 import hashlib
-import logging
 import os
 import queue
 import threading
@@ -27,21 +27,20 @@ from orchestrator.daemon.admission import rig_config_from_toml
 from orchestrator.daemon.control import Preparation, as_message_error, split_envelope
 from orchestrator.daemon.devices import build_devices
 from orchestrator.daemon.endpoints import DaemonSettings, Endpoints
-from orchestrator.daemon.live import LiveWriter
 from orchestrator.daemon.protocol import (
     MAX_CONTROL_BYTES,
     MessageError,
     Request,
     decode_request,
-    decode_result,
     encode_error,
     encode_event,
     encode_reply,
     request_id,
     validate_request,
 )
+from orchestrator.daemon.relay import Relay
 from orchestrator.daemon.session import DeviceFactory, Session
-from orchestrator.daemon.sockets import DaemonSockets
+from orchestrator.daemon.sockets import RECV_BATCH, DaemonSockets
 from orchestrator.daemon.state import (
     IllegalTransition,
     SessionEvent,
@@ -49,16 +48,13 @@ from orchestrator.daemon.state import (
     StateMachine,
     allowed_events,
 )
-from orchestrator.daemon.stream import FrameLedger, InFlight, Outbox
+from orchestrator.daemon.stream import Outbox
 from rig.clock import Clock, RealClock
 from rig.config import RigConfig
 
 __all__ = ["Daemon"]
 
-log = logging.getLogger(__name__)
-
 _REPLY_CACHE = 256
-_BATCH = 64  # messages handled per socket per loop turn, so no socket starves the others
 
 
 class Daemon:
@@ -83,17 +79,13 @@ class Daemon:
         self.clock = clock or RealClock()
         self.machine = StateMachine(on_change=self._state_changed)
         self._outbox = Outbox(self.settings.max_in_flight)
-        self._ledger = FrameLedger(resend_after_s=self.settings.resend_after_s)
         self._session: Session | None = None
         self._thread: threading.Thread | None = None
-        self._live: dict[str, LiveWriter] = {}  # session id → its results' writer
-        self._workers: dict[str, float] = {}
-        self._not_streamed = 0
         self._replies: OrderedDict[tuple, bytes] = OrderedDict()
-        self._drains: list[dict] = []
         self._seq = 0
         self._stop = threading.Event()
         self._sockets = DaemonSockets(self.settings)
+        self._relay = Relay(self.settings, self._sockets, self._outbox, self._publish)
         self._preparing: Preparation | None = None
         self.endpoints: Endpoints | None = None
 
@@ -120,7 +112,7 @@ class Daemon:
         next_status = 0.0
         try:
             while not self._stop.is_set():
-                want_out = self._ledger.next_to_send() is not None and self._workers_alive()
+                want_out = self._relay.wants_to_send()
                 poller.register(self._sockets.frames, zmq.POLLOUT if want_out else 0)
                 active = self._thread is not None or self._preparing is not None
                 ready = dict(poller.poll(10 if active or want_out else 100))
@@ -128,16 +120,15 @@ class Daemon:
                     self._serve_control()
                 self._reply_prepared()
                 if ready.get(self._sockets.results):
-                    self._take_results()
+                    self._relay.take_results()
                 self._take_frames()
-                self._send_frames()
+                self._relay.send_frames()
                 self._publish_queued()
-                self._check_drains()
+                self._relay.check_drains()
                 self._reap_session()
                 now = time.monotonic()
-                for session, writer in self._live.items():
-                    self._report_live(session, writer)
-                self._ledger.requeue_overdue(now)
+                self._relay.report_live()
+                self._relay.requeue_overdue(now)
                 if now >= next_status:
                     self._publish("status", self.status())
                     next_status = now + self.settings.status_interval_s
@@ -146,16 +137,14 @@ class Daemon:
                 self._preparing.wait()
                 self._reply_prepared()
             self._shutdown_session()
-            for writer in self._live.values():  # a session that never drained
-                writer.close()
-            self._live.clear()
+            self._relay.close()
             self._publish_queued()
             self._sockets.close()
 
     # -- control ----------------------------------------------------------------------------
 
     def _serve_control(self) -> None:
-        for _ in range(_BATCH):
+        for _ in range(RECV_BATCH):
             try:
                 # Frames, not bytes: an oversized message is measured and refused uncopied.
                 parts = self._sockets.control.recv_multipart(zmq.NOBLOCK, copy=False)
@@ -263,7 +252,7 @@ class Daemon:
                 return self.status()
             case "abort":
                 self.machine.fire(SessionEvent.ABORT)
-                self._stop_streaming(self._session.id)
+                self._relay.stop_streaming(self._session.id)
                 return self.status()
             case "calibrate":
                 raise MessageError(
@@ -312,7 +301,7 @@ class Daemon:
             session.archive.close()
             raise
         self._session = session
-        self._live[session.id] = LiveWriter(session.archive.material)
+        self._relay.start_live(session.id, session.archive.material)
         self._thread = threading.Thread(target=session.run, name=f"session-{session.id}")
         self._thread.start()
         return self.status()
@@ -326,14 +315,8 @@ class Daemon:
             "busy": self._thread is not None,  # a session thread still holds the devices
             "preparing": None if self._preparing is None else self._preparing.command,
             "session": None if self._session is None else self._session.status(),
-            "workers": sum(self._alive(t) for t in self._workers.values()),
-            "stream": {
-                "in_flight": self._ledger.in_flight,
-                "processed": self._ledger.acked,
-                "resent": self._ledger.resent,
-                "duplicates": self._ledger.duplicates,
-                "not_streamed": self._not_streamed,
-            },
+            "workers": self._relay.workers_alive(),
+            "stream": self._relay.counts(),
             "pid": os.getpid(),
         }
 
@@ -345,102 +328,11 @@ class Daemon:
         if self._session is not None:
             self._session.notify()
 
-    # -- frames and results -----------------------------------------------------------------
-
-    def _alive(self, last_seen: float) -> bool:
-        return time.monotonic() - last_seen < self.settings.worker_timeout_s
-
-    def _workers_alive(self) -> bool:
-        return any(self._alive(t) for t in self._workers.values())
-
-    def _stop_streaming(self, session: str) -> None:
-        """An aborted session's frames go to no worker: its thread must not wait for them."""
-        dropped = self._ledger.forget(session)
-        if dropped:
-            self._publish("log", {"kind": "unprocessed", "session": session, "frames": dropped})
+    # -- the session thread ---------------------------------------------------------------
 
     def _take_frames(self) -> None:
-        streaming = (
-            self._workers_alive()
-            and not self._stop.is_set()
-            and self.machine.state != SessionState.ABORTED
-        )
-        if streaming and any(writer.backlogged for writer in self._live.values()):
-            return  # the disk is behind the workers: let the session wait
-        while not streaming or self._ledger.in_flight < self.settings.max_in_flight:
-            try:
-                header, parts = self._outbox.frames.get_nowait()
-            except queue.Empty:
-                return
-            if streaming:
-                self._ledger.add(InFlight(header.frame_id, header.session, parts))
-            else:
-                self._not_streamed += 1  # in the archive; `rig process` covers it
-
-    def _send_frames(self) -> None:
-        if not self._workers_alive():
-            return
-        while (entry := self._ledger.next_to_send()) is not None:
-            try:
-                self._sockets.frames.send_multipart(entry.parts, zmq.NOBLOCK, copy=False)
-            except zmq.Again:
-                return  # every worker's queue is full: try again when POLLOUT
-            self._ledger.mark_sent(entry, time.monotonic())
-
-    def _take_results(self) -> None:
-        for _ in range(_BATCH):
-            try:
-                parts = self._sockets.results.recv_multipart(zmq.NOBLOCK, copy=False)
-            except zmq.Again:
-                return
-            try:
-                header, arrays = decode_result(parts)
-            except MessageError as err:
-                log.warning("bad message from a worker: %s", err)
-                self._publish("log", {"kind": "worker_message", "error": err.to_json()})
-                continue
-            self._workers[header.worker] = time.monotonic()
-            if header.kind == "error" or header.message:  # a bad frame, or a stage that failed
-                problem = {"worker": header.worker, "frame_id": header.frame_id}
-                self._publish("log", {"kind": "worker_error", "message": header.message, **problem})
-            if header.kind != "result":
-                continue
-            if self._ledger.ack(header.frame_id) is None:
-                continue
-            writer = self._live.get(header.session)
-            if writer is not None and arrays:
-                writer.append(header.model_dump(), arrays)  # written on the writer's thread
-
-    def _report_live(self, session: str, writer: LiveWriter) -> None:
-        for error in writer.take_errors():
-            log.warning("session %s: live results not stored: %s", session, error)
-            self._publish("log", {"kind": "live_not_stored", "session": session, "error": error})
-
-    def _check_drains(self) -> None:
-        while True:
-            try:
-                self._drains.append(self._outbox.drains.get_nowait())
-            except queue.Empty:
-                break
-        for request in list(self._drains):
-            session = request["session"]
-            outstanding = self._ledger.outstanding(session)
-            gave_up = time.monotonic() > request["deadline"] or not self._workers_alive()
-            waiting = not self._outbox.frames.empty()  # held back while the disk caught up
-            if (outstanding or waiting) and not gave_up:
-                continue
-            if outstanding:
-                dropped = self._ledger.forget(session)
-                self._publish("log", {"kind": "unprocessed", "session": session, "frames": dropped})
-            writer = self._live.get(session)
-            if writer is not None:
-                if not writer.finish():
-                    continue  # still writing: look again next turn
-                self._report_live(session, writer)
-                del self._live[session]
-            request["stored"] = 0 if writer is None else writer.frames
-            self._drains.remove(request)
-            request["done"].set()
+        accepting = not self._stop.is_set() and self.machine.state != SessionState.ABORTED
+        self._relay.take_frames(accepting=accepting)
 
     def _reap_session(self) -> None:
         if self._thread is not None and not self._thread.is_alive():
@@ -455,10 +347,9 @@ class Daemon:
             self.machine.fire(SessionEvent.ABORT, reason="daemon shutting down")
         while self._thread.is_alive():
             # Keep taking frames and answering drains (at once) so the session can end.
-            for request in self._drains:
-                request["deadline"] = 0.0
+            self._relay.drain_now()
             self._take_frames()
-            self._check_drains()
+            self._relay.check_drains()
             self._thread.join(0.01)
         self._reap_session()
 

@@ -2,10 +2,11 @@
 
 A step is idempotent: move (both axes) → settle → lamp or laser → trigger the
 cameras → read → commit (one atomic archive append) → lamp off → stream the
-frames to the workers. Lamps and cameras act only after ``move`` returned,
-i.e. after the axes settled. Steps already in the archive are skipped, which
-is how a crashed session resumes: ``Session.resume_from(archive)`` recompiles
-the stored plan on the stored rig config and goes on after the last commit.
+frames to the workers (``step.StepRunner``). Lamps and cameras act only after
+``move`` returned, i.e. after the axes settled. Steps already in the archive
+are skipped, which is how a crashed session resumes: ``Session.resume_from``
+recompiles the stored plan on the stored rig config and goes on after the last
+commit. ``progress.Progress`` keeps the counts and the ETA.
 
 Control (pause, resume, abort) arrives from other threads through the shared
 ``StateMachine``; the session acts on it between steps. A ``DeviceError``
@@ -17,17 +18,12 @@ step named (``on_fault="pause"``), and ``resume`` retries that step; with
 from __future__ import annotations
 
 import contextlib
-import itertools
 import logging
 import threading
-import time
 import uuid
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal, Protocol
-
-import numpy as np
+from typing import Literal
 
 from drivers.errors import DeviceError
 from orchestrator.daemon.admission import (
@@ -37,36 +33,26 @@ from orchestrator.daemon.admission import (
     check_plan_size,
     check_same_rig,
 )
-from orchestrator.daemon.devices import Captured, DeviceSet
-from orchestrator.daemon.protocol import ArraySpec, FrameHeader
+from orchestrator.daemon.devices import DeviceSet
+from orchestrator.daemon.progress import Progress
 from orchestrator.daemon.state import IllegalTransition, SessionEvent, SessionState, StateMachine
-from rig.archive import Archive, ArchiveError, ArchiveFull, FrameFormat, FrameRecord, StepRecord
-from rig.bonn import forward as bonn_forward
-from rig.bonn import plate_rotation
+from orchestrator.daemon.step import StepRunner
+from orchestrator.daemon.stream import SessionOutbox
+from rig.archive import Archive, ArchiveError, ArchiveFull, FrameFormat
 from rig.bonn_plan import BonnStep
 from rig.calfile import load_calibration
 from rig.clock import Clock
 from rig.config import RigConfig
-from rig.kinematics import forward
 from rig.material import copy_flat_field
 from rig.plan import Plan, parse_plan
 from rig.schedule import Schedule, Step, compile_plan
 
-__all__ = ["DeviceFactory", "Session", "SessionError", "SessionOutbox", "frame_formats"]
+__all__ = ["DeviceFactory", "Session", "SessionError", "frame_formats"]
 
 log = logging.getLogger(__name__)
 
 #: ``factory(config, clock=, scale=, laser=)`` → an open device set.
 DeviceFactory = Callable[..., DeviceSet]
-
-
-class SessionOutbox(Protocol):
-    """Where a session's events and frames go (the daemon's sockets, or a list in tests)."""
-
-    def publish(self, topic: str, payload: dict) -> None: ...
-    def stream(self, header: FrameHeader, image: np.ndarray) -> None: ...
-    def drain(self, session: str, timeout_s: float) -> int:
-        """Wait for the session's outstanding results; for how many frames some were stored."""
 
 
 def frame_formats(config: RigConfig, *, scale: float) -> dict[str, FrameFormat]:
@@ -77,15 +63,6 @@ def frame_formats(config: RigConfig, *, scale: float) -> dict[str, FrameFormat]:
         dtype = "uint8" if cam.bit_depth == 8 else "uint16"
         formats[cam.id] = FrameFormat(h, w, cam.channels, dtype)
     return formats
-
-
-@dataclass
-class _Progress:
-    committed: int = 0
-    frames: int = 0
-    step_index: int | None = None
-    fault: dict | None = None
-    reason: str | None = None
 
 
 class Session:
@@ -121,15 +98,10 @@ class Session:
         self.on_fault = on_fault
         self.drain_timeout_s = drain_timeout_s
         self._changed = threading.Condition()
-        self._progress = _Progress(
-            committed=len(archive.committed_steps()), frames=len(archive.frame_table())
+        self._progress = Progress(
+            schedule, committed=len(archive.committed_steps()), frames=len(archive.frame_table())
         )
-        self._frames_before = self._progress.frames  # a resumed session's rate counts its own
-        self._lock = threading.Lock()
-        self._per_kind_s = _per_step_estimate(self.schedule)
-        # Estimated time of the steps after each step, for the ETA.
-        per_step = [self._per_kind_s[s.kind] for s in self.schedule.steps]
-        self._remaining_after = np.cumsum(per_step[::-1])[::-1] - np.array(per_step)
+        self._steps = StepRunner(session=self.id, config=config, archive=archive, outbox=outbox)
 
     # -- creating ---------------------------------------------------------------------------
 
@@ -208,20 +180,14 @@ class Session:
 
     def status(self) -> dict:
         """A snapshot of the progress (thread-safe)."""
-        with self._lock:
-            p = self._progress
-            return {
-                "session": self.id,
-                "sample": self.plan.sample.name,
-                "archive": str(self.archive.path),
-                "steps": len(self.schedule.steps),
-                "committed": p.committed,
-                "step_index": p.step_index,
-                "frames": p.frames,
-                "fault": p.fault,
-                "reason": p.reason,
-                "estimate_s": self.schedule.estimate.total_s,
-            }
+        return {
+            "session": self.id,
+            "sample": self.plan.sample.name,
+            "archive": str(self.archive.path),
+            "steps": len(self.schedule.steps),
+            **self._progress.snapshot(),
+            "estimate_s": self.schedule.estimate.total_s,
+        }
 
     # -- the session thread -----------------------------------------------------------------
 
@@ -242,8 +208,7 @@ class Session:
             )
             devices.home(laser=has_laser)
             self._fire_or_abort(SessionEvent.HOMED)
-            self._t0 = (self.clock.now(), time.perf_counter())
-            self._done_estimate_s = 0.0
+            self._progress.started(self.clock.now())
             for step in self.schedule.steps:
                 if step.index in committed:
                     continue
@@ -281,8 +246,7 @@ class Session:
                 fault = {"device": "archive", "operation": "append", "detail": str(err)}
             fault.update(step=step.index, step_kind=step.kind)
             self._switch_off(devices)
-            with self._lock:
-                self._progress.fault = fault
+            self._progress.set_fault(fault)
             self._log("fault", **fault)
             # Already paused or aborted by the user: the fault is recorded all the same.
             with contextlib.suppress(IllegalTransition):
@@ -298,8 +262,7 @@ class Session:
                 if state != SessionState.PAUSED:
                     raise _Aborted
                 self._changed.wait()
-        with self._lock:
-            self._progress.fault = None
+        self._progress.set_fault(None)
 
     def _fire_when_running(self, event: SessionEvent) -> None:
         while True:
@@ -310,118 +273,15 @@ class Session:
             except IllegalTransition:
                 continue  # paused in between: wait again
 
-    def _run_step(self, step: Step, devices: DeviceSet) -> None:
-        with self._lock:
-            self._progress.step_index = step.index
+    def _run_step(self, step: Step | BonnStep, devices: DeviceSet) -> None:
+        self._progress.at_step(step.index)
         started_at = self.clock.now()
-        if isinstance(step, BonnStep):  # the arm turns the plate, the rail moves the camera
-            actuators = devices.place(rail_deg=step.rail_deg, joints_deg=step.joints_deg)
-        else:
-            actuators = devices.move(turntable_deg=step.turntable_deg, arc_deg=step.arc_deg)
-        self.outbox.publish("telemetry", {"session": self.id, "step": step.index, **actuators})
+        actuators = self._steps.move(step, devices)
         if self.machine.state == SessionState.ABORTED:  # the move took long: light nothing
             raise _Aborted
-        extra = {}
-        if step.kind == "mdf":
-            mount = int(step.source.removeprefix("laser"))
-            devices.laser(mount, True)
-            frames, tilts = devices.scan(
-                step.cameras,
-                tilt_deg=step.tilt_deg,
-                frames=step.scan_frames,
-                exposure_s=step.exposures_s[0],
-            )
-            # Logged before the commit: a crash in between repeats the scan and its
-            # event; readers take the last "scan" event of a step.
-            self.archive.log_event("scan", step=step.index, tilts_deg=tilts)
-            extra = {"laser": mount}
-        else:
-            devices.lamp(step.source, True)
-            frames = devices.capture(step.cameras, step.exposures_s)
-            extra = {"lamp": step.source}
-        record = self._record(step, actuators, started_at, **extra)
-        records = {c: [_as_frame_record(f) for f in fr] for c, fr in frames.items()}
-        self.archive.append_step(record, records)
-        if step.kind == "mdf":
-            devices.laser(extra["laser"], False)
-        else:
-            devices.lamp(step.source, False)
-        self._stream(step, frames)
-        self._progressed(step, sum(len(f) for f in frames.values()))
-
-    def _record(
-        self, step: Step | BonnStep, actuators: dict, started_at: float, **source
-    ) -> StepRecord:
-        views, light = {}, None
-        if isinstance(step, BonnStep):  # the directions the arm and the rail were sent to
-            rotation = plate_rotation(self.config, np.radians(step.joints_deg))
-            view, light = bonn_forward(self.config, rotation, step.rail_deg)
-            views[step.camera] = (float(view[0]), float(view[1]))
-        else:
-            for shot in step.shots:
-                view, light = forward(
-                    self.config, turntable_deg=step.turntable_deg, arc_deg=step.arc_deg,
-                    camera=shot.camera, lamp=step.source,
-                )  # fmt: skip
-                views[shot.camera] = (float(view[0]), float(view[1]))
-        return StepRecord(
-            index=step.index,
-            kind=step.kind,
-            cameras=step.cameras,
-            views_deg=views,
-            light_deg=(float(light[0]), float(light[1])),
-            actuators=actuators,
-            exposures_s=step.exposures_s,
-            started_at=started_at,
-            **source,
-        )
-
-    def _stream(self, step: Step, frames: dict[str, list[Captured]]) -> None:
-        for camera, captured in frames.items():
-            for frame in captured:
-                header = FrameHeader(
-                    frame_id=next(_FRAME_IDS),
-                    session=self.id,
-                    step=step.index,
-                    kind=step.kind,
-                    camera=camera,
-                    sub=frame.sub,
-                    exposure_s=frame.exposure_s,
-                    timestamp=frame.timestamp,
-                    array=ArraySpec(dtype=frame.image.dtype.name, shape=frame.image.shape),
-                    archive=str(self.archive.path),
-                )
-                self.outbox.stream(header, frame.image)
-
-    def _progressed(self, step: Step, n_frames: int) -> None:
-        with self._lock:
-            self._progress.committed += 1
-            self._progress.frames += n_frames
-            committed = self._progress.committed
-        self._done_estimate_s += self._per_kind_s[step.kind]
-        clock_elapsed = self.clock.now() - self._t0[0]
-        remaining = float(self._remaining_after[step.index])
-        # Scale the estimate by how fast the rig has really been so far.
-        pace = clock_elapsed / self._done_estimate_s if self._done_estimate_s > 0 else 1.0
-        self.outbox.publish(
-            "progress",
-            {
-                "session": self.id,
-                "step": committed,
-                "steps": len(self.schedule.steps),
-                "step_index": step.index,
-                "kind": step.kind,
-                "eta_s": remaining * pace,
-                "elapsed_s": clock_elapsed,
-                "wall_s": time.perf_counter() - self._t0[1],
-                "frames": self._progress.frames,
-                "frames_per_s": (
-                    (self._progress.frames - self._frames_before) / clock_elapsed
-                    if clock_elapsed > 0
-                    else 0.0
-                ),
-            },
-        )
+        n_frames = self._steps.expose(step, devices, actuators, started_at)
+        payload = self._progress.step_done(step, n_frames, self.clock.now())
+        self.outbox.publish("progress", {"session": self.id, **payload})
 
     def _finish(self, devices: DeviceSet) -> None:
         devices.all_off()
@@ -442,8 +302,7 @@ class Session:
             raise
 
     def _fail(self, reason: str) -> None:
-        with self._lock:
-            self._progress.reason = reason
+        self._progress.set_reason(reason)
         try:
             self._fire(SessionEvent.FAIL, reason=reason)
         except IllegalTransition:
@@ -471,23 +330,8 @@ class Session:
             self.archive.close()
 
 
-#: Frame ids, unique over the daemon's life (``next`` on a count is atomic).
-_FRAME_IDS = itertools.count(1)
-
-
 class _Aborted(Exception):
     """The state machine left the running/paused states from outside."""
-
-
-def _as_frame_record(frame: Captured) -> FrameRecord:
-    return FrameRecord(frame.image, frame.sub, frame.exposure_s, frame.timestamp)
-
-
-def _per_step_estimate(schedule: Schedule) -> dict[str, float]:
-    counts: dict[str, int] = {}
-    for step in schedule.steps:
-        counts[step.kind] = counts.get(step.kind, 0) + 1
-    return {k: schedule.estimate.by_kind_s.get(k, 0.0) / n for k, n in counts.items()}
 
 
 def _copy_flat_field(config: RigConfig, calibration: dict | None, archive: Archive) -> None:

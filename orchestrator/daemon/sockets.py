@@ -16,9 +16,12 @@ import zmq
 from orchestrator.daemon.endpoints import DaemonSettings, Endpoints
 from orchestrator.daemon.protocol import MAX_CONTROL_BYTES, MAX_FRAME_BYTES
 
-__all__ = ["DaemonSockets"]
+__all__ = ["RECV_BATCH", "DaemonSockets"]
 
 log = logging.getLogger(__name__)
+
+#: Messages taken from one socket per loop turn, so no socket starves the others.
+RECV_BATCH = 64
 
 
 class DaemonSockets:

@@ -6,7 +6,8 @@ result carrying its ``frame_id`` comes back; a frame without a result after
 ``resend_after_s`` is sent again (to whichever worker is free). A late or
 duplicate result of a frame already acknowledged is counted and ignored.
 The ledger is used by the daemon's loop thread only (not thread-safe); the
-``Outbox`` is how the session thread hands the loop its events, frames and drains.
+``Outbox`` is how the session thread hands the loop its events, frames and drains
+(a ``SessionOutbox``: what a session needs of the daemon, a list in tests).
 """
 
 from __future__ import annotations
@@ -16,12 +17,13 @@ import threading
 import time
 from collections import OrderedDict, deque
 from dataclasses import dataclass, field
+from typing import Protocol
 
 import numpy as np
 
 from orchestrator.daemon.protocol import FrameHeader, encode_frame
 
-__all__ = ["FrameLedger", "InFlight", "Outbox"]
+__all__ = ["FrameLedger", "InFlight", "Outbox", "SessionOutbox"]
 
 
 @dataclass
@@ -109,6 +111,15 @@ class FrameLedger:
             del self.unacked[frame_id]
             dropped += 1
         return dropped
+
+
+class SessionOutbox(Protocol):
+    """Where a session's events and frames go (the daemon's sockets, or a list in tests)."""
+
+    def publish(self, topic: str, payload: dict) -> None: ...
+    def stream(self, header: FrameHeader, image: np.ndarray) -> None: ...
+    def drain(self, session: str, timeout_s: float) -> int:
+        """Wait for the session's outstanding results; for how many frames some were stored."""
 
 
 class Outbox:

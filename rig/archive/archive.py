@@ -13,7 +13,8 @@ Layout (``docs/archive.md`` describes it and the commit protocol)::
       quarantine/<time>/     what recovery or repair set aside, never deleted
 
 A step is committed when its ``"step"`` record is complete in the journal;
-its frame chunks are written (and ``fsync``-ed) before that record. Readers
+its frame chunks are written (and ``fsync``-ed) before that record
+(``_chunks.StepChunks``). Readers
 trust only committed records, so after a crash either a whole step is
 visible or none of it.
 """
@@ -25,14 +26,13 @@ import os
 import shutil
 import time
 from collections.abc import Iterable, Iterator, Mapping, Sequence
-from concurrent.futures import ThreadPoolExecutor, wait
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from rig.archive._chunks import StepChunks
 from rig.archive._errors import ArchiveError, os_failure
-from rig.archive._frames import FrameArray, chunk_record
 from rig.archive._index import FRAME_TABLE_DTYPE, SessionIndex
 from rig.archive._journal import Journal, read_journal
 from rig.archive._layout import (
@@ -47,7 +47,7 @@ from rig.archive._material import replace_result
 from rig.archive._quarantine import Quarantine
 from rig.archive._records import Event, FrameFormat, FrameInfo, FrameRecord, StepRecord, json_safe
 from rig.archive._recovery import check_chunks, check_mirror, recover
-from rig.archive._store import array_document, check_name, fsync_dir, group_document, write_atomic
+from rig.archive._store import check_name, group_document, write_atomic
 from rig.archive._versions import software_versions
 
 __all__ = ["FORMAT_VERSION", "Archive"]
@@ -56,7 +56,6 @@ __all__ = ["FORMAT_VERSION", "Archive"]
 _RESERVED_KINDS = frozenset(
     {"created", "opened", "closed", "step", "calibration", "material", "repaired"}
 )
-_MIN_CAPACITY = 64
 
 
 class Archive:
@@ -73,14 +72,13 @@ class Archive:
         self.path = path
         self.mode = mode
         self._fsync = fsync
-        self._workers = workers or min(8, os.cpu_count() or 1)
         self._lock_fd = -1
         self._journal: Journal | None = None
-        self._pool: ThreadPoolExecutor | None = None
+        self._chunks: StepChunks | None = None
         if mode == "a":
             self._lock_fd = lock_writer(self.path)
         try:
-            self._load()
+            self._load(workers)
         except BaseException:
             self._release()
             raise
@@ -151,13 +149,12 @@ class Archive:
             raise ArchiveError(f"{path}: no archive here (not a directory)")
         return cls(path, mode=mode, fsync=fsync, workers=workers)
 
-    def _load(self) -> None:
+    def _load(self, workers: int | None) -> None:
         layout = read_layout(self.path)
         self._attributes = layout.attributes
-        self._zstd_level = layout.attributes["zstd_level"]
         self.cameras = layout.cameras
         self._arrays = layout.arrays
-        self._capacity = layout.capacity
+        self._chunks = StepChunks(self.path, layout, fsync=self._fsync, workers=workers)
         contents = read_journal(self.path / JOURNAL)
         self._index = SessionIndex(self.path, self.cameras, contents.events)
         leftovers = check_chunks(
@@ -199,72 +196,11 @@ class Archive:
         for camera, sequence in frames.items():
             records[camera] = [_as_record(f, i, step, now) for i, f in enumerate(sequence)]
         self._index.check_new_step(step, records)
-        jobs = []
-        rows: dict[str, list[list]] = {}
-        counts = {camera: len(records[camera]) for camera in step.cameras}
-        for camera in step.cameras:
-            array = self._arrays[camera]
-            start = self._index.next_position[camera]
-            rows[camera] = []
-            for position, record in enumerate(records[camera], start):
-                where = f"{self.path}: step {step.index}, camera {camera!r}, sub {record.sub}"
-                image = array.check_image(record.image, where=where)
-                row = [int(record.sub), float(record.exposure_s), float(record.timestamp)]
-                own = {"step": step.to_json(), "camera": camera, "frames": counts}
-                own.update(sub=row[0], exposure_s=row[1], timestamp=row[2], position=position)
-                jobs.append((array, position, image, chunk_record(own)))
-                rows[camera].append([*row, position])
-        self._write_chunks(step, jobs, rows)
+        rows = self._chunks.write(step, records, self._index.next_position)
         committed = StepRecord.from_json({**step.to_json(), "committed_at": time.time()})
         event = self._append_event("step", {"step": committed.to_json(), "frames": rows})
         self._index.add_step(event)
         return committed
-
-    def _write_chunks(self, step: StepRecord, jobs: list, rows: dict[str, list[list]]) -> None:
-        """Write (and ``fsync``) every chunk of ``step``; append each one's size to its row.
-
-        On a failure (a full disk) the chunk files written so far are removed:
-        they were never committed, and the retry needs their space.
-        """
-        try:
-            for camera, camera_rows in rows.items():
-                self._ensure_capacity(camera, camera_rows[-1][3] + 1)
-            futures = [self._executor().submit(self._write_chunk, job) for job in jobs]
-            wait(futures)  # all of them, so none is still writing when we clean up
-            sizes = [future.result() for future in futures]
-            if self._fsync:
-                for camera in step.cameras:
-                    fsync_dir(self._arrays[camera].directory)
-        except OSError as err:
-            for array, position, _, _ in jobs:
-                array.path(position).unlink(missing_ok=True)
-            needed = sum(array.format.nbytes for array, *_ in jobs)
-            where = Path(err.filename) if err.filename else self.path
-            doing = f"step {step.index}'s {len(jobs)} frames"
-            raise os_failure(err, where, doing=doing, needed_bytes=needed) from err
-        for (array, position, _, _), nbytes in zip(jobs, sizes, strict=True):
-            rows[array.camera][position - self._index.next_position[array.camera]].append(nbytes)
-
-    def _write_chunk(self, job: tuple[FrameArray, int, np.ndarray, bytes]) -> int:
-        array, position, image, record = job
-        return array.write(position, image, record, fsync=self._fsync)
-
-    def _executor(self) -> ThreadPoolExecutor:
-        if self._pool is None:
-            self._pool = ThreadPoolExecutor(self._workers, thread_name_prefix="archive-zstd")
-        return self._pool
-
-    def _ensure_capacity(self, camera: str, length: int) -> None:
-        # The array's declared shape grows geometrically; the journal, not the
-        # shape, says which frames exist, so growing it is not part of a commit.
-        if length > self._capacity[camera]:
-            capacity = max(length, 2 * self._capacity[camera], _MIN_CAPACITY)
-            self._write_shape(camera, capacity)
-
-    def _write_shape(self, camera: str, length: int) -> None:
-        doc = array_document(self.cameras[camera], length=length, zstd_level=self._zstd_level)
-        write_atomic(self._arrays[camera].directory / "zarr.json", doc, fsync=self._fsync)
-        self._capacity[camera] = length
 
     def log_event(self, kind: str, **payload: Any) -> Event:
         """Append an event to the log; payload values must be JSON-able (numpy allowed)."""
@@ -327,9 +263,7 @@ class Archive:
         """Record the clean close, trim array shapes to the committed frames, release all."""
         try:
             if self._journal is not None:
-                for camera in self.cameras:
-                    if self._capacity[camera] != self._index.next_position[camera]:
-                        self._write_shape(camera, self._index.next_position[camera])
+                self._chunks.trim(self._index.next_position)
                 self._append_event("closed", {"committed_steps": len(self._index.steps)})
         finally:
             self._release()
@@ -339,9 +273,8 @@ class Archive:
         if self._journal is not None:
             self._journal.close()
             self._journal = None
-        if self._pool is not None:
-            self._pool.shutdown(wait=True)
-            self._pool = None
+        if self._chunks is not None:
+            self._chunks.close()
         if self._lock_fd >= 0:
             os.close(self._lock_fd)
             self._lock_fd = -1

@@ -13,11 +13,11 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
-from rig.config import read_toml
 from rig.errors import ConfigError
 from rig.interchange._errors import InterchangeError
 from rig.interchange._images import IMAGE_SUFFIXES
 from rig.interchange._manifest import MANIFEST
+from rig.tomlfile import read_toml
 
 __all__ = ["ENCODINGS", "FolderFrame", "FolderListing", "list_folder"]
 
@@ -104,7 +104,8 @@ def _read_csv(table: Path) -> list[FolderFrame]:
             )
         return [
             _frame(
-                table.parent, row["file"],
+                table.parent,
+                row["file"],
                 (row["light_theta_deg"], row["light_phi_deg"]),
                 (row["view_theta_deg"], row["view_phi_deg"]),
                 where=f"{table} row {number}",

@@ -101,7 +101,7 @@ def test_a_session_behind_a_slow_disk_waits_and_loses_nothing(config, rig, tmp_p
         def __init__(self, material):
             super().__init__(material, max_backlog_bytes=1)
 
-    monkeypatch.setattr(daemon.server, "LiveWriter", Tiny)
+    monkeypatch.setattr(daemon.relay, "LiveWriter", Tiny)
     path = tmp_path / "slow.zarr"
     with running_daemon(config, rig) as endpoints, running_workers(endpoints, n=1):
         with DaemonClient(endpoints) as client:

@@ -1,0 +1,136 @@
+"""One step against the devices: move, light, capture, commit, switch off, stream.
+
+``StepRunner.move`` sends the axes (both at once; on a Bonn rig the arm and the
+rail) and returns when they settled. ``StepRunner.expose`` then switches the
+step's lamp or laser on, triggers the cameras (or sweeps the laser sheet past
+them), commits the frames to the archive in one atomic append, switches the
+source off and streams the frames to the workers. Between the two the session
+decides whether to go on: an abort during a long move lights nothing.
+"""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+
+from orchestrator.daemon.devices import Captured, DeviceSet
+from orchestrator.daemon.protocol import ArraySpec, FrameHeader
+from orchestrator.daemon.stream import SessionOutbox
+from rig.archive import Archive, FrameRecord, StepRecord
+from rig.bonn import forward as bonn_forward
+from rig.bonn import plate_rotation
+from rig.bonn_plan import BonnStep
+from rig.config import RigConfig
+from rig.kinematics import forward
+from rig.schedule import Step
+
+__all__ = ["StepRunner"]
+
+#: Frame ids, unique over the daemon's life (``next`` on a count is atomic).
+_FRAME_IDS = itertools.count(1)
+
+
+class StepRunner:
+    """Runs the steps of session ``session`` on ``config``'s rig into ``archive``."""
+
+    def __init__(
+        self,
+        *,
+        session: str,
+        config: RigConfig,
+        archive: Archive,
+        outbox: SessionOutbox,
+    ):
+        self.session = session
+        self.config = config
+        self.archive = archive
+        self.outbox = outbox
+
+    def move(self, step: Step | BonnStep, devices: DeviceSet) -> dict:
+        """Move to the step's positions and wait until settled; the actuators' positions."""
+        if isinstance(step, BonnStep):  # the arm turns the plate, the rail moves the camera
+            actuators = devices.place(rail_deg=step.rail_deg, joints_deg=step.joints_deg)
+        else:
+            actuators = devices.move(turntable_deg=step.turntable_deg, arc_deg=step.arc_deg)
+        self.outbox.publish("telemetry", {"session": self.session, "step": step.index, **actuators})
+        return actuators
+
+    def expose(
+        self, step: Step | BonnStep, devices: DeviceSet, actuators: dict, started_at: float
+    ) -> int:
+        """Light, capture and commit the step that ``move`` placed; how many frames it has."""
+        if step.kind == "mdf":
+            mount = int(step.source.removeprefix("laser"))
+            devices.laser(mount, True)
+            frames, tilts = devices.scan(
+                step.cameras,
+                tilt_deg=step.tilt_deg,
+                frames=step.scan_frames,
+                exposure_s=step.exposures_s[0],
+            )
+            # Logged before the commit: a crash in between repeats the scan and its
+            # event; readers take the last "scan" event of a step.
+            self.archive.log_event("scan", step=step.index, tilts_deg=tilts)
+            extra = {"laser": mount}
+        else:
+            devices.lamp(step.source, True)
+            frames = devices.capture(step.cameras, step.exposures_s)
+            extra = {"lamp": step.source}
+        record = self._record(step, actuators, started_at, **extra)
+        records = {c: [_as_frame_record(f) for f in fr] for c, fr in frames.items()}
+        self.archive.append_step(record, records)
+        if step.kind == "mdf":
+            devices.laser(extra["laser"], False)
+        else:
+            devices.lamp(step.source, False)
+        self._stream(step, frames)
+        return sum(len(f) for f in frames.values())
+
+    def _record(
+        self, step: Step | BonnStep, actuators: dict, started_at: float, **source
+    ) -> StepRecord:
+        views, light = {}, None
+        if isinstance(step, BonnStep):  # the directions the arm and the rail were sent to
+            rotation = plate_rotation(self.config, np.radians(step.joints_deg))
+            view, light = bonn_forward(self.config, rotation, step.rail_deg)
+            views[step.camera] = (float(view[0]), float(view[1]))
+        else:
+            for shot in step.shots:
+                view, light = forward(
+                    self.config, turntable_deg=step.turntable_deg, arc_deg=step.arc_deg,
+                    camera=shot.camera, lamp=step.source,
+                )  # fmt: skip
+                views[shot.camera] = (float(view[0]), float(view[1]))
+        return StepRecord(
+            index=step.index,
+            kind=step.kind,
+            cameras=step.cameras,
+            views_deg=views,
+            light_deg=(float(light[0]), float(light[1])),
+            actuators=actuators,
+            exposures_s=step.exposures_s,
+            started_at=started_at,
+            **source,
+        )
+
+    def _stream(self, step: Step | BonnStep, frames: dict[str, list[Captured]]) -> None:
+        for camera, captured in frames.items():
+            for frame in captured:
+                header = FrameHeader(
+                    frame_id=next(_FRAME_IDS),
+                    session=self.session,
+                    step=step.index,
+                    kind=step.kind,
+                    camera=camera,
+                    sub=frame.sub,
+                    exposure_s=frame.exposure_s,
+                    timestamp=frame.timestamp,
+                    array=ArraySpec(dtype=frame.image.dtype.name, shape=frame.image.shape),
+                    archive=str(self.archive.path),
+                )
+                self.outbox.stream(header, frame.image)
+
+
+def _as_frame_record(frame: Captured) -> FrameRecord:
+    return FrameRecord(frame.image, frame.sub, frame.exposure_s, frame.timestamp)
