@@ -13,7 +13,13 @@ from numpy.testing import assert_allclose, assert_array_equal
 from processing.photometric import DistantLights, PhotometricError, Reason, solve
 from processing.photometric._block import solve_block
 from processing.photometric._inputs import check_stack
-from processing.photometric._irls_kernel import _ABSENT, _float_keys, _select
+from processing.photometric._irls_kernel import (
+    _ABSENT,
+    _condition,
+    _float_keys,
+    _select,
+    _within_condition,
+)
 from processing.photometric._robust import _median, irls_weights
 from processing.photometric._solve import _check_options, _read_chunk
 from tests.processing.photometric.ps_synthetic import ring_directions
@@ -166,11 +172,12 @@ def test_compiled_irls_weights_match_the_numpy_steps_on_tied_values():
 
 
 @pytest.mark.parametrize("levels", [3, 50, 2**20])
-def test_compiled_selection_is_exact_with_ties_signs_and_absent_keys(levels):
+@pytest.mark.parametrize("n_keys", [40, 43])  # lights counted four at a time, and the rest
+def test_compiled_selection_is_exact_with_ties_signs_and_absent_keys(levels, n_keys):
     # The reweighting's order statistics: rank (count − 1) // 2 and the next one,
     # absent keys sorting last. Few levels tie many keys at the answer.
     rng = np.random.default_rng(levels)
-    n_keys, m = 40, 64
+    m = 64
     values = (rng.integers(-levels, levels, (n_keys, m)) / levels).astype(np.float32)
     keys = np.empty(values.shape, np.int32)
     for row, out in zip(values, keys, strict=True):
@@ -184,3 +191,20 @@ def test_compiled_selection_is_exact_with_ties_signs_and_absent_keys(levels):
     ordered = np.sort(keys, axis=0)
     assert_array_equal(lower, ordered[order, np.arange(m)])
     assert_array_equal(upper, ordered[order + 1, np.arange(m)])
+
+
+def test_condition_certificate_decides_as_the_eigenvalues_do():
+    # The reweighting's fits skip the eigenvalues where tr³ / (4 det) bounds the
+    # condition; the decision must be the one the eigenvalues give, for spread,
+    # nearly coplanar and exactly coplanar lamp sets and every weighting.
+    rng = np.random.default_rng(5)
+    for spread in (1.0, 0.3, 0.05, 0.01, 0.0):
+        dirs = rng.normal(0, 1, (12, 3)) * [1.0, 1.0, spread] + [0.0, 0.0, 1.0]
+        for _ in range(40):
+            weights = rng.random(12) * (rng.random(12) < 0.7)
+            a = (dirs * weights[:, None]).T @ dirs
+            pairs = a[0, 0], a[0, 1], a[0, 2], a[1, 1], a[1, 2], a[2, 2]
+            det = np.linalg.det(a)
+            for limit in (1.5, 10.0, 100.0, 1e4):
+                expected = _condition(*pairs) <= limit
+                assert _within_condition(*pairs, det, limit) == expected
