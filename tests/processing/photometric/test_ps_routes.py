@@ -183,6 +183,8 @@ def test_compiled_selection_is_exact_with_ties_signs_and_absent_keys(levels, n_k
     for row, out in zip(values, keys, strict=True):
         _float_keys(row, out)
     absent = rng.random(keys.shape) < 0.3
+    absent[:, 0] = True  # nothing present: both answers are absent keys
+    absent[:, 1] = np.arange(n_keys) != 5  # one present key
     keys[absent] = _ABSENT
     count = (~absent).sum(axis=0)
     order = np.maximum((count - 1) // 2, 0).astype(np.int32)
