@@ -93,14 +93,20 @@ def irls_weights_kernel(grey, usable, lights, rank, settings, out):
                 s0, s1, s2 = lights[light, 0], lights[light, 1], lights[light, 2]
                 row = grey[light, t0 : t0 + m]
                 w = out[light, t0 : t0 + m]
+                sup = support[light]
                 res = residual[light]
+                # |residual|, negated where the observation is out of the next
+                # weights (unsupported, or in attached shadow under this fit):
+                # the biweight below then reads one array instead of five.
                 for i in range(m):
-                    res[i] = abs(row[i] - (s0 * f0[i] + s1 * f1[i] + s2 * f2[i]))
+                    predicted = s0 * f0[i] + s1 * f1[i] + s2 * f2[i]
+                    r = abs(row[i] - predicted)
+                    res[i] = r if sup[i] > 0 and predicted > shadow[i] else -r
                 bits = res.view(np.int32)
                 key = keys[light]
                 for i in range(m):
                     on = w[i] > 0
-                    key[i] = bits[i] if on else _ABSENT
+                    key[i] = bits[i] & _LOW_BITS if on else _ABSENT
                     count[i] += np.float32(1) if on else np.float32(0)
             for i in range(m):
                 order[i] = max((np.int32(count[i]) - 1) // 2, 0)
@@ -112,15 +118,13 @@ def irls_weights_kernel(grey, usable, lights, rank, settings, out):
                 scale = max(mad_to_sigma * median, floor[i])
                 inverse[i] = 1.0 / (tukey_c * scale) if scale > 0 else 0.0
             for light in range(n_lights):
-                s0, s1, s2 = lights[light, 0], lights[light, 1], lights[light, 2]
+                bits = residual[light].view(np.int32)
                 res = residual[light]
-                sup = support[light]
                 w = out[light, t0 : t0 + m]
                 for i in range(m):
                     u = res[i] * inverse[i]
                     t = max(np.float32(1.0) - u * u, np.float32(0.0))
-                    predicted = s0 * f0[i] + s1 * f1[i] + s2 * f2[i]
-                    w[i] = t * t if sup[i] > 0 and predicted > shadow[i] else np.float32(0.0)
+                    w[i] = t * t if bits[i] >= 0 else np.float32(0.0)
 
 
 @njit(cache=True, nogil=True, fastmath=_CONTRACT)
