@@ -20,6 +20,7 @@ from processing.photometric._irls_kernel import (
     _select,
     _within_condition,
 )
+from processing.photometric._kernels import weighted_sums
 from processing.photometric._robust import _median, irls_weights
 from processing.photometric._solve import _check_options, _read_chunk
 from tests.processing.photometric.ps_synthetic import ring_directions
@@ -210,3 +211,26 @@ def test_condition_certificate_decides_as_the_eigenvalues_do():
             for limit in (1.5, 10.0, 100.0, 1e4):
                 expected = _condition(*pairs) <= limit
                 assert _within_condition(*pairs, det, limit) == expected
+
+
+@pytest.mark.parametrize("n_lights", [3, 7, 8])  # lights four at a time, the rest, or both
+@pytest.mark.parametrize("weight_dtype", [np.float32, np.float64])
+def test_compiled_weighted_sums_match_the_sums_over_the_lights(n_lights, weight_dtype):
+    rng = np.random.default_rng(n_lights)
+    n, channels = 1100, 3  # more pixels than one tile
+    weights = rng.random((n_lights, n)).astype(weight_dtype)
+    weights[rng.random(weights.shape) < 0.3] = 0  # rejected observations
+    planes = rng.random((channels, n_lights, n))
+    lights = ring_directions(n_lights, theta_deg=(30, 60))
+    upper, moment = np.empty((6, n)), np.empty((channels, 3, n))
+    energy, weight_sum, used = np.empty((channels, n)), np.empty(n), np.empty(n)
+    weighted_sums(weights, planes, lights, upper, moment, energy, weight_sum, used)
+    w = weights.astype(np.float64)
+    pairs = [(0, 0), (0, 1), (0, 2), (1, 1), (1, 2), (2, 2)]
+    assert_allclose(
+        upper, [(lights[:, i] * lights[:, j]) @ w for i, j in pairs], rtol=1e-12, atol=1e-14
+    )
+    assert_allclose(moment, np.einsum("li,ln,cln->cin", lights, w, planes), rtol=1e-12, atol=1e-14)
+    assert_allclose(energy, np.einsum("ln,cln->cn", w, planes**2), rtol=1e-12, atol=1e-14)
+    assert_allclose(weight_sum, w.sum(axis=0), rtol=1e-12, atol=1e-14)
+    assert_array_equal(used, np.count_nonzero(weights, axis=0))
