@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import _robust, _system
-from ._kernels import weighted_sums
+from ._kernels import sum_arrays, weighted_sums
 from ._result import CONDITION_CAP, Reason
 
 
@@ -62,25 +62,43 @@ def solve_block(
         a_full = _system.normal_matrix(lights, np.ones((n_lights, n)))
         condition_full = _system.condition(a_full)
 
-    weights = _weights(grey, usable, lights, clipped is None, options)
-    if weights is None:  # every observation, unit weight
-        condition_used = condition_full
-        a = np.broadcast_to(lights.T @ lights, (n, 3, 3)) if lights.ndim == 2 else a_full
-        g = _system.moment(lights, None, obs)
-        e = energy
-        weight_sum = np.full(n, float(n_lights))
-        used = np.full(n, n_lights)
-    elif lights.ndim == 2:  # one light matrix: all the sums in one compiled pass
-        a, g, e, weight_sum, used = _shared_weighted_sums(obs, weights, lights)
+    if options.method == "irls" and lights.ndim == 2:
+        # One light matrix: the reweighting and the fit's sums in one compiled pass.
+        _, sums = _robust.irls_fit(
+            _planes(obs),
+            grey,
+            usable,
+            lights,
+            shadow_fraction=options.shadow_fraction,
+            highlight_fraction=options.highlight_fraction,
+            iterations=options.irls_iterations,
+            max_condition=options.max_condition,
+        )
+        a, g, e, weight_sum, used = _shaped_sums(sums, colour)
         condition_used = _system.condition(a)
     else:
-        a = _system.normal_matrix(lights, weights)
-        condition_used = _system.condition(a)
-        g = _system.moment(lights, weights, obs)
-        wobs = obs * (weights[..., None] if colour else weights)
-        e = np.einsum("ln...,ln...->n...", wobs, obs)
-        weight_sum = weights.sum(axis=0)
-        used = np.count_nonzero(weights, axis=0)
+        weights = _weights(grey, usable, lights, clipped is None, options)
+        if weights is None:  # every observation, unit weight
+            condition_used = condition_full
+            a = np.broadcast_to(lights.T @ lights, (n, 3, 3)) if lights.ndim == 2 else a_full
+            g = _system.moment(lights, None, obs)
+            e = energy
+            weight_sum = np.full(n, float(n_lights))
+            used = np.full(n, n_lights)
+        elif lights.ndim == 2:  # one light matrix: all the sums in one compiled pass
+            planes = _planes(obs)
+            sums = sum_arrays(n, planes.shape[0])
+            weighted_sums(np.ascontiguousarray(weights), planes, lights, *sums)
+            a, g, e, weight_sum, used = _shaped_sums(sums, colour)
+            condition_used = _system.condition(a)
+        else:
+            a = _system.normal_matrix(lights, weights)
+            condition_used = _system.condition(a)
+            g = _system.moment(lights, weights, obs)
+            wobs = obs * (weights[..., None] if colour else weights)
+            e = np.einsum("ln...,ln...->n...", wobs, obs)
+            weight_sum = weights.sum(axis=0)
+            used = np.count_nonzero(weights, axis=0)
 
     solvable = (used >= 3) & (condition_used <= options.max_condition)
     g_grey = g.mean(axis=2) if colour else g
@@ -160,20 +178,16 @@ def _weights(grey, usable, lights, all_usable: bool, options) -> np.ndarray | No
     )
 
 
-def _shared_weighted_sums(obs, weights, lights):
-    """``A``, ``g``, ``e``, ``Σ w`` and the count used, shaped as the numpy route gives them."""
-    n = weights.shape[1]
-    colour = obs.ndim == 3
-    planes = np.ascontiguousarray(np.moveaxis(obs, 2, 0)) if colour else obs[None]
-    weights = np.ascontiguousarray(weights)
-    upper = np.empty((6, n))
-    moment = np.empty((planes.shape[0], 3, n))
-    energy = np.empty((planes.shape[0], n))
-    weight_sum = np.empty(n)
-    used = np.empty(n)
-    weighted_sums(weights, np.ascontiguousarray(planes), lights, upper, moment, energy,
-                  weight_sum, used)  # fmt: skip
-    a = upper.T[:, _system.FULL_FROM_PAIRS].reshape(n, 3, 3)
+def _planes(obs: np.ndarray) -> np.ndarray:
+    """The observations as (C, L, n) planes, C-contiguous (grey: a view)."""
+    return np.ascontiguousarray(np.moveaxis(obs, 2, 0)) if obs.ndim == 3 else obs[None]
+
+
+def _shaped_sums(sums: tuple, colour: bool) -> tuple:
+    """``A``, ``g``, ``e``, ``Σ w`` and the count used from the compiled sums, shaped as
+    the numpy route gives them."""
+    upper, moment, energy, weight_sum, used = sums
+    a = upper.T[:, _system.FULL_FROM_PAIRS].reshape(-1, 3, 3)
     g = moment.transpose(2, 1, 0) if colour else moment[0].T
     e = energy.T if colour else energy[0]
     return a, g, e, weight_sum, used.astype(np.int64)

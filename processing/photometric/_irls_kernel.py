@@ -4,18 +4,22 @@ The same arithmetic as the numpy version (float32 observations, residuals and
 weights, float64 3×3 systems), laid out like :mod:`._kernels`: a tile of
 pixels, light by light, SIMD over pixels, everything in cache. The two order
 statistics (the reference level and the median absolute residual) are exact
-radix selections on order-preserving integer keys of the float32 values,
-vectorised over the tile's pixels: counting passes in cache, from the sign
-bit down until each pixel's answer is among a few keys (about 17 passes
-instead of 32), instead of a transposing copy and a
-sort per pixel. Every step of one pixel at a time on a transposed tile, with
-quickselects (branches that mispredict), measured ~4× slower than this.
+selections on order-preserving integer keys of the float32 values,
+vectorised over the tile's pixels: counting passes in cache, bisecting each
+pixel's key range until its answer is among a few keys (about 11 passes on
+noisy data), instead of a transposing copy and a sort per pixel. Every step
+of one pixel at a time on a transposed tile, with quickselects (branches that
+mispredict), measured ~4× slower than this. With its final weights, each tile
+also gets the float64 sums of the fit (:func:`._kernels.weighted_sums_tile`),
+so the observations are read from memory once.
 """
 
 from __future__ import annotations
 
 import numpy as np
 from numba import njit
+
+from ._kernels import weighted_sums_tile
 
 #: Pixels per tile: the tile's keys, residuals, weights and support (L × TILE
 #: each) stay in L2 through the selection passes.
@@ -34,12 +38,16 @@ _UNROLL = 4
 
 
 @njit(cache=True, nogil=True, fastmath=_CONTRACT)
-def irls_weights_kernel(grey, usable, lights, rank, settings, out):
-    """Tukey-biweight IRLS weights of every pixel.
+def irls_fit_kernel(grey, usable, lights, rank, settings, out, planes, lights64, sums):
+    """Tukey-biweight IRLS weights of every pixel and the sums of the fit with them.
+
+    Each tile of pixels is read once: reweighted in float32 and, with its final
+    weights still in cache, summed in float64 for the fit the solver takes
+    (:func:`._kernels.weighted_sums`, the sums it would take in a pass of its own).
 
     Parameters
     ----------
-    grey : (L, n) float32, C-contiguous
+    grey : (L, n) float32 or float64, C-contiguous
     usable : (L, n) bool, C-contiguous (False: clipped)
     lights : (L, 3) float32
     rank : int
@@ -49,6 +57,12 @@ def irls_weights_kernel(grey, usable, lights, rank, settings, out):
         floor (relative to the reference level).
     out : (L, n) float32
         The weights.
+    planes : (C, L, n) float64
+        The observations per channel the final sums take (grey: ``grey[None]``).
+    lights64 : (L, 3) float64
+    sums : tuple of arrays
+        Out: ``upper, moment, energy, weight_sum, used`` as
+        :func:`._kernels.weighted_sums` fills them.
     """
     shadow_fraction, iterations, max_condition = settings[0], int(settings[1]), settings[2]
     tukey_c, mad_to_sigma, floor_fraction = settings[3], settings[4], settings[5]
@@ -66,11 +80,17 @@ def irls_weights_kernel(grey, usable, lights, rank, settings, out):
     floor = np.empty(TILE, np.float64)
     fit = np.empty((3, TILE), np.float32)
     f0, f1, f2 = fit[0], fit[1], fit[2]
+    tile = np.empty((n_lights, TILE), np.float32)
+    upper_sums, moment, energy, weight_sum, used = sums
     for t0 in range(0, n, TILE):
         m = min(TILE, n - t0)
+        for light in range(n_lights):
+            row, copy = grey[light, t0 : t0 + m], tile[light]
+            for i in range(m):
+                copy[i] = row[i]
         # The reference level: each pixel's observation of order `rank`.
         for light in range(n_lights):
-            _float_keys(grey[light, t0 : t0 + m], keys[light])
+            _float_keys(tile[light, :m], keys[light])
         order[:m] = rank
         _select(keys, m, order, lower, upper)
         _key_values(lower, m, values)
@@ -78,7 +98,7 @@ def irls_weights_kernel(grey, usable, lights, rank, settings, out):
             shadow[i] = np.float32(shadow_fraction * values[i])
             floor[i] = floor_fraction * max(np.float64(values[i]), 0.0)
         for light in range(n_lights):
-            row = grey[light, t0 : t0 + m]
+            row = tile[light, :m]
             use = usable[light, t0 : t0 + m]
             sup = support[light]
             w = out[light, t0 : t0 + m]
@@ -87,11 +107,11 @@ def irls_weights_kernel(grey, usable, lights, rank, settings, out):
                 sup[i] = 1.0 if on else 0.0
                 w[i] = 1.0 if on and row[i] <= values[i] else 0.0
         for _ in range(iterations):
-            _weighted_fit(out, grey, lights, t0, m, max_condition, fit)
+            _weighted_fit(out, tile, lights, t0, m, max_condition, fit)
             count[:m] = 0
             for light in range(n_lights):
                 s0, s1, s2 = lights[light, 0], lights[light, 1], lights[light, 2]
-                row = grey[light, t0 : t0 + m]
+                row = tile[light, :m]
                 w = out[light, t0 : t0 + m]
                 sup = support[light]
                 res = residual[light]
@@ -125,11 +145,17 @@ def irls_weights_kernel(grey, usable, lights, rank, settings, out):
                     u = res[i] * inverse[i]
                     t = max(np.float32(1.0) - u * u, np.float32(0.0))
                     w[i] = t * t if bits[i] >= 0 else np.float32(0.0)
+        weighted_sums_tile(
+            out, planes, lights64, t0, m, upper_sums, moment, energy, weight_sum, used
+        )
 
 
 @njit(cache=True, nogil=True, fastmath=_CONTRACT)
 def _weighted_fit(weights, grey, lights, t0, m, max_condition, fit):
-    """``b = (Σ w s sᵀ)⁻¹ Σ w I s`` per pixel (0 where the system is too ill-conditioned)."""
+    """``b = (Σ w s sᵀ)⁻¹ Σ w I s`` per pixel (0 where the system is too ill-conditioned).
+
+    weights : (L, n), pixels ``t0 … t0 + m``; grey : (L, ≥ m), the tile's observations.
+    """
     n_lights = grey.shape[0]
     sums = np.zeros((9, m), np.float32)
     m00, m01, m02, m11, m12, m22 = sums[0], sums[1], sums[2], sums[3], sums[4], sums[5]
@@ -153,8 +179,8 @@ def _weighted_fit(weights, grey, lights, t0, m, max_condition, fit):
             ca, cb, cc, cd = sa[p] * sa[q], sb[p] * sb[q], sc[p] * sc[q], sd[p] * sd[q]
             for i in range(m):
                 acc[i] += ca * wa[i] + cb * wb[i] + cc * wc[i] + cd * wd[i]
-        ra, rb = grey[k, t0 : t0 + m], grey[k + 1, t0 : t0 + m]
-        rc, rd = grey[k + 2, t0 : t0 + m], grey[k + 3, t0 : t0 + m]
+        ra, rb = grey[k, :m], grey[k + 1, :m]
+        rc, rd = grey[k + 2, :m], grey[k + 3, :m]
         for acc, p in ((g0s, 0), (g1s, 1), (g2s, 2)):
             ca, cb, cc, cd = sa[p], sb[p], sc[p], sd[p]
             for i in range(m):
@@ -168,7 +194,7 @@ def _weighted_fit(weights, grey, lights, t0, m, max_condition, fit):
         s0, s1, s2 = lights[light, 0], lights[light, 1], lights[light, 2]
         a00, a01, a02, a11, a12, a22 = s0 * s0, s0 * s1, s0 * s2, s1 * s1, s1 * s2, s2 * s2
         w = weights[light, t0 : t0 + m]
-        row = grey[light, t0 : t0 + m]
+        row = grey[light, :m]
         for i in range(m):
             m00[i] += a00 * w[i]
             m01[i] += a01 * w[i]

@@ -224,6 +224,18 @@ def pinv_store(normals, albedo, sq, clipped, lit, pixel, n_lights, condition, ou
         out_residual[p] = residual if valid else 0.0
 
 
+def sum_arrays(n: int, n_channels: int) -> tuple:
+    """Empty outputs of :func:`weighted_sums` for n pixels: upper, moment, energy,
+    weight_sum, used."""
+    return (
+        np.empty((6, n)),
+        np.empty((n_channels, 3, n)),
+        np.empty((n_channels, n)),
+        np.empty(n),
+        np.empty(n),
+    )
+
+
 @njit(cache=True, nogil=True, fastmath=_CONTRACT)
 def weighted_sums(weights, planes, lights, upper, moment, energy, weight_sum, used):
     """The per-pixel sums of a weighted fit with one shared light matrix, in one pass.
@@ -232,99 +244,110 @@ def weighted_sums(weights, planes, lights, upper, moment, energy, weight_sum, us
     channel; lights : (L, 3) float64. Out: upper (6, n) ``Σ w s_i s_j`` for
     (i, j) in (00, 01, 02, 11, 12, 22); moment (C, 3, n) ``Σ w I s``; energy
     (C, n) ``Σ w I²``; weight_sum (n,) ``Σ w``; used (n,) float64, the
-    observations with a non-zero weight. Lights ``_UNROLL`` at a time, three
-    accumulators or fewer per loop (more stop LLVM vectorising it).
+    observations with a non-zero weight.
     """
-    n_lights, n = weights.shape
+    n = weights.shape[1]
+    for t0 in range(0, n, TILE):
+        weighted_sums_tile(
+            weights, planes, lights, t0, min(TILE, n - t0), upper, moment, energy, weight_sum, used
+        )
+
+
+@njit(cache=True, nogil=True, fastmath=_CONTRACT)
+def weighted_sums_tile(weights, planes, lights, t0, m, upper, moment, energy, weight_sum, used):
+    """:func:`weighted_sums` of pixels ``t0 … t0 + m``.
+
+    Lights ``_UNROLL`` at a time, three accumulators or fewer per loop (more
+    stop LLVM vectorising it).
+    """
+    n_lights = weights.shape[0]
     n_channels = planes.shape[0]
     one, zero = 1.0, 0.0
-    for t0 in range(0, n, TILE):
-        m = min(TILE, n - t0)
-        a00, a01, a02 = upper[0, t0 : t0 + m], upper[1, t0 : t0 + m], upper[2, t0 : t0 + m]
-        a11, a12, a22 = upper[3, t0 : t0 + m], upper[4, t0 : t0 + m], upper[5, t0 : t0 + m]
-        total, count = weight_sum[t0 : t0 + m], used[t0 : t0 + m]
-        for acc in (a00, a01, a02, a11, a12, a22, total, count):
-            acc[:] = 0
+    a00, a01, a02 = upper[0, t0 : t0 + m], upper[1, t0 : t0 + m], upper[2, t0 : t0 + m]
+    a11, a12, a22 = upper[3, t0 : t0 + m], upper[4, t0 : t0 + m], upper[5, t0 : t0 + m]
+    total, count = weight_sum[t0 : t0 + m], used[t0 : t0 + m]
+    for acc in (a00, a01, a02, a11, a12, a22, total, count):
+        acc[:] = 0
+    for c in range(n_channels):
+        moment[c, :, t0 : t0 + m] = 0
+        energy[c, t0 : t0 + m] = 0
+    full = n_lights - n_lights % _UNROLL
+    for k in range(0, full, _UNROLL):
+        sa, sb, sc, sd = lights[k], lights[k + 1], lights[k + 2], lights[k + 3]
+        wa, wb = weights[k, t0 : t0 + m], weights[k + 1, t0 : t0 + m]
+        wc, wd = weights[k + 2, t0 : t0 + m], weights[k + 3, t0 : t0 + m]
+        for acc, p, q in (
+            (a00, 0, 0),
+            (a01, 0, 1),
+            (a02, 0, 2),
+            (a11, 1, 1),
+            (a12, 1, 2),
+            (a22, 2, 2),
+        ):
+            ca, cb, cc, cd = sa[p] * sa[q], sb[p] * sb[q], sc[p] * sc[q], sd[p] * sd[q]
+            for i in range(m):
+                acc[i] += ca * wa[i] + cb * wb[i] + cc * wc[i] + cd * wd[i]
+        for i in range(m):
+            # In float64 from the first term on (float32 weights would sum in float32).
+            total[i] += np.float64(wa[i]) + wb[i] + wc[i] + wd[i]
+        for i in range(m):
+            count[i] += (
+                (one if wa[i] != 0 else zero)
+                + (one if wb[i] != 0 else zero)
+                + (one if wc[i] != 0 else zero)
+                + (one if wd[i] != 0 else zero)
+            )
         for c in range(n_channels):
-            moment[c, :, t0 : t0 + m] = 0
-            energy[c, t0 : t0 + m] = 0
-        full = n_lights - n_lights % _UNROLL
-        for k in range(0, full, _UNROLL):
-            sa, sb, sc, sd = lights[k], lights[k + 1], lights[k + 2], lights[k + 3]
-            wa, wb = weights[k, t0 : t0 + m], weights[k + 1, t0 : t0 + m]
-            wc, wd = weights[k + 2, t0 : t0 + m], weights[k + 3, t0 : t0 + m]
-            for acc, p, q in (
-                (a00, 0, 0),
-                (a01, 0, 1),
-                (a02, 0, 2),
-                (a11, 1, 1),
-                (a12, 1, 2),
-                (a22, 2, 2),
+            ra, rb = planes[c, k, t0 : t0 + m], planes[c, k + 1, t0 : t0 + m]
+            rc, rd = planes[c, k + 2, t0 : t0 + m], planes[c, k + 3, t0 : t0 + m]
+            for acc, p in (
+                (moment[c, 0, t0 : t0 + m], 0),
+                (moment[c, 1, t0 : t0 + m], 1),
+                (moment[c, 2, t0 : t0 + m], 2),
             ):
-                ca, cb, cc, cd = sa[p] * sa[q], sb[p] * sb[q], sc[p] * sc[q], sd[p] * sd[q]
+                ca, cb, cc, cd = sa[p], sb[p], sc[p], sd[p]
                 for i in range(m):
-                    acc[i] += ca * wa[i] + cb * wb[i] + cc * wc[i] + cd * wd[i]
-            for i in range(m):
-                # In float64 from the first term on (float32 weights would sum in float32).
-                total[i] += np.float64(wa[i]) + wb[i] + wc[i] + wd[i]
-            for i in range(m):
-                count[i] += (
-                    (one if wa[i] != 0 else zero)
-                    + (one if wb[i] != 0 else zero)
-                    + (one if wc[i] != 0 else zero)
-                    + (one if wd[i] != 0 else zero)
-                )
-            for c in range(n_channels):
-                ra, rb = planes[c, k, t0 : t0 + m], planes[c, k + 1, t0 : t0 + m]
-                rc, rd = planes[c, k + 2, t0 : t0 + m], planes[c, k + 3, t0 : t0 + m]
-                for acc, p in (
-                    (moment[c, 0, t0 : t0 + m], 0),
-                    (moment[c, 1, t0 : t0 + m], 1),
-                    (moment[c, 2, t0 : t0 + m], 2),
-                ):
-                    ca, cb, cc, cd = sa[p], sb[p], sc[p], sd[p]
-                    for i in range(m):
-                        acc[i] += (
-                            ca * wa[i] * ra[i]
-                            + cb * wb[i] * rb[i]
-                            + cc * wc[i] * rc[i]
-                            + cd * wd[i] * rd[i]
-                        )
-                e = energy[c, t0 : t0 + m]
-                for i in range(m):
-                    e[i] += (
-                        wa[i] * ra[i] * ra[i]
-                        + wb[i] * rb[i] * rb[i]
-                        + wc[i] * rc[i] * rc[i]
-                        + wd[i] * rd[i] * rd[i]
+                    acc[i] += (
+                        ca * wa[i] * ra[i]
+                        + cb * wb[i] * rb[i]
+                        + cc * wc[i] * rc[i]
+                        + cd * wd[i] * rd[i]
                     )
-        for light in range(full, n_lights):
-            s0, s1, s2 = lights[light, 0], lights[light, 1], lights[light, 2]
-            w = weights[light, t0 : t0 + m]
-            p00, p01, p02, p11, p12, p22 = s0 * s0, s0 * s1, s0 * s2, s1 * s1, s1 * s2, s2 * s2
+            e = energy[c, t0 : t0 + m]
             for i in range(m):
-                a00[i] += p00 * w[i]
-                a01[i] += p01 * w[i]
-                a02[i] += p02 * w[i]
-            for i in range(m):
-                a11[i] += p11 * w[i]
-                a12[i] += p12 * w[i]
-                a22[i] += p22 * w[i]
-            for i in range(m):
-                total[i] += w[i]
-                count[i] += one if w[i] != 0 else zero
-            for c in range(n_channels):
-                row = planes[c, light, t0 : t0 + m]
-                g0, g1, g2 = (
-                    moment[c, 0, t0 : t0 + m],
-                    moment[c, 1, t0 : t0 + m],
-                    moment[c, 2, t0 : t0 + m],
+                e[i] += (
+                    wa[i] * ra[i] * ra[i]
+                    + wb[i] * rb[i] * rb[i]
+                    + wc[i] * rc[i] * rc[i]
+                    + wd[i] * rd[i] * rd[i]
                 )
-                e = energy[c, t0 : t0 + m]
-                for i in range(m):
-                    wi = w[i] * row[i]
-                    g0[i] += s0 * wi
-                    g1[i] += s1 * wi
-                    g2[i] += s2 * wi
-                for i in range(m):
-                    e[i] += w[i] * row[i] * row[i]
+    for light in range(full, n_lights):
+        s0, s1, s2 = lights[light, 0], lights[light, 1], lights[light, 2]
+        w = weights[light, t0 : t0 + m]
+        p00, p01, p02, p11, p12, p22 = s0 * s0, s0 * s1, s0 * s2, s1 * s1, s1 * s2, s2 * s2
+        for i in range(m):
+            a00[i] += p00 * w[i]
+            a01[i] += p01 * w[i]
+            a02[i] += p02 * w[i]
+        for i in range(m):
+            a11[i] += p11 * w[i]
+            a12[i] += p12 * w[i]
+            a22[i] += p22 * w[i]
+        for i in range(m):
+            total[i] += w[i]
+            count[i] += one if w[i] != 0 else zero
+        for c in range(n_channels):
+            row = planes[c, light, t0 : t0 + m]
+            g0, g1, g2 = (
+                moment[c, 0, t0 : t0 + m],
+                moment[c, 1, t0 : t0 + m],
+                moment[c, 2, t0 : t0 + m],
+            )
+            e = energy[c, t0 : t0 + m]
+            for i in range(m):
+                wi = w[i] * row[i]
+                g0[i] += s0 * wi
+                g1[i] += s1 * wi
+                g2[i] += s2 * wi
+            for i in range(m):
+                e[i] += w[i] * row[i] * row[i]

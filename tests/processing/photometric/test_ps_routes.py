@@ -234,3 +234,26 @@ def test_compiled_weighted_sums_match_the_sums_over_the_lights(n_lights, weight_
     assert_allclose(energy, np.einsum("ln,cln->cn", w, planes**2), rtol=1e-12, atol=1e-14)
     assert_allclose(weight_sum, w.sum(axis=0), rtol=1e-12, atol=1e-14)
     assert_array_equal(used, np.count_nonzero(weights, axis=0))
+
+
+@pytest.mark.parametrize("dtype", [np.float32, np.uint8])
+@pytest.mark.parametrize("colour", [False, True])
+def test_irls_in_one_compiled_pass_matches_the_per_pixel_light_steps(dtype, colour):
+    # With one light matrix the reweighting and the final fit's sums are one
+    # compiled pass; the same lamps given per pixel take the numpy steps and
+    # sums. Dark, clipped, shadowed, glossy and facing-away pixels included.
+    images = scene(dtype, colour, exclusions=True)
+    stack = check_stack(images, len(DIRS), None)
+    options = _check_options("irls", 0.01, 100.0, 0.05, 0.1, 3)
+    chunk = _read_chunk(stack, slice(0, N_PIXELS), 0.01)
+    one_pass = solve_block(*chunk, DIRS, np.linalg.cond(DIRS), options)
+    per_pixel = np.broadcast_to(DIRS[:, None, :], (len(DIRS), N_PIXELS, 3))
+    stepwise = solve_block(*chunk, per_pixel, None, options)
+    assert_array_equal(one_pass["reason"], stepwise["reason"])
+    hard = {Reason.OK, Reason.DARK} | ({Reason.SATURATED} if dtype == np.uint8 else set())
+    assert hard <= set(one_pass["reason"].tolist())
+    assert_array_equal(one_pass["lights_used"], stepwise["lights_used"])
+    # weights agree to ~1e-4 (float32 sums over the lights in another order)
+    assert_allclose(one_pass["normals"], stepwise["normals"], atol=1e-3)
+    assert_allclose(one_pass["albedo"], stepwise["albedo"], rtol=1e-3, atol=1e-6)
+    assert_allclose(one_pass["condition"], stepwise["condition"], rtol=1e-3)
