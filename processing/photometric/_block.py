@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import _robust, _system
-from ._kernels import sum_arrays, weighted_sums
+from ._kernels import conditions, sum_arrays, weighted_sums
 from ._result import CONDITION_CAP, Reason
 
 
@@ -75,7 +75,7 @@ def solve_block(
             max_condition=options.max_condition,
         )
         a, g, e, weight_sum, used = _shaped_sums(sums, colour)
-        condition_used = _system.condition(a)
+        condition_used = _conditions(sums[0])
     else:
         weights = _weights(grey, usable, lights, clipped is None, options)
         if weights is None:  # every observation, unit weight
@@ -90,7 +90,7 @@ def solve_block(
             sums = sum_arrays(n, planes.shape[0])
             weighted_sums(np.ascontiguousarray(weights), planes, lights, *sums)
             a, g, e, weight_sum, used = _shaped_sums(sums, colour)
-            condition_used = _system.condition(a)
+            condition_used = _conditions(sums[0])
         else:
             a = _system.normal_matrix(lights, weights)
             condition_used = _system.condition(a)
@@ -191,6 +191,13 @@ def _shaped_sums(sums: tuple, colour: bool) -> tuple:
     g = moment.transpose(2, 1, 0) if colour else moment[0].T
     e = energy.T if colour else energy[0]
     return a, g, e, weight_sum, used.astype(np.int64)
+
+
+def _conditions(upper: np.ndarray) -> np.ndarray:
+    """:func:`._system.condition` of the compiled sums' normal matrices, compiled: (n,)."""
+    out = np.empty(upper.shape[1])
+    conditions(upper, out)
+    return out
 
 
 def _coplanar(n: int, colour: bool, condition_full: np.ndarray) -> dict:

@@ -19,7 +19,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ._kernels import weighted_sums_tile
+from ._kernels import condition3, weighted_sums_tile
 
 #: Pixels per tile: the tile's keys, residuals, weights and support (L × TILE
 #: each) stay in L2 through the selection passes.
@@ -239,36 +239,7 @@ def _within_condition(a00, a01, a02, a11, a12, a22, det, max_condition):
     trace = a00 + a11 + a22
     if det > 0 and trace * trace * trace <= 4.0 * det * max_condition * max_condition:
         return True
-    return _condition(a00, a01, a02, a11, a12, a22) <= max_condition
-
-
-@njit(cache=True, nogil=True)
-def _condition(a00, a01, a02, a11, a12, a22):
-    """sqrt(λmax/λmin) of a symmetric 3×3 matrix, as :func:`._system.condition`."""
-    q = (a00 + a11 + a22) / 3.0
-    off = a01 * a01 + a02 * a02 + a12 * a12
-    diag = (a00 - q) ** 2 + (a11 - q) ** 2 + (a22 - q) ** 2
-    p = np.sqrt((diag + 2.0 * off) / 6.0)
-    if p <= np.finfo(np.float64).tiny:
-        hi = lo = q
-    else:
-        b00, b11, b22 = (a00 - q) / p, (a11 - q) / p, (a22 - q) / p
-        b01, b02, b12 = a01 / p, a02 / p, a12 / p
-        det = (
-            b00 * (b11 * b22 - b12 * b12)
-            - b01 * (b01 * b22 - b12 * b02)
-            + b02 * (b01 * b12 - b11 * b02)
-        )
-        phi = np.arccos(min(max(det / 2.0, -1.0), 1.0)) / 3.0
-        hi = q + 2.0 * p * np.cos(phi)
-        lo = q + 2.0 * p * np.cos(phi + 2.0 * np.pi / 3.0)
-    if hi > 0 and lo > hi / _CAP_SQ:
-        return np.sqrt(hi / lo)
-    return _CAP
-
-
-_CAP = 1.0e12
-_CAP_SQ = _CAP * _CAP
+    return condition3(a00, a01, a02, a11, a12, a22) <= max_condition
 
 
 @njit(cache=True, nogil=True)

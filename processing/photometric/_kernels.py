@@ -20,9 +20,11 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ._result import Reason
+from ._result import CONDITION_CAP, Reason
 
 _OK, _DARK, _BELOW_HORIZON = int(Reason.OK), int(Reason.DARK), int(Reason.BELOW_HORIZON)
+_CAP = CONDITION_CAP
+_CAP_SQ = _CAP * _CAP
 
 # Fused multiply-add only: no assumption that values are finite (a clipping
 # level may be inf, a bad pixel NaN; both must compare as IEEE says).
@@ -351,3 +353,40 @@ def weighted_sums_tile(weights, planes, lights, t0, m, upper, moment, energy, we
                 g2[i] += s2 * wi
             for i in range(m):
                 e[i] += w[i] * row[i] * row[i]
+
+
+@njit(cache=True, nogil=True)
+def conditions(upper, out):
+    """:func:`condition3` of each pixel's normal matrix from its upper triangle (6, n): (n,)."""
+    for i in range(upper.shape[1]):
+        out[i] = condition3(upper[0, i], upper[1, i], upper[2, i], upper[3, i], upper[4, i],
+                            upper[5, i])  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
+def condition3(a00, a01, a02, a11, a12, a22):
+    """sqrt(λmax/λmin) of a symmetric 3×3 matrix (its upper triangle).
+
+    The closed form of :func:`._system.condition` (Smith 1961); ``CONDITION_CAP``
+    where the matrix is singular or zero.
+    """
+    q = (a00 + a11 + a22) / 3.0
+    off = a01 * a01 + a02 * a02 + a12 * a12
+    diag = (a00 - q) ** 2 + (a11 - q) ** 2 + (a22 - q) ** 2
+    p = np.sqrt((diag + 2.0 * off) / 6.0)
+    if p <= np.finfo(np.float64).tiny:
+        hi = lo = q
+    else:
+        b00, b11, b22 = (a00 - q) / p, (a11 - q) / p, (a22 - q) / p
+        b01, b02, b12 = a01 / p, a02 / p, a12 / p
+        det = (
+            b00 * (b11 * b22 - b12 * b12)
+            - b01 * (b01 * b22 - b12 * b02)
+            + b02 * (b01 * b12 - b11 * b02)
+        )
+        phi = np.arccos(min(max(det / 2.0, -1.0), 1.0)) / 3.0
+        hi = q + 2.0 * p * np.cos(phi)
+        lo = q + 2.0 * p * np.cos(phi + 2.0 * np.pi / 3.0)
+    if hi > 0 and lo > hi / _CAP_SQ:
+        return np.sqrt(hi / lo)
+    return _CAP

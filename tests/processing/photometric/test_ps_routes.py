@@ -10,17 +10,17 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
-from processing.photometric import DistantLights, PhotometricError, Reason, solve
+from processing.photometric import DistantLights, PhotometricError, Reason, _system, solve
 from processing.photometric._block import solve_block
 from processing.photometric._inputs import check_stack
 from processing.photometric._irls_kernel import (
     _ABSENT,
-    _condition,
     _float_keys,
     _select,
     _within_condition,
 )
-from processing.photometric._kernels import weighted_sums
+from processing.photometric._kernels import condition3, conditions, weighted_sums
+from processing.photometric._result import CONDITION_CAP
 from processing.photometric._robust import _median, irls_weights
 from processing.photometric._solve import _check_options, _read_chunk
 from tests.processing.photometric.ps_synthetic import ring_directions
@@ -209,7 +209,7 @@ def test_condition_certificate_decides_as_the_eigenvalues_do():
             pairs = a[0, 0], a[0, 1], a[0, 2], a[1, 1], a[1, 2], a[2, 2]
             det = np.linalg.det(a)
             for limit in (1.5, 10.0, 100.0, 1e4):
-                expected = _condition(*pairs) <= limit
+                expected = condition3(*pairs) <= limit
                 assert _within_condition(*pairs, det, limit) == expected
 
 
@@ -257,3 +257,24 @@ def test_irls_in_one_compiled_pass_matches_the_per_pixel_light_steps(dtype, colo
     assert_allclose(one_pass["normals"], stepwise["normals"], atol=1e-3)
     assert_allclose(one_pass["albedo"], stepwise["albedo"], rtol=1e-3, atol=1e-6)
     assert_allclose(one_pass["condition"], stepwise["condition"], rtol=1e-3)
+
+
+def test_compiled_conditions_match_the_batched_eigenvalues():
+    # The weighted solvers' conditions come compiled from the sums' upper
+    # triangles; they must be the numpy route's, down to singular and zero systems.
+    rng = np.random.default_rng(6)
+    tilt = np.deg2rad(np.linspace(-60, 60, 12))
+    in_plane = np.stack([np.sin(tilt), np.zeros(12), np.cos(tilt)], axis=1)  # y = 0
+    dirs = np.concatenate([ring_directions(12), in_plane])
+    weights = rng.random((24, 300)) * (rng.random((24, 300)) < 0.5)
+    weights[:12, :100] = 0  # the lamps of one plane only: coplanar
+    weights[:, 100] = 0  # nothing used
+    a = np.einsum("li,lj,ln->nij", dirs, dirs, weights)
+    upper = a.reshape(-1, 9)[:, [0, 1, 2, 4, 5, 8]].T.copy()
+    out = np.empty(300)
+    conditions(upper, out)
+    expected = _system.condition(a)
+    # Singular systems: both give rounding noise far above any limit, or the cap.
+    assert (out[:100] > 1e6).all() and (expected[:100] > 1e6).all()
+    assert out[100] == expected[100] == CONDITION_CAP
+    assert_allclose(out[101:], expected[101:], rtol=1e-9)
