@@ -184,8 +184,7 @@ def _planes(obs: np.ndarray) -> np.ndarray:
 
 
 def _shaped_sums(sums: tuple, colour: bool) -> tuple:
-    """``A``, ``g``, ``e``, ``Σ w`` and the count used from the compiled sums, shaped as
-    the numpy route gives them."""
+    """``A``, ``g``, ``e``, ``Σ w`` and the count used, shaped as the numpy route gives them."""
     upper, moment, energy, weight_sum, used = sums
     a = upper.T[:, _system.FULL_FROM_PAIRS].reshape(-1, 3, 3)
     g = moment.transpose(2, 1, 0) if colour else moment[0].T

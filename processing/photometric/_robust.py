@@ -117,8 +117,8 @@ def irls_fit(
     weights : (L, n) float32
     sums : tuple
         ``upper`` (6, n) ``Σ w s_i s_j``, ``moment`` (C, 3, n) ``Σ w I s``,
-        ``energy`` (C, n) ``Σ w I²``, ``weight_sum`` (n,) and ``used`` (n,)
-        float64, as :func:`._kernels.weighted_sums` gives them, in float64.
+        ``energy`` (C, n) ``Σ w I²``, ``weight_sum`` (n,) and ``used`` (n,),
+        float64, as :func:`._kernels.weighted_sums` gives them.
     """
     n_lights, n = grey.shape
     weights = np.empty(grey.shape, np.float32)
