@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import _robust, _system
-from ._kernels import conditions, sum_arrays, weighted_sums
+from ._kernels import conditions, fit_from_sums, sum_arrays, weighted_sums
 from ._result import CONDITION_CAP, Reason
 
 
@@ -62,6 +62,7 @@ def solve_block(
         a_full = _system.normal_matrix(lights, np.ones((n_lights, n)))
         condition_full = _system.condition(a_full)
 
+    sums = None  # the compiled sums of one shared light matrix, where a weighted solve has them
     if options.method == "irls" and lights.ndim == 2:
         # One light matrix: the reweighting and the fit's sums in one compiled pass.
         _, sums = _robust.irls_fit(
@@ -74,7 +75,7 @@ def solve_block(
             iterations=options.irls_iterations,
             max_condition=options.max_condition,
         )
-        a, g, e, weight_sum, used = _shaped_sums(sums, colour)
+        used = sums[4].astype(np.int64)
         condition_used = _conditions(sums[0])
     else:
         weights = _weights(grey, usable, lights, clipped is None, options)
@@ -89,7 +90,7 @@ def solve_block(
             planes = _planes(obs)
             sums = sum_arrays(n, planes.shape[0])
             weighted_sums(np.ascontiguousarray(weights), planes, lights, *sums)
-            a, g, e, weight_sum, used = _shaped_sums(sums, colour)
+            used = sums[4].astype(np.int64)
             condition_used = _conditions(sums[0])
         else:
             a = _system.normal_matrix(lights, weights)
@@ -100,26 +101,14 @@ def solve_block(
             weight_sum = weights.sum(axis=0)
             used = np.count_nonzero(weights, axis=0)
 
-    solvable = (used >= 3) & (condition_used <= options.max_condition)
-    g_grey = g.mean(axis=2) if colour else g
-    scaled = _system.solve_sym3(a, g_grey, solvable)
-    rho = np.sqrt(np.einsum("ni,ni->n", scaled, scaled))
-    positive = solvable & (rho > 0)
-    normals = np.divide(scaled, rho[:, None], out=np.zeros_like(scaled), where=positive[:, None])
-    if colour:
-        per_channel = _system.solve_sym3(a, g, solvable)
-        albedo = np.einsum("nic,ni->nc", per_channel, normals)
-        along_g = np.einsum("ni,nic->nc", normals, g)
+    if sums is None:
+        normals, albedo, residual, positive = _fit(
+            a, g, e, weight_sum, used, condition_used, options.max_condition
+        )
     else:
-        albedo = rho
-        along_g = np.einsum("ni,ni->n", normals, g)
-    n_a_n = np.einsum("ni,nij,nj->n", normals, a, normals)
-    if colour:
-        n_a_n = n_a_n[:, None]
-    sq = np.clip(e - 2.0 * albedo * along_g + albedo**2 * n_a_n, 0.0, None)
-    if colour:
-        sq = sq.mean(axis=1)
-    residual = np.sqrt(np.divide(sq, weight_sum, out=np.zeros(n), where=weight_sum > 0))
+        normals, albedo, residual, positive = _fit_compiled(
+            sums, condition_used, options.max_condition
+        )
 
     reason = np.select(
         [
@@ -178,18 +167,50 @@ def _weights(grey, usable, lights, all_usable: bool, options) -> np.ndarray | No
     )
 
 
+def _fit(a, g, e, weight_sum, used, condition_used, max_condition) -> tuple:
+    """Normals, albedo, residual and whether solved with ρ > 0, from the four sums.
+
+    a (n, 3, 3), g (n, 3) or (n, 3, C), e (n,) or (n, C), weight_sum and used (n,).
+    """
+    n = a.shape[0]
+    colour = g.ndim == 3
+    solvable = (used >= 3) & (condition_used <= max_condition)
+    g_grey = g.mean(axis=2) if colour else g
+    scaled = _system.solve_sym3(a, g_grey, solvable)
+    rho = np.sqrt(np.einsum("ni,ni->n", scaled, scaled))
+    positive = solvable & (rho > 0)
+    normals = np.divide(scaled, rho[:, None], out=np.zeros_like(scaled), where=positive[:, None])
+    if colour:
+        per_channel = _system.solve_sym3(a, g, solvable)
+        albedo = np.einsum("nic,ni->nc", per_channel, normals)
+        along_g = np.einsum("ni,nic->nc", normals, g)
+    else:
+        albedo = rho
+        along_g = np.einsum("ni,ni->n", normals, g)
+    n_a_n = np.einsum("ni,nij,nj->n", normals, a, normals)
+    if colour:
+        n_a_n = n_a_n[:, None]
+    sq = np.clip(e - 2.0 * albedo * along_g + albedo**2 * n_a_n, 0.0, None)
+    if colour:
+        sq = sq.mean(axis=1)
+    residual = np.sqrt(np.divide(sq, weight_sum, out=np.zeros(n), where=weight_sum > 0))
+    return normals, albedo, residual, positive
+
+
+def _fit_compiled(sums: tuple, condition_used: np.ndarray, max_condition: float) -> tuple:
+    """:func:`_fit`, compiled, from the sums of :func:`weighted_sums` (a tuple of five)."""
+    n, n_channels = sums[0].shape[1], sums[1].shape[0]
+    normals = np.empty((n, 3))
+    albedo = np.empty((n, n_channels))
+    residual = np.empty(n)
+    positive = np.empty(n, bool)
+    fit_from_sums(*sums, condition_used, max_condition, normals, albedo, residual, positive)
+    return normals, (albedo if n_channels > 1 else albedo[:, 0]), residual, positive
+
+
 def _planes(obs: np.ndarray) -> np.ndarray:
     """The observations as (C, L, n) planes, C-contiguous (grey: a view)."""
     return np.ascontiguousarray(np.moveaxis(obs, 2, 0)) if obs.ndim == 3 else obs[None]
-
-
-def _shaped_sums(sums: tuple, colour: bool) -> tuple:
-    """``A``, ``g``, ``e``, ``Σ w`` and the count used, shaped as the numpy route gives them."""
-    upper, moment, energy, weight_sum, used = sums
-    a = upper.T[:, _system.FULL_FROM_PAIRS].reshape(-1, 3, 3)
-    g = moment.transpose(2, 1, 0) if colour else moment[0].T
-    e = energy.T if colour else energy[0]
-    return a, g, e, weight_sum, used.astype(np.int64)
 
 
 def _conditions(upper: np.ndarray) -> np.ndarray:

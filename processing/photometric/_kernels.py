@@ -390,3 +390,67 @@ def condition3(a00, a01, a02, a11, a12, a22):
     if hi > 0 and lo > hi / _CAP_SQ:
         return np.sqrt(hi / lo)
     return _CAP
+
+
+@njit(cache=True, nogil=True)
+def fit_from_sums(
+    upper, moment, energy, weight_sum, used, condition, max_condition, normals, albedo, residual,
+    positive,
+):  # fmt: skip
+    """The fit of each pixel from the sums of :func:`weighted_sums`, as ``_block._fit`` gives it.
+
+    Where ``used ≥ 3`` and ``condition ≤ max_condition``: ``x = A⁻¹ g`` by the
+    adjugate (g: the mean over channels), normal ``x / |x|``, albedo ``|x|``
+    (colour: ``A⁻¹ g_c · n`` per channel), residual ``√(Σ_c (e − 2 ρ n·g + ρ² nᵀAn)₊ /
+    (C Σ w))``. Out: normals (n, 3), 0 where not solved or ``|x|`` is 0; albedo (n, C);
+    residual (n,); positive (n,) bool, solved with ``|x| > 0``.
+    """
+    n_channels, _, n = moment.shape
+    for i in range(n):
+        a00, a01, a02 = upper[0, i], upper[1, i], upper[2, i]
+        a11, a12, a22 = upper[3, i], upper[4, i], upper[5, i]
+        c00 = a11 * a22 - a12 * a12
+        c01 = a02 * a12 - a01 * a22
+        c02 = a01 * a12 - a02 * a11
+        c11 = a00 * a22 - a02 * a02
+        c12 = a01 * a02 - a00 * a12
+        c22 = a00 * a11 - a01 * a01
+        det = a00 * c00 + a01 * c01 + a02 * c02
+        solvable = used[i] >= 3 and condition[i] <= max_condition
+        inv = 1.0 / det if solvable and det != 0 else 0.0
+        i00, i01, i02 = c00 * inv, c01 * inv, c02 * inv
+        i11, i12, i22 = c11 * inv, c12 * inv, c22 * inv
+        g0 = g1 = g2 = 0.0
+        for c in range(n_channels):
+            g0 += moment[c, 0, i]
+            g1 += moment[c, 1, i]
+            g2 += moment[c, 2, i]
+        g0, g1, g2 = g0 / n_channels, g1 / n_channels, g2 / n_channels
+        x0 = i00 * g0 + i01 * g1 + i02 * g2
+        x1 = i01 * g0 + i11 * g1 + i12 * g2
+        x2 = i02 * g0 + i12 * g1 + i22 * g2
+        rho = np.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
+        solved = solvable and rho > 0
+        n0, n1, n2 = (x0 / rho, x1 / rho, x2 / rho) if solved else (0.0, 0.0, 0.0)
+        n_a_n = (
+            n0 * (a00 * n0 + a01 * n1 + a02 * n2)
+            + n1 * (a01 * n0 + a11 * n1 + a12 * n2)
+            + n2 * (a02 * n0 + a12 * n1 + a22 * n2)
+        )
+        sq = 0.0
+        for c in range(n_channels):
+            m0, m1, m2 = moment[c, 0, i], moment[c, 1, i], moment[c, 2, i]
+            if n_channels > 1:
+                y0 = i00 * m0 + i01 * m1 + i02 * m2
+                y1 = i01 * m0 + i11 * m1 + i12 * m2
+                y2 = i02 * m0 + i12 * m1 + i22 * m2
+                rho_c = y0 * n0 + y1 * n1 + y2 * n2
+            else:
+                rho_c = rho
+            along = n0 * m0 + n1 * m1 + n2 * m2
+            sq += max(energy[c, i] - 2.0 * rho_c * along + rho_c * rho_c * n_a_n, 0.0)
+            albedo[i, c] = rho_c
+        sq /= n_channels
+        normals[i, 0], normals[i, 1], normals[i, 2] = n0, n1, n2
+        residual[i] = np.sqrt(sq / weight_sum[i]) if weight_sum[i] > 0 else 0.0
+        positive[i] = solved

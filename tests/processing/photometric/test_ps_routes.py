@@ -11,7 +11,7 @@ import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
 from processing.photometric import DistantLights, PhotometricError, Reason, _system, solve
-from processing.photometric._block import solve_block
+from processing.photometric._block import _fit, _fit_compiled, solve_block
 from processing.photometric._inputs import check_stack
 from processing.photometric._irls_kernel import (
     _ABSENT,
@@ -19,7 +19,7 @@ from processing.photometric._irls_kernel import (
     _select,
     _within_condition,
 )
-from processing.photometric._kernels import condition3, conditions, weighted_sums
+from processing.photometric._kernels import condition3, conditions, sum_arrays, weighted_sums
 from processing.photometric._result import CONDITION_CAP
 from processing.photometric._robust import _median, irls_weights
 from processing.photometric._solve import _check_options, _read_chunk
@@ -278,3 +278,34 @@ def test_compiled_conditions_match_the_batched_eigenvalues():
     assert (out[:100] > 1e6).all() and (expected[:100] > 1e6).all()
     assert out[100] == expected[100] == CONDITION_CAP
     assert_allclose(out[101:], expected[101:], rtol=1e-9)
+
+
+@pytest.mark.parametrize("channels", [1, 3])
+def test_compiled_fit_from_sums_matches_the_numpy_fit(channels):
+    # The weighted solvers with one light matrix solve from their compiled sums,
+    # compiled; the numpy fit from the same sums must agree, down to pixels with
+    # too few lamps, coplanar lamps, and nothing lit.
+    rng = np.random.default_rng(channels)
+    n_lights, n = 24, 400
+    dirs = ring_directions(n_lights)
+    weights = rng.random((n_lights, n)) * (rng.random((n_lights, n)) < 0.6)
+    weights[2:, :20] = 0  # two lamps: too few
+    weights[:, 20:40] = 0  # none
+    weights[n_lights // 3 :, 40:60] = 0  # one ring: nearly coplanar for a strict limit
+    planes = rng.random((channels, n_lights, n)) * 0.8
+    planes[:, :, 60:80] = 0  # dark: x = 0
+    sums = sum_arrays(n, channels)
+    weighted_sums(weights, planes, dirs, *sums)
+    upper, moment, energy, weight_sum, used = sums
+    condition = np.empty(n)
+    conditions(upper, condition)
+    a = upper.T[:, _system.FULL_FROM_PAIRS].reshape(-1, 3, 3)
+    g = moment.transpose(2, 1, 0) if channels > 1 else moment[0].T
+    e = energy.T if channels > 1 else energy[0]
+    for limit in (100.0, 3.0):
+        compiled = _fit_compiled(sums, condition, limit)
+        reference = _fit(a, g, e, weight_sum, used.astype(np.int64), condition, limit)
+        assert_array_equal(compiled[3], reference[3])  # solved with ρ > 0
+        assert 0 < compiled[3].sum() < n - 60
+        for got, expected in zip(compiled[:3], reference[:3], strict=True):
+            assert_allclose(got, expected, rtol=1e-10, atol=1e-12)
