@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 
 from . import _robust, _system
-from ._kernels import weighted_sums
+from ._kernels import conditions, fit_from_sums, sum_arrays, weighted_sums
 from ._result import CONDITION_CAP, Reason
 
 
@@ -62,46 +62,53 @@ def solve_block(
         a_full = _system.normal_matrix(lights, np.ones((n_lights, n)))
         condition_full = _system.condition(a_full)
 
-    weights = _weights(grey, usable, lights, clipped is None, options)
-    if weights is None:  # every observation, unit weight
-        condition_used = condition_full
-        a = np.broadcast_to(lights.T @ lights, (n, 3, 3)) if lights.ndim == 2 else a_full
-        g = _system.moment(lights, None, obs)
-        e = energy
-        weight_sum = np.full(n, float(n_lights))
-        used = np.full(n, n_lights)
-    elif lights.ndim == 2:  # one light matrix: all the sums in one compiled pass
-        a, g, e, weight_sum, used = _shared_weighted_sums(obs, weights, lights)
-        condition_used = _system.condition(a)
+    sums = None  # the compiled sums of one shared light matrix, where a weighted solve has them
+    if options.method == "irls" and lights.ndim == 2:
+        # One light matrix: the reweighting and the fit's sums in one compiled pass.
+        _, sums = _robust.irls_fit(
+            _planes(obs),
+            grey,
+            usable,
+            lights,
+            shadow_fraction=options.shadow_fraction,
+            highlight_fraction=options.highlight_fraction,
+            iterations=options.irls_iterations,
+            max_condition=options.max_condition,
+        )
+        used = sums[4].astype(np.int64)
+        condition_used = _conditions(sums[0])
     else:
-        a = _system.normal_matrix(lights, weights)
-        condition_used = _system.condition(a)
-        g = _system.moment(lights, weights, obs)
-        wobs = obs * (weights[..., None] if colour else weights)
-        e = np.einsum("ln...,ln...->n...", wobs, obs)
-        weight_sum = weights.sum(axis=0)
-        used = np.count_nonzero(weights, axis=0)
+        weights = _weights(grey, usable, lights, clipped is None, options)
+        if weights is None:  # every observation, unit weight
+            condition_used = condition_full
+            a = np.broadcast_to(lights.T @ lights, (n, 3, 3)) if lights.ndim == 2 else a_full
+            g = _system.moment(lights, None, obs)
+            e = energy
+            weight_sum = np.full(n, float(n_lights))
+            used = np.full(n, n_lights)
+        elif lights.ndim == 2:  # one light matrix: all the sums in one compiled pass
+            planes = _planes(obs)
+            sums = sum_arrays(n, planes.shape[0])
+            weighted_sums(np.ascontiguousarray(weights), planes, lights, *sums)
+            used = sums[4].astype(np.int64)
+            condition_used = _conditions(sums[0])
+        else:
+            a = _system.normal_matrix(lights, weights)
+            condition_used = _system.condition(a)
+            g = _system.moment(lights, weights, obs)
+            wobs = obs * (weights[..., None] if colour else weights)
+            e = np.einsum("ln...,ln...->n...", wobs, obs)
+            weight_sum = weights.sum(axis=0)
+            used = np.count_nonzero(weights, axis=0)
 
-    solvable = (used >= 3) & (condition_used <= options.max_condition)
-    g_grey = g.mean(axis=2) if colour else g
-    scaled = _system.solve_sym3(a, g_grey, solvable)
-    rho = np.sqrt(np.einsum("ni,ni->n", scaled, scaled))
-    positive = solvable & (rho > 0)
-    normals = np.divide(scaled, rho[:, None], out=np.zeros_like(scaled), where=positive[:, None])
-    if colour:
-        per_channel = _system.solve_sym3(a, g, solvable)
-        albedo = np.einsum("nic,ni->nc", per_channel, normals)
-        along_g = np.einsum("ni,nic->nc", normals, g)
+    if sums is None:
+        normals, albedo, residual, positive = _fit(
+            a, g, e, weight_sum, used, condition_used, options.max_condition
+        )
     else:
-        albedo = rho
-        along_g = np.einsum("ni,ni->n", normals, g)
-    n_a_n = np.einsum("ni,nij,nj->n", normals, a, normals)
-    if colour:
-        n_a_n = n_a_n[:, None]
-    sq = np.clip(e - 2.0 * albedo * along_g + albedo**2 * n_a_n, 0.0, None)
-    if colour:
-        sq = sq.mean(axis=1)
-    residual = np.sqrt(np.divide(sq, weight_sum, out=np.zeros(n), where=weight_sum > 0))
+        normals, albedo, residual, positive = _fit_compiled(
+            sums, condition_used, options.max_condition
+        )
 
     reason = np.select(
         [
@@ -160,23 +167,57 @@ def _weights(grey, usable, lights, all_usable: bool, options) -> np.ndarray | No
     )
 
 
-def _shared_weighted_sums(obs, weights, lights):
-    """``A``, ``g``, ``e``, ``Σ w`` and the count used, shaped as the numpy route gives them."""
-    n = weights.shape[1]
-    colour = obs.ndim == 3
-    planes = np.ascontiguousarray(np.moveaxis(obs, 2, 0)) if colour else obs[None]
-    weights = np.ascontiguousarray(weights)
-    upper = np.empty((6, n))
-    moment = np.empty((planes.shape[0], 3, n))
-    energy = np.empty((planes.shape[0], n))
-    weight_sum = np.empty(n)
-    used = np.empty(n)
-    weighted_sums(weights, np.ascontiguousarray(planes), lights, upper, moment, energy,
-                  weight_sum, used)  # fmt: skip
-    a = upper.T[:, _system.FULL_FROM_PAIRS].reshape(n, 3, 3)
-    g = moment.transpose(2, 1, 0) if colour else moment[0].T
-    e = energy.T if colour else energy[0]
-    return a, g, e, weight_sum, used.astype(np.int64)
+def _fit(a, g, e, weight_sum, used, condition_used, max_condition) -> tuple:
+    """Normals, albedo, residual and whether solved with ρ > 0, from the four sums.
+
+    a (n, 3, 3), g (n, 3) or (n, 3, C), e (n,) or (n, C), weight_sum and used (n,).
+    """
+    n = a.shape[0]
+    colour = g.ndim == 3
+    solvable = (used >= 3) & (condition_used <= max_condition)
+    g_grey = g.mean(axis=2) if colour else g
+    scaled = _system.solve_sym3(a, g_grey, solvable)
+    rho = np.sqrt(np.einsum("ni,ni->n", scaled, scaled))
+    positive = solvable & (rho > 0)
+    normals = np.divide(scaled, rho[:, None], out=np.zeros_like(scaled), where=positive[:, None])
+    if colour:
+        per_channel = _system.solve_sym3(a, g, solvable)
+        albedo = np.einsum("nic,ni->nc", per_channel, normals)
+        along_g = np.einsum("ni,nic->nc", normals, g)
+    else:
+        albedo = rho
+        along_g = np.einsum("ni,ni->n", normals, g)
+    n_a_n = np.einsum("ni,nij,nj->n", normals, a, normals)
+    if colour:
+        n_a_n = n_a_n[:, None]
+    sq = np.clip(e - 2.0 * albedo * along_g + albedo**2 * n_a_n, 0.0, None)
+    if colour:
+        sq = sq.mean(axis=1)
+    residual = np.sqrt(np.divide(sq, weight_sum, out=np.zeros(n), where=weight_sum > 0))
+    return normals, albedo, residual, positive
+
+
+def _fit_compiled(sums: tuple, condition_used: np.ndarray, max_condition: float) -> tuple:
+    """:func:`_fit`, compiled, from the sums of :func:`weighted_sums` (a tuple of five)."""
+    n, n_channels = sums[0].shape[1], sums[1].shape[0]
+    normals = np.empty((n, 3))
+    albedo = np.empty((n, n_channels))
+    residual = np.empty(n)
+    positive = np.empty(n, bool)
+    fit_from_sums(*sums, condition_used, max_condition, normals, albedo, residual, positive)
+    return normals, (albedo if n_channels > 1 else albedo[:, 0]), residual, positive
+
+
+def _planes(obs: np.ndarray) -> np.ndarray:
+    """The observations as (C, L, n) planes, C-contiguous (grey: a view)."""
+    return np.ascontiguousarray(np.moveaxis(obs, 2, 0)) if obs.ndim == 3 else obs[None]
+
+
+def _conditions(upper: np.ndarray) -> np.ndarray:
+    """:func:`._system.condition` of the compiled sums' normal matrices, compiled: (n,)."""
+    out = np.empty(upper.shape[1])
+    conditions(upper, out)
+    return out
 
 
 def _coplanar(n: int, colour: bool, condition_full: np.ndarray) -> dict:

@@ -4,18 +4,22 @@ The same arithmetic as the numpy version (float32 observations, residuals and
 weights, float64 3×3 systems), laid out like :mod:`._kernels`: a tile of
 pixels, light by light, SIMD over pixels, everything in cache. The two order
 statistics (the reference level and the median absolute residual) are exact
-radix selections on order-preserving integer keys of the float32 values,
-vectorised over the tile's pixels: counting passes in cache, from the sign
-bit down until each pixel's answer is among a few keys (about 17 passes
-instead of 32), instead of a transposing copy and a
-sort per pixel. Every step of one pixel at a time on a transposed tile, with
-quickselects (branches that mispredict), measured ~4× slower than this.
+selections on order-preserving integer keys of the float32 values,
+vectorised over the tile's pixels: counting passes in cache, bisecting each
+pixel's key range until its answer is among a few keys (about 11 passes on
+noisy data), instead of a transposing copy and a sort per pixel. Every step
+of one pixel at a time on a transposed tile, with quickselects (branches that
+mispredict), measured ~4× slower than this. With its final weights, each tile
+also gets the float64 sums of the fit (:func:`._kernels.weighted_sums_tile`),
+so the observations are read from memory once.
 """
 
 from __future__ import annotations
 
 import numpy as np
 from numba import njit
+
+from ._kernels import condition3, weighted_sums_tile
 
 #: Pixels per tile: the tile's keys, residuals, weights and support (L × TILE
 #: each) stay in L2 through the selection passes.
@@ -29,15 +33,21 @@ _ABSENT = np.int32(0x7FFFFFFF)
 #: A selection's bisection stops when every pixel's interval holds at most
 #: this many keys; a last pass keeps the smallest ``_NEAR + 1`` of them.
 _NEAR = 3
+#: Lights per loop where per-pixel accumulators are summed over the lights.
+_UNROLL = 4
 
 
 @njit(cache=True, nogil=True, fastmath=_CONTRACT)
-def irls_weights_kernel(grey, usable, lights, rank, settings, out):
-    """Tukey-biweight IRLS weights of every pixel.
+def irls_fit_kernel(grey, usable, lights, rank, settings, out, planes, lights64, sums):
+    """Tukey-biweight IRLS weights of every pixel and the sums of the fit with them.
+
+    Each tile of pixels is read once: reweighted in float32 and, with its final
+    weights still in cache, summed in float64 for the fit the solver takes
+    (:func:`._kernels.weighted_sums`, the sums it would take in a pass of its own).
 
     Parameters
     ----------
-    grey : (L, n) float32, C-contiguous
+    grey : (L, n) float32 or float64, C-contiguous
     usable : (L, n) bool, C-contiguous (False: clipped)
     lights : (L, 3) float32
     rank : int
@@ -47,6 +57,12 @@ def irls_weights_kernel(grey, usable, lights, rank, settings, out):
         floor (relative to the reference level).
     out : (L, n) float32
         The weights.
+    planes : (C, L, n) float64
+        The observations per channel the final sums take (grey: ``grey[None]``).
+    lights64 : (L, 3) float64
+    sums : tuple of arrays
+        Out: ``upper, moment, energy, weight_sum, used`` as
+        :func:`._kernels.weighted_sums` fills them.
     """
     shadow_fraction, iterations, max_condition = settings[0], int(settings[1]), settings[2]
     tukey_c, mad_to_sigma, floor_fraction = settings[3], settings[4], settings[5]
@@ -64,11 +80,17 @@ def irls_weights_kernel(grey, usable, lights, rank, settings, out):
     floor = np.empty(TILE, np.float64)
     fit = np.empty((3, TILE), np.float32)
     f0, f1, f2 = fit[0], fit[1], fit[2]
+    tile = np.empty((n_lights, TILE), np.float32)
+    upper_sums, moment, energy, weight_sum, used = sums
     for t0 in range(0, n, TILE):
         m = min(TILE, n - t0)
+        for light in range(n_lights):
+            row, copy = grey[light, t0 : t0 + m], tile[light]
+            for i in range(m):
+                copy[i] = row[i]
         # The reference level: each pixel's observation of order `rank`.
         for light in range(n_lights):
-            _float_keys(grey[light, t0 : t0 + m], keys[light])
+            _float_keys(tile[light, :m], keys[light])
         order[:m] = rank
         _select(keys, m, order, lower, upper)
         _key_values(lower, m, values)
@@ -76,7 +98,7 @@ def irls_weights_kernel(grey, usable, lights, rank, settings, out):
             shadow[i] = np.float32(shadow_fraction * values[i])
             floor[i] = floor_fraction * max(np.float64(values[i]), 0.0)
         for light in range(n_lights):
-            row = grey[light, t0 : t0 + m]
+            row = tile[light, :m]
             use = usable[light, t0 : t0 + m]
             sup = support[light]
             w = out[light, t0 : t0 + m]
@@ -85,20 +107,26 @@ def irls_weights_kernel(grey, usable, lights, rank, settings, out):
                 sup[i] = 1.0 if on else 0.0
                 w[i] = 1.0 if on and row[i] <= values[i] else 0.0
         for _ in range(iterations):
-            _weighted_fit(out, grey, lights, t0, m, max_condition, fit)
+            _weighted_fit(out, tile, lights, t0, m, max_condition, fit)
             count[:m] = 0
             for light in range(n_lights):
                 s0, s1, s2 = lights[light, 0], lights[light, 1], lights[light, 2]
-                row = grey[light, t0 : t0 + m]
+                row = tile[light, :m]
                 w = out[light, t0 : t0 + m]
+                sup = support[light]
                 res = residual[light]
+                # |residual|, negated where the observation is out of the next
+                # weights (unsupported, or in attached shadow under this fit):
+                # the biweight below then reads one array instead of five.
                 for i in range(m):
-                    res[i] = abs(row[i] - (s0 * f0[i] + s1 * f1[i] + s2 * f2[i]))
+                    predicted = s0 * f0[i] + s1 * f1[i] + s2 * f2[i]
+                    r = abs(row[i] - predicted)
+                    res[i] = r if sup[i] > 0 and predicted > shadow[i] else -r
                 bits = res.view(np.int32)
                 key = keys[light]
                 for i in range(m):
                     on = w[i] > 0
-                    key[i] = bits[i] if on else _ABSENT
+                    key[i] = bits[i] & _LOW_BITS if on else _ABSENT
                     count[i] += np.float32(1) if on else np.float32(0)
             for i in range(m):
                 order[i] = max((np.int32(count[i]) - 1) // 2, 0)
@@ -110,30 +138,63 @@ def irls_weights_kernel(grey, usable, lights, rank, settings, out):
                 scale = max(mad_to_sigma * median, floor[i])
                 inverse[i] = 1.0 / (tukey_c * scale) if scale > 0 else 0.0
             for light in range(n_lights):
-                s0, s1, s2 = lights[light, 0], lights[light, 1], lights[light, 2]
+                bits = residual[light].view(np.int32)
                 res = residual[light]
-                sup = support[light]
                 w = out[light, t0 : t0 + m]
                 for i in range(m):
                     u = res[i] * inverse[i]
                     t = max(np.float32(1.0) - u * u, np.float32(0.0))
-                    predicted = s0 * f0[i] + s1 * f1[i] + s2 * f2[i]
-                    w[i] = t * t if sup[i] > 0 and predicted > shadow[i] else np.float32(0.0)
+                    w[i] = t * t if bits[i] >= 0 else np.float32(0.0)
+        weighted_sums_tile(
+            out, planes, lights64, t0, m, upper_sums, moment, energy, weight_sum, used
+        )
 
 
-@njit(cache=True, nogil=True)
+@njit(cache=True, nogil=True, fastmath=_CONTRACT)
 def _weighted_fit(weights, grey, lights, t0, m, max_condition, fit):
-    """``b = (Σ w s sᵀ)⁻¹ Σ w I s`` per pixel (0 where the system is too ill-conditioned)."""
+    """``b = (Σ w s sᵀ)⁻¹ Σ w I s`` per pixel (0 where the system is too ill-conditioned).
+
+    weights : (L, n), pixels ``t0 … t0 + m``; grey : (L, ≥ m), the tile's observations.
+    """
     n_lights = grey.shape[0]
     sums = np.zeros((9, m), np.float32)
     m00, m01, m02, m11, m12, m22 = sums[0], sums[1], sums[2], sums[3], sums[4], sums[5]
     g0s, g1s, g2s = sums[6], sums[7], sums[8]
-    for light in range(n_lights):
+    # Four lights per loop: each accumulator is loaded and stored once per four
+    # (stores bound these loops); three accumulators per loop (more stop LLVM
+    # vectorising it).
+    full = n_lights - n_lights % _UNROLL
+    for k in range(0, full, _UNROLL):
+        sa, sb, sc, sd = lights[k], lights[k + 1], lights[k + 2], lights[k + 3]
+        wa, wb = weights[k, t0 : t0 + m], weights[k + 1, t0 : t0 + m]
+        wc, wd = weights[k + 2, t0 : t0 + m], weights[k + 3, t0 : t0 + m]
+        for acc, p, q in (
+            (m00, 0, 0),
+            (m01, 0, 1),
+            (m02, 0, 2),
+            (m11, 1, 1),
+            (m12, 1, 2),
+            (m22, 2, 2),
+        ):
+            ca, cb, cc, cd = sa[p] * sa[q], sb[p] * sb[q], sc[p] * sc[q], sd[p] * sd[q]
+            for i in range(m):
+                acc[i] += ca * wa[i] + cb * wb[i] + cc * wc[i] + cd * wd[i]
+        ra, rb = grey[k, :m], grey[k + 1, :m]
+        rc, rd = grey[k + 2, :m], grey[k + 3, :m]
+        for acc, p in ((g0s, 0), (g1s, 1), (g2s, 2)):
+            ca, cb, cc, cd = sa[p], sb[p], sc[p], sd[p]
+            for i in range(m):
+                acc[i] += (
+                    ca * wa[i] * ra[i]
+                    + cb * wb[i] * rb[i]
+                    + cc * wc[i] * rc[i]
+                    + cd * wd[i] * rd[i]
+                )
+    for light in range(full, n_lights):
         s0, s1, s2 = lights[light, 0], lights[light, 1], lights[light, 2]
         a00, a01, a02, a11, a12, a22 = s0 * s0, s0 * s1, s0 * s2, s1 * s1, s1 * s2, s2 * s2
         w = weights[light, t0 : t0 + m]
-        row = grey[light, t0 : t0 + m]
-        # Three accumulators per loop: more arrays in one loop stop LLVM vectorising it.
+        row = grey[light, :m]
         for i in range(m):
             m00[i] += a00 * w[i]
             m01[i] += a01 * w[i]
@@ -158,7 +219,7 @@ def _weighted_fit(weights, grey, lights, t0, m, max_condition, fit):
         c12 = a01 * a02 - a00 * a12
         c22 = a00 * a11 - a01 * a01
         det = a00 * c00 + a01 * c01 + a02 * c02
-        if _condition(a00, a01, a02, a11, a12, a22) <= max_condition and det != 0:
+        if det != 0 and _within_condition(a00, a01, a02, a11, a12, a22, det, max_condition):
             fit[0, i] = (c00 * g0 + c01 * g1 + c02 * g2) / det
             fit[1, i] = (c01 * g0 + c11 * g1 + c12 * g2) / det
             fit[2, i] = (c02 * g0 + c12 * g1 + c22 * g2) / det
@@ -167,73 +228,87 @@ def _weighted_fit(weights, grey, lights, t0, m, max_condition, fit):
 
 
 @njit(cache=True, nogil=True)
-def _condition(a00, a01, a02, a11, a12, a22):
-    """sqrt(λmax/λmin) of a symmetric 3×3 matrix, as :func:`._system.condition`."""
-    q = (a00 + a11 + a22) / 3.0
-    off = a01 * a01 + a02 * a02 + a12 * a12
-    diag = (a00 - q) ** 2 + (a11 - q) ** 2 + (a22 - q) ** 2
-    p = np.sqrt((diag + 2.0 * off) / 6.0)
-    if p <= np.finfo(np.float64).tiny:
-        hi = lo = q
-    else:
-        b00, b11, b22 = (a00 - q) / p, (a11 - q) / p, (a22 - q) / p
-        b01, b02, b12 = a01 / p, a02 / p, a12 / p
-        det = (
-            b00 * (b11 * b22 - b12 * b12)
-            - b01 * (b01 * b22 - b12 * b02)
-            + b02 * (b01 * b12 - b11 * b02)
-        )
-        phi = np.arccos(min(max(det / 2.0, -1.0), 1.0)) / 3.0
-        hi = q + 2.0 * p * np.cos(phi)
-        lo = q + 2.0 * p * np.cos(phi + 2.0 * np.pi / 3.0)
-    if hi > 0 and lo > hi / _CAP_SQ:
-        return np.sqrt(hi / lo)
-    return _CAP
+def _within_condition(a00, a01, a02, a11, a12, a22, det, max_condition):
+    """Whether a weighted normal matrix (positive semi-definite) has condition ≤ ``max_condition``.
 
-
-_CAP = 1.0e12
-_CAP_SQ = _CAP * _CAP
+    Cheap certificate first: with eigenvalues λ1 ≥ λ2 ≥ λ3, λ1 ≤ tr and
+    λ1 λ2 ≤ tr² / 4, so cond² = λ1 / λ3 ≤ tr³ / (4 det). Well-spread lamps
+    pass it by orders of magnitude; only the rest pay the eigenvalues
+    (the trigonometric form, ~130 ns a pixel).
+    """
+    trace = a00 + a11 + a22
+    if det > 0 and trace * trace * trace <= 4.0 * det * max_condition * max_condition:
+        return True
+    return condition3(a00, a01, a02, a11, a12, a22) <= max_condition
 
 
 @njit(cache=True, nogil=True)
 def _select(keys, m, order, lower, upper):
     """Per pixel, the keys of order ``order`` and ``order + 1`` (0 = smallest) among the L keys.
 
-    Exact. Bisection on the signed key, from the sign bit down: keep a bit
-    when at most ``order`` keys lie below the prefix with it. It stops as
-    soon as every pixel's interval holds at most ``_NEAR`` keys (a few passes
-    past the exponent on spread-out values, instead of 32); one last pass
-    then keeps each pixel's ``_NEAR + 1`` smallest keys from the interval's
-    start on, which hold both answers. Keys that tie all the way down leave
-    an interval of one key: that key, or the smallest key above it.
+    Exact. Bisection of each pixel's key range, from its smallest key to its
+    largest present one: halve the interval, keeping the half that holds
+    the key of order ``order``. Keys are ~2²³ log2 of the values, so the
+    passes it takes follow how spread the values are (about 10 on noisy
+    residuals), not the 32 bits. It stops as soon as every pixel's interval
+    holds at most ``_NEAR`` keys; one last pass then keeps each pixel's
+    ``_NEAR + 1`` smallest keys from the interval's start on, which hold
+    both answers. Keys that tie all the way down leave an interval of one
+    key: that key, or the smallest key above it.
     """
     n_lights = keys.shape[0]
     low = np.empty(m, np.int64)  # the answer lies in [low, high)
+    high = np.empty(m, np.int64)
     candidate = np.empty(m, np.int32)
     # float32 counts: int32 sums widen to int64 lanes
     below = np.empty(m, np.float32)
     count_low = np.zeros(m, np.float32)  # keys < low
-    count_high = np.full(m, np.float32(n_lights))  # keys < high
+    count_high = np.zeros(m, np.float32)  # keys < high
     one, zero, near = np.float32(1), np.float32(0), np.float32(_NEAR)
-    low[:] = -(2**31)
-    for bit in range(31, -1, -1):
+    smallest = np.full(m, _ABSENT, np.int32)
+    largest = np.full(m, np.int32(-(2**31)), np.int32)  # of the present keys
+    for light in range(n_lights):
+        row = keys[light]
+        for i in range(m):
+            smallest[i] = min(smallest[i], row[i])
+            largest[i] = max(largest[i], row[i] if row[i] != _ABSENT else largest[i])
+        for i in range(m):
+            count_high[i] += one if row[i] != _ABSENT else zero
+    for i in range(m):
+        low[i] = smallest[i]
+        high[i] = max(np.int64(largest[i]) + 1, low[i] + 1)
+    while True:
         spread = zero
         for i in range(m):
-            spread += one if count_high[i] - count_low[i] > near else zero
+            wide = count_high[i] - count_low[i] > near and high[i] - low[i] > 1
+            spread += one if wide else zero
         if spread == 0:
             break
         for i in range(m):
-            candidate[i] = np.int32(low[i] + (1 << bit))
+            candidate[i] = np.int32(low[i] + ((high[i] - low[i]) >> 1))
         below[:] = 0
-        for light in range(n_lights):
+        # Four lights per loop: `below` is loaded and stored once per four (stores bound it).
+        full = n_lights - n_lights % _UNROLL
+        for light in range(0, full, _UNROLL):
+            ra, rb, rc, rd = keys[light], keys[light + 1], keys[light + 2], keys[light + 3]
+            for i in range(m):
+                c = candidate[i]
+                below[i] += (
+                    (one if ra[i] < c else zero)
+                    + (one if rb[i] < c else zero)
+                    + (one if rc[i] < c else zero)
+                    + (one if rd[i] < c else zero)
+                )
+        for light in range(full, n_lights):
             row = keys[light]
             for i in range(m):
                 below[i] += one if row[i] < candidate[i] else zero
         for i in range(m):
             if below[i] <= order[i]:
-                low[i] += 1 << bit
+                low[i] = candidate[i]
                 count_low[i] = below[i]
             else:
+                high[i] = candidate[i]
                 count_high[i] = below[i]
     start = candidate  # the interval's start as int32, for int32 comparisons
     for i in range(m):

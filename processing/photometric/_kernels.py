@@ -20,9 +20,11 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ._result import Reason
+from ._result import CONDITION_CAP, Reason
 
 _OK, _DARK, _BELOW_HORIZON = int(Reason.OK), int(Reason.DARK), int(Reason.BELOW_HORIZON)
+_CAP = CONDITION_CAP
+_CAP_SQ = _CAP * _CAP
 
 # Fused multiply-add only: no assumption that values are finite (a clipping
 # level may be inf, a bad pixel NaN; both must compare as IEEE says).
@@ -224,6 +226,18 @@ def pinv_store(normals, albedo, sq, clipped, lit, pixel, n_lights, condition, ou
         out_residual[p] = residual if valid else 0.0
 
 
+def sum_arrays(n: int, n_channels: int) -> tuple:
+    """Empty outputs of :func:`weighted_sums` for n pixels: upper, moment, energy,
+    weight_sum, used."""
+    return (
+        np.empty((6, n)),
+        np.empty((n_channels, 3, n)),
+        np.empty((n_channels, n)),
+        np.empty(n),
+        np.empty(n),
+    )
+
+
 @njit(cache=True, nogil=True, fastmath=_CONTRACT)
 def weighted_sums(weights, planes, lights, upper, moment, energy, weight_sum, used):
     """The per-pixel sums of a weighted fit with one shared light matrix, in one pass.
@@ -232,49 +246,211 @@ def weighted_sums(weights, planes, lights, upper, moment, energy, weight_sum, us
     channel; lights : (L, 3) float64. Out: upper (6, n) ``Σ w s_i s_j`` for
     (i, j) in (00, 01, 02, 11, 12, 22); moment (C, 3, n) ``Σ w I s``; energy
     (C, n) ``Σ w I²``; weight_sum (n,) ``Σ w``; used (n,) float64, the
-    observations with a non-zero weight. Loops hold three or four arrays
-    each (more stop LLVM vectorising them).
+    observations with a non-zero weight.
     """
-    n_lights, n = weights.shape
+    n = weights.shape[1]
+    for t0 in range(0, n, TILE):
+        weighted_sums_tile(
+            weights, planes, lights, t0, min(TILE, n - t0), upper, moment, energy, weight_sum, used
+        )
+
+
+@njit(cache=True, nogil=True, fastmath=_CONTRACT)
+def weighted_sums_tile(weights, planes, lights, t0, m, upper, moment, energy, weight_sum, used):
+    """:func:`weighted_sums` of pixels ``t0 … t0 + m``.
+
+    Lights ``_UNROLL`` at a time, three accumulators or fewer per loop (more
+    stop LLVM vectorising it).
+    """
+    n_lights = weights.shape[0]
     n_channels = planes.shape[0]
     one, zero = 1.0, 0.0
-    for t0 in range(0, n, TILE):
-        m = min(TILE, n - t0)
-        a00, a01, a02 = upper[0, t0 : t0 + m], upper[1, t0 : t0 + m], upper[2, t0 : t0 + m]
-        a11, a12, a22 = upper[3, t0 : t0 + m], upper[4, t0 : t0 + m], upper[5, t0 : t0 + m]
-        total, count = weight_sum[t0 : t0 + m], used[t0 : t0 + m]
-        for acc in (a00, a01, a02, a11, a12, a22, total, count):
-            acc[:] = 0
+    a00, a01, a02 = upper[0, t0 : t0 + m], upper[1, t0 : t0 + m], upper[2, t0 : t0 + m]
+    a11, a12, a22 = upper[3, t0 : t0 + m], upper[4, t0 : t0 + m], upper[5, t0 : t0 + m]
+    total, count = weight_sum[t0 : t0 + m], used[t0 : t0 + m]
+    for acc in (a00, a01, a02, a11, a12, a22, total, count):
+        acc[:] = 0
+    for c in range(n_channels):
+        moment[c, :, t0 : t0 + m] = 0
+        energy[c, t0 : t0 + m] = 0
+    full = n_lights - n_lights % _UNROLL
+    for k in range(0, full, _UNROLL):
+        sa, sb, sc, sd = lights[k], lights[k + 1], lights[k + 2], lights[k + 3]
+        wa, wb = weights[k, t0 : t0 + m], weights[k + 1, t0 : t0 + m]
+        wc, wd = weights[k + 2, t0 : t0 + m], weights[k + 3, t0 : t0 + m]
+        for acc, p, q in (
+            (a00, 0, 0),
+            (a01, 0, 1),
+            (a02, 0, 2),
+            (a11, 1, 1),
+            (a12, 1, 2),
+            (a22, 2, 2),
+        ):
+            ca, cb, cc, cd = sa[p] * sa[q], sb[p] * sb[q], sc[p] * sc[q], sd[p] * sd[q]
+            for i in range(m):
+                acc[i] += ca * wa[i] + cb * wb[i] + cc * wc[i] + cd * wd[i]
+        for i in range(m):
+            # In float64 from the first term on (float32 weights would sum in float32).
+            total[i] += np.float64(wa[i]) + wb[i] + wc[i] + wd[i]
+        for i in range(m):
+            count[i] += (
+                (one if wa[i] != 0 else zero)
+                + (one if wb[i] != 0 else zero)
+                + (one if wc[i] != 0 else zero)
+                + (one if wd[i] != 0 else zero)
+            )
         for c in range(n_channels):
-            moment[c, :, t0 : t0 + m] = 0
-            energy[c, t0 : t0 + m] = 0
-        for light in range(n_lights):
-            s0, s1, s2 = lights[light, 0], lights[light, 1], lights[light, 2]
-            w = weights[light, t0 : t0 + m]
-            p00, p01, p02, p11, p12, p22 = s0 * s0, s0 * s1, s0 * s2, s1 * s1, s1 * s2, s2 * s2
+            ra, rb = planes[c, k, t0 : t0 + m], planes[c, k + 1, t0 : t0 + m]
+            rc, rd = planes[c, k + 2, t0 : t0 + m], planes[c, k + 3, t0 : t0 + m]
+            for acc, p in (
+                (moment[c, 0, t0 : t0 + m], 0),
+                (moment[c, 1, t0 : t0 + m], 1),
+                (moment[c, 2, t0 : t0 + m], 2),
+            ):
+                ca, cb, cc, cd = sa[p], sb[p], sc[p], sd[p]
+                for i in range(m):
+                    acc[i] += (
+                        ca * wa[i] * ra[i]
+                        + cb * wb[i] * rb[i]
+                        + cc * wc[i] * rc[i]
+                        + cd * wd[i] * rd[i]
+                    )
+            e = energy[c, t0 : t0 + m]
             for i in range(m):
-                a00[i] += p00 * w[i]
-                a01[i] += p01 * w[i]
-                a02[i] += p02 * w[i]
-            for i in range(m):
-                a11[i] += p11 * w[i]
-                a12[i] += p12 * w[i]
-                a22[i] += p22 * w[i]
-            for i in range(m):
-                total[i] += w[i]
-                count[i] += one if w[i] != 0 else zero
-            for c in range(n_channels):
-                row = planes[c, light, t0 : t0 + m]
-                g0, g1, g2 = (
-                    moment[c, 0, t0 : t0 + m],
-                    moment[c, 1, t0 : t0 + m],
-                    moment[c, 2, t0 : t0 + m],
+                e[i] += (
+                    wa[i] * ra[i] * ra[i]
+                    + wb[i] * rb[i] * rb[i]
+                    + wc[i] * rc[i] * rc[i]
+                    + wd[i] * rd[i] * rd[i]
                 )
-                e = energy[c, t0 : t0 + m]
-                for i in range(m):
-                    wi = w[i] * row[i]
-                    g0[i] += s0 * wi
-                    g1[i] += s1 * wi
-                    g2[i] += s2 * wi
-                for i in range(m):
-                    e[i] += w[i] * row[i] * row[i]
+    for light in range(full, n_lights):
+        s0, s1, s2 = lights[light, 0], lights[light, 1], lights[light, 2]
+        w = weights[light, t0 : t0 + m]
+        p00, p01, p02, p11, p12, p22 = s0 * s0, s0 * s1, s0 * s2, s1 * s1, s1 * s2, s2 * s2
+        for i in range(m):
+            a00[i] += p00 * w[i]
+            a01[i] += p01 * w[i]
+            a02[i] += p02 * w[i]
+        for i in range(m):
+            a11[i] += p11 * w[i]
+            a12[i] += p12 * w[i]
+            a22[i] += p22 * w[i]
+        for i in range(m):
+            total[i] += w[i]
+            count[i] += one if w[i] != 0 else zero
+        for c in range(n_channels):
+            row = planes[c, light, t0 : t0 + m]
+            g0, g1, g2 = (
+                moment[c, 0, t0 : t0 + m],
+                moment[c, 1, t0 : t0 + m],
+                moment[c, 2, t0 : t0 + m],
+            )
+            e = energy[c, t0 : t0 + m]
+            for i in range(m):
+                wi = w[i] * row[i]
+                g0[i] += s0 * wi
+                g1[i] += s1 * wi
+                g2[i] += s2 * wi
+            for i in range(m):
+                e[i] += w[i] * row[i] * row[i]
+
+
+@njit(cache=True, nogil=True)
+def conditions(upper, out):
+    """:func:`condition3` of each pixel's normal matrix from its upper triangle (6, n): (n,)."""
+    for i in range(upper.shape[1]):
+        out[i] = condition3(upper[0, i], upper[1, i], upper[2, i], upper[3, i], upper[4, i],
+                            upper[5, i])  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
+def condition3(a00, a01, a02, a11, a12, a22):
+    """sqrt(λmax/λmin) of a symmetric 3×3 matrix (its upper triangle).
+
+    The closed form of :func:`._system.condition` (Smith 1961); ``CONDITION_CAP``
+    where the matrix is singular or zero.
+    """
+    q = (a00 + a11 + a22) / 3.0
+    off = a01 * a01 + a02 * a02 + a12 * a12
+    diag = (a00 - q) ** 2 + (a11 - q) ** 2 + (a22 - q) ** 2
+    p = np.sqrt((diag + 2.0 * off) / 6.0)
+    if p <= np.finfo(np.float64).tiny:
+        hi = lo = q
+    else:
+        b00, b11, b22 = (a00 - q) / p, (a11 - q) / p, (a22 - q) / p
+        b01, b02, b12 = a01 / p, a02 / p, a12 / p
+        det = (
+            b00 * (b11 * b22 - b12 * b12)
+            - b01 * (b01 * b22 - b12 * b02)
+            + b02 * (b01 * b12 - b11 * b02)
+        )
+        phi = np.arccos(min(max(det / 2.0, -1.0), 1.0)) / 3.0
+        hi = q + 2.0 * p * np.cos(phi)
+        lo = q + 2.0 * p * np.cos(phi + 2.0 * np.pi / 3.0)
+    if hi > 0 and lo > hi / _CAP_SQ:
+        return np.sqrt(hi / lo)
+    return _CAP
+
+
+@njit(cache=True, nogil=True)
+def fit_from_sums(
+    upper, moment, energy, weight_sum, used, condition, max_condition, normals, albedo, residual,
+    positive,
+):  # fmt: skip
+    """The fit of each pixel from the sums of :func:`weighted_sums`, as ``_block._fit`` gives it.
+
+    Where ``used ≥ 3`` and ``condition ≤ max_condition``: ``x = A⁻¹ g`` by the
+    adjugate (g: the mean over channels), normal ``x / |x|``, albedo ``|x|``
+    (colour: ``A⁻¹ g_c · n`` per channel), residual ``√(Σ_c (e − 2 ρ n·g + ρ² nᵀAn)₊ /
+    (C Σ w))``. Out: normals (n, 3), 0 where not solved or ``|x|`` is 0; albedo (n, C);
+    residual (n,); positive (n,) bool, solved with ``|x| > 0``.
+    """
+    n_channels, _, n = moment.shape
+    for i in range(n):
+        a00, a01, a02 = upper[0, i], upper[1, i], upper[2, i]
+        a11, a12, a22 = upper[3, i], upper[4, i], upper[5, i]
+        c00 = a11 * a22 - a12 * a12
+        c01 = a02 * a12 - a01 * a22
+        c02 = a01 * a12 - a02 * a11
+        c11 = a00 * a22 - a02 * a02
+        c12 = a01 * a02 - a00 * a12
+        c22 = a00 * a11 - a01 * a01
+        det = a00 * c00 + a01 * c01 + a02 * c02
+        solvable = used[i] >= 3 and condition[i] <= max_condition
+        inv = 1.0 / det if solvable and det != 0 else 0.0
+        i00, i01, i02 = c00 * inv, c01 * inv, c02 * inv
+        i11, i12, i22 = c11 * inv, c12 * inv, c22 * inv
+        g0 = g1 = g2 = 0.0
+        for c in range(n_channels):
+            g0 += moment[c, 0, i]
+            g1 += moment[c, 1, i]
+            g2 += moment[c, 2, i]
+        g0, g1, g2 = g0 / n_channels, g1 / n_channels, g2 / n_channels
+        x0 = i00 * g0 + i01 * g1 + i02 * g2
+        x1 = i01 * g0 + i11 * g1 + i12 * g2
+        x2 = i02 * g0 + i12 * g1 + i22 * g2
+        rho = np.sqrt(x0 * x0 + x1 * x1 + x2 * x2)
+        solved = solvable and rho > 0
+        n0, n1, n2 = (x0 / rho, x1 / rho, x2 / rho) if solved else (0.0, 0.0, 0.0)
+        n_a_n = (
+            n0 * (a00 * n0 + a01 * n1 + a02 * n2)
+            + n1 * (a01 * n0 + a11 * n1 + a12 * n2)
+            + n2 * (a02 * n0 + a12 * n1 + a22 * n2)
+        )
+        sq = 0.0
+        for c in range(n_channels):
+            m0, m1, m2 = moment[c, 0, i], moment[c, 1, i], moment[c, 2, i]
+            if n_channels > 1:
+                y0 = i00 * m0 + i01 * m1 + i02 * m2
+                y1 = i01 * m0 + i11 * m1 + i12 * m2
+                y2 = i02 * m0 + i12 * m1 + i22 * m2
+                rho_c = y0 * n0 + y1 * n1 + y2 * n2
+            else:
+                rho_c = rho
+            along = n0 * m0 + n1 * m1 + n2 * m2
+            sq += max(energy[c, i] - 2.0 * rho_c * along + rho_c * rho_c * n_a_n, 0.0)
+            albedo[i, c] = rho_c
+        sq /= n_channels
+        normals[i, 0], normals[i, 1], normals[i, 2] = n0, n1, n2
+        residual[i] = np.sqrt(sq / weight_sum[i]) if weight_sum[i] > 0 else 0.0
+        positive[i] = solved

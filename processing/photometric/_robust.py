@@ -23,7 +23,8 @@ from __future__ import annotations
 import numpy as np
 
 from . import _system
-from ._irls_kernel import irls_weights_kernel
+from ._irls_kernel import irls_fit_kernel
+from ._kernels import sum_arrays
 
 #: Tukey biweight tuning constant (95 % efficiency under Gaussian noise).
 TUKEY_C = 4.685
@@ -74,24 +75,75 @@ def irls_weights(
     per-observation arrays of the iterations are float32 (half the memory
     traffic; weights need no more digits); the 3×3 systems are solved in
     float64, and so is the final fit with these weights. Distant lamps (one
-    light matrix) run compiled (:mod:`._irls_kernel`); near lamps, with a
-    light vector per pixel, run the same steps in numpy.
+    light matrix) run compiled (:func:`irls_fit`, whose sums are dropped
+    here); near lamps, with a light vector per pixel, run the same steps in
+    numpy.
     """
+    options = {
+        "shadow_fraction": shadow_fraction,
+        "highlight_fraction": highlight_fraction,
+        "iterations": iterations,
+        "max_condition": max_condition,
+    }
     if lights.ndim == 2:
-        n_lights = grey.shape[0]
-        weights = np.empty(grey.shape, np.float32)
-        settings = np.array(
-            [shadow_fraction, iterations, max_condition, TUKEY_C, _MAD_TO_SIGMA, _SCALE_FLOOR]
-        )
-        irls_weights_kernel(
-            np.ascontiguousarray(grey, dtype=np.float32),
-            np.ascontiguousarray(usable),
-            lights.astype(np.float32),
-            n_lights - 1 - highlight_count(n_lights, highlight_fraction),
-            settings,
-            weights,
-        )
-        return weights
+        return irls_fit(grey[None], grey, usable, lights, **options)[0]
+    return _irls_weights_stepwise(grey, usable, lights, **options)
+
+
+def irls_fit(
+    planes: np.ndarray,
+    grey: np.ndarray,
+    usable: np.ndarray,
+    lights: np.ndarray,
+    *,
+    shadow_fraction: float,
+    highlight_fraction: float,
+    iterations: int,
+    max_condition: float,
+) -> tuple[np.ndarray, tuple]:
+    """IRLS weights with one light matrix, and the sums of the fit with them, compiled.
+
+    Parameters
+    ----------
+    planes : (C, L, n) float64
+        Observations per channel (grey: ``grey[None]``).
+    grey : (L, n) float32 or float64
+        The observations reweighted (colour: the mean over channels).
+    usable : (L, n) bool
+    lights : (L, 3) float64
+
+    Returns
+    -------
+    weights : (L, n) float32
+    sums : tuple
+        ``upper`` (6, n) ``Σ w s_i s_j``, ``moment`` (C, 3, n) ``Σ w I s``,
+        ``energy`` (C, n) ``Σ w I²``, ``weight_sum`` (n,) and ``used`` (n,),
+        float64, as :func:`._kernels.weighted_sums` gives them.
+    """
+    n_lights, n = grey.shape
+    weights = np.empty(grey.shape, np.float32)
+    sums = sum_arrays(n, planes.shape[0])
+    settings = np.array(
+        [shadow_fraction, iterations, max_condition, TUKEY_C, _MAD_TO_SIGMA, _SCALE_FLOOR]
+    )
+    irls_fit_kernel(
+        np.ascontiguousarray(grey),
+        np.ascontiguousarray(usable),
+        lights.astype(np.float32),
+        n_lights - 1 - highlight_count(n_lights, highlight_fraction),
+        settings,
+        weights,
+        np.ascontiguousarray(planes, dtype=np.float64),
+        np.ascontiguousarray(lights, dtype=np.float64),
+        sums,
+    )
+    return weights, sums
+
+
+def _irls_weights_stepwise(
+    grey, usable, lights, *, shadow_fraction, highlight_fraction, iterations, max_condition
+) -> np.ndarray:
+    """:func:`irls_weights` with a light vector per pixel (L, n, 3), in numpy."""
     ref = reference_level(grey, highlight_fraction)
     support = usable & (grey >= shadow_fraction * ref)
     weights = (support & (grey <= ref)).astype(np.float32)
