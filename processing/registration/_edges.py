@@ -29,6 +29,8 @@ import math
 import numpy as np
 from numba import njit
 
+from processing.registration._errors import RegistrationError
+
 __all__ = ["refine_corners"]
 
 _SPAN = (0.15, 0.85)  # the part of each edge used, away from the corners
@@ -59,11 +61,11 @@ def refine_corners(gray: np.ndarray, quads: np.ndarray, *, modules: int) -> np.n
     image = np.ascontiguousarray(gray, dtype=np.float64)
     initial = np.ascontiguousarray(quads, dtype=np.float64)
     if image.ndim != 2 or min(image.shape) < 2:
-        raise ValueError(f"gray: expected an (H, W) image, H, W ≥ 2, got shape {image.shape}")
+        raise RegistrationError(f"gray: expected an (H, W) image, H, W ≥ 2, got {image.shape}")
     if initial.ndim != 3 or initial.shape[1:] != (4, 2):
-        raise ValueError(f"quads: expected shape (m, 4, 2), got {initial.shape}")
+        raise RegistrationError(f"quads: expected shape (m, 4, 2), got {initial.shape}")
     if modules < 1:
-        raise ValueError(f"modules = {modules}: must be ≥ 1")
+        raise RegistrationError(f"modules = {modules}: must be ≥ 1")
     refined = initial.copy()
     _refine_quads(image, refined, int(modules))
     return refined

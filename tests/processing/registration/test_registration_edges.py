@@ -12,7 +12,7 @@ import numpy as np
 import pytest
 from scipy import ndimage
 
-from processing.registration import aruco_dictionary, detect_markers
+from processing.registration import RegistrationError, aruco_dictionary, detect_markers
 from processing.registration._edges import refine_corners
 from processing.registration._markers import to_gray
 from sim import Simulator
@@ -174,7 +174,7 @@ def test_kernel_matches_the_loop_on_a_saturated_frame(holder, modules):
 
 
 def test_refine_corners_rejects_bad_shapes():
-    with pytest.raises(ValueError, match="quads"):
+    with pytest.raises(RegistrationError, match="quads"):
         refine_corners(np.zeros((8, 8)), np.zeros((4, 2)), modules=6)
-    with pytest.raises(ValueError, match="gray"):
+    with pytest.raises(RegistrationError, match="gray"):
         refine_corners(np.zeros((8, 8, 3)), np.zeros((1, 4, 2)), modules=6)
