@@ -167,9 +167,5 @@ def detect_markers(
     keep = np.isin(found, keep_ids)
     found, quads = found[keep], quads[keep]
     if edge_refine:
-        modules = dictionary.markerSize + 2
-        for i, quad in enumerate(quads):
-            refined = refine_corners(gray, quad, modules=modules)
-            if refined is not None:
-                quads[i] = refined
+        quads = refine_corners(gray, quads, modules=dictionary.markerSize + 2)
     return MarkerDetection(found, quads, rejected)

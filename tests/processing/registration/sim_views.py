@@ -33,7 +33,7 @@ FULL_WELL_E = 10000.0
 READ_NOISE_E = 5.0
 
 
-def registration_scene(scale: float, supersample: int = 1):
+def registration_scene(scale: float, supersample: int = 1, effects: tuple[str, ...] = ()):
     """The flat Lambertian scene with directional lamps, cameras at ``scale``."""
     lamps = [
         {"id": lamp.id, "theta_deg": lamp.theta_deg, "kind": "directional"}
@@ -42,7 +42,7 @@ def registration_scene(scale: float, supersample: int = 1):
     albedo = {"kind": "noise", "rgb": list(ALBEDO_RGB), "variation": 0.3, "scale_mm": 8.0}
     return scene_from_dict({
         "name": "registration",
-        "effects": [],
+        "effects": list(effects),
         "sample": {"generator": "flat", "depth_mm": 0.01, "materials": ["m"]},
         "materials": {"m": {"albedo": albedo}},
         "rig": {"overrides": {"light_arc": {"lamps": lamps}}},
