@@ -122,10 +122,7 @@ class ControllerServer:
 
     # -- the serving thread -------------------------------------------------------
     def _serve(self) -> None:
-        # A packet per period of real time, and one as soon as the simulation clock
-        # has moved a period: under a virtual clock a client that sleeps a poll
-        # interval gets the state of its new now without waiting a real period.
-        next_tick = next_clock_tick = 0.0
+        next_tick = 0.0  # the stream's pace is real time, whatever the simulation clock
         while not self._stop.is_set():
             for key, _ in self._selector.select(timeout=self._period_s / 4):
                 if isinstance(key.data, str):
@@ -136,9 +133,9 @@ class ControllerServer:
                 self._drop.clear()
                 for client in list(self._clients):
                     self._close(client)
-            now, clock_now = time.monotonic(), self.state.clock.now()
-            if now >= next_tick or clock_now >= next_clock_tick:
-                next_tick, next_clock_tick = now + self._period_s, clock_now + self._period_s
+            now = time.monotonic()
+            if now >= next_tick:
+                next_tick = now + self._period_s
                 self._stream()
 
     def _accept(self, listener: socket.socket, role: str) -> None:
