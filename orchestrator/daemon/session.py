@@ -2,10 +2,12 @@
 
 A step is idempotent: move (both axes) → settle → lamp or laser → trigger the
 cameras → read → commit (one atomic archive append) → lamp off → stream the
-frames to the workers. Lamps and cameras act only after ``move`` returned,
-i.e. after the axes settled. Steps already in the archive are skipped, which
-is how a crashed session resumes: ``Session.resume_from(archive)`` recompiles
-the stored plan on the stored rig config and goes on after the last commit.
+frames to the workers. A lamp the next step uses too stays lit (a fixed lamp is
+lit once for all its steps, as a lab keeps it); a fault switches everything off.
+Lamps and cameras act only after ``move`` returned, i.e. after the axes settled.
+Steps already in the archive are skipped, which is how a crashed session
+resumes: ``Session.resume_from(archive)`` recompiles the stored plan on the
+stored rig config and goes on after the last commit.
 
 Control (pause, resume, abort) arrives from other threads through the shared
 ``StateMachine``; the session acts on it between steps. A ``DeviceError``
@@ -126,6 +128,7 @@ class Session:
         )
         self._frames_before = self._progress.frames  # a resumed session's rate counts its own
         self._lock = threading.Lock()
+        self._lit: str | None = None  # the lamp the previous step left lit for this one
         self._per_kind_s = _per_step_estimate(self.schedule)
         # Estimated time of the steps after each step, for the ETA.
         per_step = [self._per_kind_s[s.kind] for s in self.schedule.steps]
@@ -244,10 +247,9 @@ class Session:
             self._fire_or_abort(SessionEvent.HOMED)
             self._t0 = (self.clock.now(), time.perf_counter())
             self._done_estimate_s = 0.0
-            for step in self.schedule.steps:
-                if step.index in committed:
-                    continue
-                self._run_with_faults(step, devices)
+            pending = [step for step in self.schedule.steps if step.index not in committed]
+            for step, following in zip(pending, [*pending[1:], None], strict=True):
+                self._run_with_faults(step, devices, following)
             self._fire_when_running(SessionEvent.STEPS_DONE)
             self._finish(devices)
         except _Aborted:
@@ -266,11 +268,13 @@ class Session:
         elif self.machine.state == SessionState.FINISHING:
             self._fire(SessionEvent.FINISHED)
 
-    def _run_with_faults(self, step: Step, devices: DeviceSet) -> None:
+    def _run_with_faults(
+        self, step: Step, devices: DeviceSet, following: Step | BonnStep | None
+    ) -> None:
         while True:
             self._wait_runnable()
             try:
-                self._run_step(step, devices)
+                self._run_step(step, devices, following)
                 return
             except DeviceError as err:
                 fault = {"device": err.device, "operation": err.operation, "detail": err.detail}
@@ -310,7 +314,7 @@ class Session:
             except IllegalTransition:
                 continue  # paused in between: wait again
 
-    def _run_step(self, step: Step, devices: DeviceSet) -> None:
+    def _run_step(self, step: Step, devices: DeviceSet, following: Step | BonnStep | None) -> None:
         with self._lock:
             self._progress.step_index = step.index
         started_at = self.clock.now()
@@ -336,7 +340,9 @@ class Session:
             self.archive.log_event("scan", step=step.index, tilts_deg=tilts)
             extra = {"laser": mount}
         else:
-            devices.lamp(step.source, True)
+            if self._lit != step.source:
+                devices.lamp(step.source, True)
+                self._lit = step.source
             frames = devices.capture(step.cameras, step.exposures_s)
             extra = {"lamp": step.source}
         record = self._record(step, actuators, started_at, **extra)
@@ -344,8 +350,9 @@ class Session:
         self.archive.append_step(record, records)
         if step.kind == "mdf":
             devices.laser(extra["laser"], False)
-        else:
+        elif following is None or following.source != step.source:
             devices.lamp(step.source, False)
+            self._lit = None
         self._stream(step, frames)
         self._progressed(step, sum(len(f) for f in frames.values()))
 
@@ -450,6 +457,7 @@ class Session:
             log.warning("session %s: %s (state %s)", self.id, reason, self.machine.state)
 
     def _switch_off(self, devices: DeviceSet) -> None:
+        self._lit = None
         try:
             devices.all_off()
         except DeviceError as err:
