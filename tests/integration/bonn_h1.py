@@ -117,8 +117,9 @@ def _report(rows: list[dict], views, h1) -> None:
         group = by_theta[theta]
         r = [g["reproj_px"] for g in group if g["valid"]]
         e = [100 * g["rmse"] for g in group if g["rmse"] is not None]
-        print(f"| {theta:.0f}° | {len(group)} | {len(r)} | {np.mean(r):.3f} | {np.max(r):.3f} "
-              f"| {np.mean(e):.2f} ({len(e)}) |")  # fmt: skip
+        reproj = f"{np.mean(r):.3f} | {np.max(r):.3f}" if r else "– | –"
+        rmse = f"{np.mean(e):.2f} ({len(e)})" if e else "– (0)"
+        print(f"| {theta:.0f}° | {len(group)} | {len(r)} | {reproj} | {rmse} |")
 
 
 def main() -> None:
