@@ -287,6 +287,7 @@ class UrController(_Closed):
     joint_min_deg: tuple[float, float, float, float, float, float] = (-360.0,) * 6
     joint_max_deg: tuple[float, float, float, float, float, float] = (360.0,) * 6
     settle_s: float = Field(0.5, ge=0, description="wait after a move before an exposure")
+    poll_s: float = Field(0.02, gt=0, le=1, description="state reads while a move runs")
     position_tolerance_deg: float = Field(
         0.05, gt=0, le=5, description="a joint within this of its target has arrived"
     )

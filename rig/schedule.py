@@ -12,7 +12,7 @@ from __future__ import annotations
 
 import math
 from collections import defaultdict
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -300,8 +300,14 @@ def estimate(steps, plan: Plan, config: RigConfig) -> Estimate:
     motion = lamp = capture = 0.0
     frames = size = 0
     by_kind: dict[str, float] = defaultdict(float)
-    for step in steps:
+    steps = list(steps)
+    for step, before, after in zip(steps, [None, *steps[:-1]], [*steps[1:], None], strict=True):
         timing = step_timing(config, step, here, scale=scale)
+        if step.kind != "mdf":  # a lamp the neighbouring step uses too stays lit (the session)
+            switches = (before is None or before.source != step.source) + (
+                after is None or after.source != step.source
+            )
+            timing = replace(timing, lamp_s=switches * config.lamp_bank.warmup_s)
         here = (step.turntable_deg, step.arc_deg)
         motion += timing.move_s + timing.settle_s
         lamp += timing.lamp_s

@@ -110,12 +110,17 @@ class SceneModel:
 
         Returns the origin (3,) and unit directions (H·W, 3), row-major.
         """
-        u, v = np.meshgrid(np.arange(camera.width), np.arange(camera.height))
-        x = (u.ravel() - camera.K[0, 2]) / camera.K[0, 0]
-        y = (v.ravel() - camera.K[1, 2]) / camera.K[1, 1]
-        d = np.column_stack([x, y, np.ones_like(x)]) @ camera.R
-        d /= np.linalg.norm(d, axis=1, keepdims=True)
-        return rotate_z(camera.center, -turntable_deg), rotate_z(d, -turntable_deg)
+        # The ray through pixel (u, v) is x·a₀ + y·a₁ + a₂ with aᵢ the camera's axes
+        # (rows of R) in the sample frame; built row by column, not by stacking.
+        axes = rotate_z(camera.R, -turntable_deg)
+        x = (np.arange(camera.width) - camera.K[0, 2]) / camera.K[0, 0]
+        y = (np.arange(camera.height) - camera.K[1, 2]) / camera.K[1, 1]
+        d = np.empty((camera.height, camera.width, 3))
+        np.multiply(x[None, :, None], axes[0], out=d)
+        d += (y[:, None] * axes[1] + axes[2])[:, None, :]
+        d = d.reshape(-1, 3)
+        d /= np.sqrt(np.einsum("ij,ij->i", d, d))[:, None]
+        return rotate_z(camera.center, -turntable_deg), d
 
     def lights(self, snapshot: WorldSnapshot) -> dict[str, LightSource]:
         """The lit lamps of a snapshot, placed in the sample frame."""

@@ -8,7 +8,9 @@ back as ``[b"", header, pixels]``: the JSON header (``request_id``,
 ``dtype``, ``shape``, ``crc32``) and the raw C-order little-endian buffer. An
 error comes back as ``[b"", {"request_id", "error", "field"}]``. Replies to
 older requests (late answers to a capture that timed out) are discarded by
-``request_id``; never unpickled, sizes bounded.
+``request_id``; never unpickled, sizes bounded. A ``{"request_id", "busy": true}``
+note (the server is still rendering) restarts the wait: the timeout is for a
+silent server, however long the simulator takes to render.
 """
 
 from __future__ import annotations
@@ -115,6 +117,8 @@ class SimCamera:
                 )
             parts = self._socket.recv_multipart(copy=False)
             header = self._header(parts)
+            if header.get("busy") is True:  # still rendering: silence, not render time, times out
+                continue
             if header.get("request_id") != request_id:
                 log.info("%s: discarding a late reply to request %s", self.device, header)
                 continue

@@ -59,18 +59,14 @@ _MOVING_SAFETY = (SafetyMode.NORMAL, SafetyMode.REDUCED)
 class UrArm:
     """Driver of a UR arm; satisfies ``drivers.interfaces.Positioner`` (see the module doc)."""
 
-    def __init__(
-        self, device: UrController, *, clock: Clock, name: str = "arm", poll_s: float = 0.02
-    ):
-        if poll_s <= 0:
-            raise ValueError(f"{name}: poll_s={poll_s} must be > 0")
+    def __init__(self, device: UrController, *, clock: Clock, name: str = "arm"):
         self.name = name
         self.device = device
         self.settle_s = device.settle_s
         self.model = UR_MODELS[device.model]
         self.tcp = Pose(device.tcp[:3], device.tcp[3:])
         self._clock = clock
-        self._poll_s = poll_s
+        self._poll_s = device.poll_s
         self._limits_rad = np.radians(np.column_stack([device.joint_min_deg, device.joint_max_deg]))
         self._joint_axis = Axis(
             speed_deg_s=device.joint_speed_deg_s,

@@ -2,8 +2,10 @@
 
 A step is idempotent: move (both axes) → settle → lamp or laser → trigger the
 cameras → read → commit (one atomic archive append) → lamp off → stream the
-frames to the workers (``step.StepRunner``). Lamps and cameras act only after
-``move`` returned, i.e. after the axes settled. Steps already in the archive
+frames to the workers (``step.StepRunner``). A lamp the next step uses too stays
+lit (a fixed lamp is lit once for all its steps, as a lab keeps it); a fault
+switches everything off. Lamps and cameras act only after ``move`` returned,
+i.e. after the axes settled. Steps already in the archive
 are skipped, which is how a crashed session resumes: ``Session.resume_from``
 recompiles the stored plan on the stored rig config and goes on after the last
 commit. ``progress.Progress`` keeps the counts and the ETA.
@@ -209,10 +211,9 @@ class Session:
             devices.home(laser=has_laser)
             self._fire_or_abort(SessionEvent.HOMED)
             self._progress.started(self.clock.now())
-            for step in self.schedule.steps:
-                if step.index in committed:
-                    continue
-                self._run_with_faults(step, devices)
+            pending = [step for step in self.schedule.steps if step.index not in committed]
+            for step, following in zip(pending, [*pending[1:], None], strict=True):
+                self._run_with_faults(step, devices, following)
             self._fire_when_running(SessionEvent.STEPS_DONE)
             self._finish(devices)
         except _Aborted:
@@ -231,11 +232,13 @@ class Session:
         elif self.machine.state == SessionState.FINISHING:
             self._fire(SessionEvent.FINISHED)
 
-    def _run_with_faults(self, step: Step, devices: DeviceSet) -> None:
+    def _run_with_faults(
+        self, step: Step, devices: DeviceSet, following: Step | BonnStep | None
+    ) -> None:
         while True:
             self._wait_runnable()
             try:
-                self._run_step(step, devices)
+                self._run_step(step, devices, following)
                 return
             except DeviceError as err:
                 fault = {"device": err.device, "operation": err.operation, "detail": err.detail}
@@ -273,13 +276,15 @@ class Session:
             except IllegalTransition:
                 continue  # paused in between: wait again
 
-    def _run_step(self, step: Step | BonnStep, devices: DeviceSet) -> None:
+    def _run_step(
+        self, step: Step | BonnStep, devices: DeviceSet, following: Step | BonnStep | None
+    ) -> None:
         self._progress.at_step(step.index)
         started_at = self.clock.now()
         actuators = self._steps.move(step, devices)
         if self.machine.state == SessionState.ABORTED:  # the move took long: light nothing
             raise _Aborted
-        n_frames = self._steps.expose(step, devices, actuators, started_at)
+        n_frames = self._steps.expose(step, devices, actuators, started_at, following)
         payload = self._progress.step_done(step, n_frames, self.clock.now())
         self.outbox.publish("progress", {"session": self.id, **payload})
 
@@ -309,6 +314,7 @@ class Session:
             log.warning("session %s: %s (state %s)", self.id, reason, self.machine.state)
 
     def _switch_off(self, devices: DeviceSet) -> None:
+        self._steps.lit = None
         try:
             devices.all_off()
         except DeviceError as err:

@@ -4,8 +4,9 @@
 rail) and returns when they settled. ``StepRunner.expose`` then switches the
 step's lamp or laser on, triggers the cameras (or sweeps the laser sheet past
 them), commits the frames to the archive in one atomic append, switches the
-source off and streams the frames to the workers. Between the two the session
-decides whether to go on: an abort during a long move lights nothing.
+source off (a lamp the following step uses too stays lit) and streams the frames
+to the workers. Between the two the session decides whether to go on: an abort
+during a long move lights nothing.
 """
 
 from __future__ import annotations
@@ -46,6 +47,8 @@ class StepRunner:
         self.config = config
         self.archive = archive
         self.outbox = outbox
+        #: The lamp the previous step left lit for the next one (None: all off).
+        self.lit: str | None = None
 
     def move(self, step: Step | BonnStep, devices: DeviceSet) -> dict:
         """Move to the step's positions and wait until settled; the actuators' positions."""
@@ -57,9 +60,17 @@ class StepRunner:
         return actuators
 
     def expose(
-        self, step: Step | BonnStep, devices: DeviceSet, actuators: dict, started_at: float
+        self,
+        step: Step | BonnStep,
+        devices: DeviceSet,
+        actuators: dict,
+        started_at: float,
+        following: Step | BonnStep | None,
     ) -> int:
-        """Light, capture and commit the step that ``move`` placed; how many frames it has."""
+        """Light, capture and commit the step that ``move`` placed; how many frames it has.
+
+        The lamp stays lit where ``following`` (the next step to run) uses it too.
+        """
         if step.kind == "mdf":
             mount = int(step.source.removeprefix("laser"))
             devices.laser(mount, True)
@@ -74,7 +85,9 @@ class StepRunner:
             self.archive.log_event("scan", step=step.index, tilts_deg=tilts)
             extra = {"laser": mount}
         else:
-            devices.lamp(step.source, True)
+            if self.lit != step.source:
+                devices.lamp(step.source, True)
+                self.lit = step.source
             frames = devices.capture(step.cameras, step.exposures_s)
             extra = {"lamp": step.source}
         record = self._record(step, actuators, started_at, **extra)
@@ -82,8 +95,9 @@ class StepRunner:
         self.archive.append_step(record, records)
         if step.kind == "mdf":
             devices.laser(extra["laser"], False)
-        else:
+        elif following is None or following.source != step.source:
             devices.lamp(step.source, False)
+            self.lit = None
         self._stream(step, frames)
         return sum(len(f) for f in frames.values())
 

@@ -11,6 +11,9 @@ with exactly the fields ``op`` ("capture"), ``request_id`` (int ≥ 0),
 ``bit_depth``, ``dtype``, ``shape``, ``crc32`` of the pixel buffer) and the raw
 C-order little-endian buffer, sent with ``copy=False``; or, for a bad request,
 ``[identity, b"", {"request_id", "error", "field"}]`` naming the bad field.
+While a frame renders longer than ``BUSY_INTERVAL_S`` (wall time), the server
+sends ``[identity, b"", {"request_id", "busy": true}]`` every ``BUSY_INTERVAL_S``
+before the frame, so a client's timeout covers silence, not the render.
 
 A capture takes the World's snapshot at the start of the exposure, renders it
 through ``render(camera_id, snapshot, exposure_s)`` (an integer image at the
@@ -25,6 +28,7 @@ import logging
 import threading
 import zlib
 from collections.abc import Callable
+from concurrent.futures import ThreadPoolExecutor, wait
 from dataclasses import dataclass
 
 import numpy as np
@@ -40,6 +44,7 @@ log = logging.getLogger(__name__)
 RenderFn = Callable[[str, WorldSnapshot, float], np.ndarray]
 
 MAX_REQUEST_BYTES = 4096
+BUSY_INTERVAL_S = 0.1  # wall time between "busy" notes while a frame renders
 _MAX_EXPOSURE_S = 60.0
 _MAX_GAIN = 64.0
 _FIELDS = ("op", "request_id", "camera_id", "exposure_s", "gain", "bit_depth")
@@ -65,6 +70,14 @@ class CameraFaults:
     corrupt_frames: int = 0
     wrong_size_frames: int = 0
     camera_id: str | None = None
+
+
+def _request_id(message: list[bytes]):
+    """The request's ``request_id`` for a busy note, None where it has none."""
+    try:
+        return json.loads(message[-1]).get("request_id")
+    except (ValueError, AttributeError):  # not JSON, or not an object: refused anyway
+        return None
 
 
 def _number(request: dict, name: str, low: float, high: float) -> float:
@@ -133,14 +146,21 @@ class CameraServer:
             self._context.term()
 
     def _serve(self) -> None:
-        while not self._stop.is_set():
-            if not self._socket.poll(50, zmq.POLLIN):
-                continue
-            parts = self._socket.recv_multipart()
-            identity, message = parts[0], parts[1:]
-            reply = self._answer(message)
-            if reply is not None:
-                self._socket.send_multipart([identity, b"", *reply], copy=False)
+        # Renders run on their own thread so that this one can say the camera is
+        # busy: a slow render is the simulator's time, not a frame lost on the wire.
+        with ThreadPoolExecutor(1, thread_name_prefix="camera-render") as renderer:
+            while not self._stop.is_set():
+                if not self._socket.poll(50, zmq.POLLIN):
+                    continue
+                parts = self._socket.recv_multipart()
+                identity, message = parts[0], parts[1:]
+                answer = renderer.submit(self._answer, message)
+                while not wait([answer], timeout=BUSY_INTERVAL_S).done:
+                    busy = {"request_id": _request_id(message), "busy": True}
+                    self._socket.send_multipart([identity, b"", json.dumps(busy).encode()])
+                reply = answer.result()
+                if reply is not None:
+                    self._socket.send_multipart([identity, b"", *reply], copy=False)
 
     def _answer(self, message: list[bytes]) -> list | None:
         request_id = None

@@ -36,7 +36,7 @@ PAIRS = (
 _FAST = Retry(timeout_s=0.5, retries=2, backoff_s=0.01)
 
 
-def bonn_scene(*, supersample: int = 3):
+def bonn_scene(*, scale: float = 0.5, supersample: int = 3):
     albedo = {"kind": "noise", "rgb": [0.6, 0.5, 0.4], "variation": 0.3, "scale_mm": 8.0}
     return scene_from_dict({
         "name": "bonn-registration",
@@ -44,7 +44,7 @@ def bonn_scene(*, supersample: int = 3):
         "sample": {"generator": "flat", "depth_mm": 0.01, "materials": ["m"]},
         "materials": {"m": {"albedo": albedo}},
         "rig": {"kind": "bonn", "overrides": {"bonn": {"lamp_kind": "directional"}}},
-        "render": {"scale": 0.5, "supersample": supersample},
+        "render": {"scale": scale, "supersample": supersample},
     })  # fmt: skip
 
 
@@ -84,29 +84,38 @@ def _row(sim, config, view, light, pose) -> dict:
     plate = marker_corners_mm(config.holder)[result.detection.ids].reshape(-1, 2)
     projected, _ = camera.project(np.column_stack([plate, np.zeros(len(plate))]))
     corner = np.linalg.norm(result.detection.corners_px.reshape(-1, 2) - projected, axis=1)
-    got_view, got_light = bonn.forward(config, rotation, sim.world.position("rail"))
-    truth = _true_texture(sim, config, tuple(got_view), tuple(got_light), frame)
-    inner = (slice(1, -1), slice(1, -1))
-    valid = result.normtexture.valid[inner]
-    diff = result.normtexture.texture[inner][valid].astype(np.float64) - truth[inner][valid]
+    rmse = texture_rmse(sim, config, result, rotation, sim.world.position("rail"),
+                        exposure_s=frame.exposure_s, bit_depth=frame.bit_depth)  # fmt: skip
     return {
         "view": view, "light": light, "rail_deg": pose.rail_deg,
         "tilt_deg": bonn.tilt_deg(config, pose.rotation), "markers": len(result.detection),
         "valid": bool(result.valid), "reproj_px": result.homography.mean_reprojection_px,
         "corner_px": float(corner.mean()),
-        "rmse": float(np.sqrt(np.mean(diff**2)) / truth[inner][valid].mean()),
+        "rmse": rmse,
     }  # fmt: skip
 
 
-def _true_texture(sim, config, view, light, frame, supersample: int = 4) -> np.ndarray:
+def texture_rmse(sim, config, result, rotation, rail_deg, *, exposure_s, bit_depth) -> float:
+    """RMSE of a registered frame's normtexture against ``btf_truth`` of the pair the plate
+    ``rotation`` and the rail really made, relative to the truth's mean (texels inside the
+    border ring, where the registration has them)."""
+    view, light = bonn.forward(config, rotation, rail_deg)
+    truth = _true_texture(sim, config, tuple(view), tuple(light), exposure_s, bit_depth)
+    inner = (slice(1, -1), slice(1, -1))
+    valid = result.normtexture.valid[inner]
+    diff = result.normtexture.texture[inner][valid].astype(np.float64) - truth[inner][valid]
+    return float(np.sqrt(np.mean(diff**2)) / truth[inner][valid].mean())
+
+
+def _true_texture(sim, config, view, light, exposure_s, bit_depth, supersample: int = 4):
     """(N, N, 3) DN: texel averages of ``btf_truth`` × irradiance × the camera's DN scale."""
     n, s = SIZE, supersample
     fine = sim.simulator.btf_truth(view, light, n * s).astype(np.float64)
     radiometry = sim.scene.spec.radiometry
     lab = config.bonn
     irradiance = radiometry.intensity_w_sr * lab.lamp_intensity / (lab.lamp_distance_mm / 1e3) ** 2
-    dn = irradiance * frame.exposure_s / radiometry.full_scale_exposure
-    return fine.reshape(n, s, n, s, 3).mean((1, 3)) * dn * full_scale(frame.bit_depth)
+    dn = irradiance * exposure_s / radiometry.full_scale_exposure
+    return fine.reshape(n, s, n, s, 3).mean((1, 3)) * dn * full_scale(bit_depth)
 
 
 def main() -> None:

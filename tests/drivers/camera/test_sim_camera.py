@@ -4,6 +4,8 @@ The stand-in renderer paints the snapshot's turntable angle into the left half
 and a bit mask of the lamps on into the right half, so a frame says exactly
 what the motors and lamps had done when its exposure started."""
 
+import time
+
 import numpy as np
 import pytest
 
@@ -208,3 +210,22 @@ def test_no_server_times_out(world):
             camera.capture()
     finally:
         camera.close()
+
+
+def test_a_render_slower_than_the_timeout_is_waited_for_not_recaptured(world):
+    # The simulator's render takes wall time the camera model does not have: the
+    # server says it is busy, and the one frame it renders is the one delivered.
+    paint = paint_world(world.config)
+
+    def slow(camera_id, snapshot, exposure_s):
+        time.sleep(4 * RETRY.timeout_s)
+        return paint(camera_id, snapshot, exposure_s)
+
+    with CameraServer(world, slow) as server:
+        camera = _camera(world, server)
+        try:
+            frame = camera.capture()
+        finally:
+            camera.close()
+    assert frame.sequence == 0
+    assert server.frames_exposed == 1

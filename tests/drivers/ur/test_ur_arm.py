@@ -71,6 +71,24 @@ def test_move_reaches_the_pose_and_reads_it_back(ready_arm, controller, clock):
     assert ready_arm.joints_deg() == pytest.approx(controller.joints_deg(), abs=1e-6)
 
 
+def test_the_arm_is_read_every_poll_s_of_the_config_while_it_moves(controller, clock):
+    # A coarser state-read interval ends the wait on its grid: at most one poll_s late.
+    arm = UrArm(device_of(controller, poll_s=0.25), clock=clock)
+    try:
+        arm.home()
+        target = _offset(arm.pose(), 0.08, -0.05, _TILTED)
+        t0 = clock.now()
+        arm.move_to(target)
+        arm.wait_until_settled()
+        elapsed = clock.now() - t0
+        moved_deg = np.max(np.abs(controller.joints_deg() - np.array([0, -90, 90, -90, -90, 0])))
+        expected = float(arm._joint_axis.move_time_s(moved_deg))
+    finally:
+        arm.close()
+    assert expected - 1e-6 <= elapsed <= expected + 0.25 + 1e-6
+    assert elapsed / 0.25 == pytest.approx(round(elapsed / 0.25), abs=1e-6)
+
+
 def test_the_tool_centre_point_is_sent_with_the_move(controller, clock):
     tcp = (0.0, 0.0, 0.12, 0.0, 0.0, 0.0)  # the sample plate 12 cm out from the flange
     arm = UrArm(device_of(controller, tcp=tcp), clock=clock)

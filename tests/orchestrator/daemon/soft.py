@@ -58,6 +58,7 @@ class SoftRig:
     arc_deg: float = 0.0
     moving_until: dict = field(default_factory=lambda: {"turntable": 0.0, "arc": 0.0})
     lamps_on: frozenset = frozenset()
+    lamp_switches: list = field(default_factory=list)  # every set the bank was told to light
     laser_on: bool = False
     violations: list = field(default_factory=list)
     captures: list = field(default_factory=list)
@@ -131,6 +132,7 @@ class SoftLamps:
         if lamps_on and self.rig.faults.take("lamps.switch") == "dark":
             raise DeviceFault("lamp bank", "switch", f"lamp {sorted(lamps_on)} stays dark")
         self.rig.lamps_on = frozenset(lamps_on)
+        self.rig.lamp_switches.append(self.rig.lamps_on)
         if lamps_on:
             self.rig.clock.sleep(self.rig.config.lamp_bank.warmup_s)
 

@@ -93,6 +93,17 @@ def test_full_session_with_workers(config, rig, tmp_path):
                 np.testing.assert_allclose(mean, image.mean(axis=(0, 1)), rtol=1e-6)
 
 
+def test_a_lamp_the_next_step_uses_stays_lit(config, rig, tmp_path):
+    steps = compile_plan(parse_plan(LAMP_PLAN), config).steps
+    assert len({s.source for s in steps}) == 1 < len(steps)  # one lamp for every step
+    with running_daemon(config, rig) as endpoints, DaemonClient(endpoints) as client:
+        _submit(client, LAMP_PLAN, tmp_path / "l.zarr")
+        wait_for_state(endpoints, ("done",), settled=True)
+    _check_archive(tmp_path / "l.zarr", config, LAMP_PLAN)
+    assert [lit for lit in rig.lamp_switches if lit] == [frozenset({steps[0].source})]
+    assert rig.violations == [] and rig.lamps_on == frozenset()
+
+
 def test_pause_resume_and_abort(config, rig, tmp_path):
     rig.real_delay_s = 0.01  # slow enough to catch it running
     with running_daemon(config, rig) as endpoints, DaemonClient(endpoints) as client:
