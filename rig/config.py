@@ -51,9 +51,7 @@ __all__ = [
     "RigConfig",
     "Turntable",
     "default_rig_config",
-    "format_validation_error",
     "load_rig_config",
-    "read_toml",
     "write_rig_config",
 ]
 

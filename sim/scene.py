@@ -32,8 +32,9 @@ from typing import Any, Literal
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
-from rig.config import RigConfig, format_validation_error, read_toml
+from rig.config import RigConfig
 from rig.errors import ConfigError
+from rig.tomlfile import format_validation_error, read_toml
 from sim.materials import ImageAlbedo, MaterialSpec
 from sim.samples import generator
 
