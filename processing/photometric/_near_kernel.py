@@ -1,0 +1,83 @@
+"""The per-pixel route's sums for near lamps, compiled: a light vector per pixel.
+
+Near lamps give every pixel its own light vectors, taken here as three
+C-contiguous planes ``(3, L, n)`` (x, y, z of every light and pixel), so each
+inner loop runs over contiguous pixels of one light, as in :mod:`._kernels`;
+the sums are those of :func:`._kernels.weighted_sums`, with ``s`` varying
+along the pixels.
+"""
+
+from __future__ import annotations
+
+from numba import njit
+
+from ._kernels import TILE
+
+# Fused multiply-add only: nothing assumes finite values.
+_CONTRACT = {"contract"}
+
+
+@njit(cache=True, nogil=True, fastmath=_CONTRACT)
+def near_weighted_sums(weights, planes, lights, upper, moment, energy, weight_sum, used):
+    """The per-pixel sums of a weighted fit with a light vector per pixel, in one pass.
+
+    weights : (L, n) float32 or float64; planes : (C, L, n) float64 observations per
+    channel (C may be 0: the normal matrices only); lights : (3, L, n) float64 light
+    vectors per pixel. Out: as :func:`._kernels.weighted_sums` fills them.
+    """
+    n = weights.shape[1]
+    for t0 in range(0, n, TILE):
+        near_weighted_sums_tile(
+            weights, planes, lights, t0, min(TILE, n - t0), upper, moment, energy, weight_sum, used
+        )
+
+
+@njit(cache=True, nogil=True, fastmath=_CONTRACT)
+def near_weighted_sums_tile(
+    weights, planes, lights, t0, m, upper, moment, energy, weight_sum, used
+):  # fmt: skip
+    """:func:`near_weighted_sums` of pixels ``t0 … t0 + m``."""
+    n_lights = weights.shape[0]
+    n_channels = planes.shape[0]
+    one, zero = 1.0, 0.0
+    a00, a01, a02 = upper[0, t0 : t0 + m], upper[1, t0 : t0 + m], upper[2, t0 : t0 + m]
+    a11, a12, a22 = upper[3, t0 : t0 + m], upper[4, t0 : t0 + m], upper[5, t0 : t0 + m]
+    total, count = weight_sum[t0 : t0 + m], used[t0 : t0 + m]
+    for acc in (a00, a01, a02, a11, a12, a22, total, count):
+        acc[:] = 0
+    for c in range(n_channels):
+        moment[c, :, t0 : t0 + m] = 0
+        energy[c, t0 : t0 + m] = 0
+    for light in range(n_lights):
+        w = weights[light, t0 : t0 + m]
+        s0 = lights[0, light, t0 : t0 + m]
+        s1 = lights[1, light, t0 : t0 + m]
+        s2 = lights[2, light, t0 : t0 + m]
+        for i in range(m):
+            ws = w[i] * s0[i]
+            a00[i] += ws * s0[i]
+            a01[i] += ws * s1[i]
+            a02[i] += ws * s2[i]
+        for i in range(m):
+            ws = w[i] * s1[i]
+            a11[i] += ws * s1[i]
+            a12[i] += ws * s2[i]
+        for i in range(m):
+            a22[i] += w[i] * s2[i] * s2[i]
+            total[i] += w[i]
+            count[i] += one if w[i] != 0 else zero
+        for c in range(n_channels):
+            row = planes[c, light, t0 : t0 + m]
+            g0, g1, g2 = (
+                moment[c, 0, t0 : t0 + m],
+                moment[c, 1, t0 : t0 + m],
+                moment[c, 2, t0 : t0 + m],
+            )
+            e = energy[c, t0 : t0 + m]
+            for i in range(m):
+                wi = w[i] * row[i]
+                g0[i] += s0[i] * wi
+                g1[i] += s1[i] * wi
+                g2[i] += s2[i] * wi
+            for i in range(m):
+                e[i] += w[i] * row[i] * row[i]

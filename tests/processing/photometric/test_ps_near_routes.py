@@ -1,0 +1,146 @@
+"""Near lamps: the compiled per-pixel route gives the numpy route's answer.
+
+With a light vector per pixel, the sums of the fit and the conditions run
+compiled (``_near_kernel``). The reference here takes the same steps in
+numpy: the per-pixel normal matrices, moments and energies as einsums, the
+conditions from batched eigenvalues, the fit by ``_block._fit``.
+"""
+
+import numpy as np
+import pytest
+from numpy.testing import assert_allclose, assert_array_equal
+
+from processing.photometric import NearLights, Reason, _block, _system
+from processing.photometric._block import _fit, _weights, solve_block
+from processing.photometric._inputs import check_stack
+from processing.photometric._kernels import sum_arrays
+from processing.photometric._near_kernel import near_weighted_sums
+from processing.photometric._solve import _check_options, _read_chunk
+from tests.processing.photometric.ps_synthetic import ring_directions
+
+N_LIGHTS = 16
+LAMP_HEIGHT_MM = 40.0
+
+
+def lamp_positions(distance_mm):
+    """A ring of lamps, all at one height, ``distance_mm`` out from the axis."""
+    dirs = ring_directions(N_LIGHTS, theta_deg=(30, 50, 70))
+    xy = dirs[:, :2] / np.linalg.norm(dirs[:, :2], axis=1, keepdims=True)
+    radius = distance_mm * np.linspace(0.6, 1.0, N_LIGHTS)[:, None]
+    return np.column_stack([xy * radius, np.full(N_LIGHTS, LAMP_HEIGHT_MM)])
+
+
+def near_scene(distance_mm, dtype, colour, seed=0):
+    """Chunk, per-pixel lights (L, n, 3) and options of 1100 pixels (more than a tile).
+
+    Dark, shadowed, glossy, facing-away and clipped pixels; a few pixels at the
+    lamps' height (coplanar light vectors) or just below it (ill-conditioned).
+    """
+    rng = np.random.default_rng(seed)
+    n = 1100
+    points = np.column_stack([rng.uniform(-10, 10, (n, 2)), np.zeros(n)])
+    points[30:33, 2] = LAMP_HEIGHT_MM  # every lamp in the pixel's plane
+    points[33:36, 2] = LAMP_HEIGHT_MM - 0.05
+    lights = NearLights(lamp_positions(distance_mm)).light_vectors(points)
+    normals = rng.normal([0.0, 0.0, 1.0], 0.3, (n, 3))
+    normals[:5] = [0.3, 0.1, -0.95]  # facing away
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    shading = np.einsum("lni,ni->ln", lights, normals)
+    shading[:, 5:] = np.clip(shading[:, 5:], 0, None)  # attached shadows
+    shading[rng.random(shading.shape) < 0.1] *= 0.05  # cast shadows
+    shading[rng.random(shading.shape) < 0.05] += 0.8  # highlights
+    images = shading * rng.uniform(0.2, 0.6, n) / shading.max()
+    if colour:
+        images = images[..., None] * np.array([1.0, 0.8, 0.6])
+    images = images + rng.normal(0, 0.004, images.shape)
+    images[:, 10:13] = 0.0  # dark pixels
+    if np.issubdtype(dtype, np.integer):
+        top = np.iinfo(dtype).max
+        images = np.round(np.clip(images, 0, 1) * top)
+        images[:4, 20] = top  # 4 observations clipped
+        images[:14, 21] = top  # 14 clipped: too few lamps left
+    images = images.astype(dtype).reshape((N_LIGHTS, 1, n) + ((3,) if colour else ()))
+    stack = check_stack(images, N_LIGHTS, None)
+    return _read_chunk(stack, slice(0, n), 0.01), lights
+
+
+def numpy_near_sums(obs, grey, usable, all_usable, lights, options):
+    """:func:`_block._near_sums` in numpy: einsums and batched eigenvalues."""
+    n = grey.shape[1]
+    a_full = _system.normal_matrix(lights, np.ones(grey.shape))
+    weights = _weights(grey, usable, lights, all_usable, options)
+    w = np.ones(grey.shape) if weights is None else weights.astype(np.float64)
+    a = _system.normal_matrix(lights, w)
+    g = _system.moment(lights, w, obs)
+    wobs = obs * (w[..., None] if obs.ndim == 3 else w)
+    e = np.einsum("ln...,ln...->n...", wobs, obs)
+    upper = a.reshape(n, 9)[:, [0, 1, 2, 4, 5, 8]].T
+    moment = g[..., None] if g.ndim == 2 else g
+    energy = e[:, None] if e.ndim == 1 else e
+    sums = (upper, moment.transpose(2, 1, 0), energy.T, w.sum(axis=0), np.count_nonzero(w, 0))
+    return _system.condition(a_full), tuple(np.ascontiguousarray(s, float) for s in sums)
+
+
+@pytest.mark.parametrize("n_lights", [3, 5, 9])
+@pytest.mark.parametrize("channels", [0, 1, 3])
+def test_near_weighted_sums_match_the_einsums(n_lights, channels):
+    rng = np.random.default_rng(n_lights + channels)
+    n = 1100
+    weights = rng.random((n_lights, n)).astype(np.float32)
+    weights[rng.random(weights.shape) < 0.3] = 0
+    planes = rng.random((channels, n_lights, n))
+    lights = rng.normal(0, 1, (n_lights, n, 3))
+    sums = sum_arrays(n, channels)
+    near_weighted_sums(weights, planes, np.ascontiguousarray(np.moveaxis(lights, 2, 0)), *sums)
+    w = weights.astype(np.float64)
+    a = _system.normal_matrix(lights, w)
+    assert_allclose(sums[0], a.reshape(n, 9)[:, [0, 1, 2, 4, 5, 8]].T, rtol=1e-12, atol=1e-12)
+    assert_allclose(sums[1], np.einsum("lni,ln,cln->cin", lights, w, planes), rtol=1e-12,
+                    atol=1e-12)  # fmt: skip
+    assert_allclose(sums[2], np.einsum("ln,cln->cn", w, planes**2), rtol=1e-12, atol=1e-12)
+    assert_allclose(sums[3], w.sum(axis=0), rtol=1e-12)
+    assert_array_equal(sums[4], np.count_nonzero(weights, axis=0))
+
+
+@pytest.mark.parametrize("distance_mm", [15.0, 60.0, 1000.0])
+@pytest.mark.parametrize(("dtype", "colour"), [(np.float64, False), (np.uint8, True)])
+@pytest.mark.parametrize("method", ["lsq", "threshold", "irls"])
+def test_compiled_near_route_matches_the_numpy_route(
+    distance_mm, dtype, colour, method, monkeypatch
+):
+    chunk, lights = near_scene(distance_mm, dtype, colour)
+    options = _check_options(method, 0.01, 100.0, 0.05, 0.1, 3)
+    compiled = solve_block(*chunk, lights, None, options)
+    monkeypatch.setattr(_block, "_near_sums", numpy_near_sums)
+    reference = solve_block(*chunk, lights, None, options)
+    assert_array_equal(compiled["reason"], reference["reason"])
+    reasons = set(compiled["reason"].tolist())
+    assert {Reason.OK, Reason.DARK, Reason.COPLANAR_LIGHTS} <= reasons
+    if dtype == np.uint8:
+        assert Reason.SATURATED in reasons
+    assert_array_equal(compiled["lights_used"], reference["lights_used"])
+    assert_allclose(compiled["normals"], reference["normals"], atol=1e-9)
+    assert_allclose(compiled["albedo"], reference["albedo"], rtol=1e-9, atol=1e-12)
+    # Exactly coplanar light vectors: a condition from rounding noise, > 1e6 both ways;
+    # otherwise the smallest eigenvalue is good to ~eps·λmax: rtol ~eps·cond² (1e-8 at 1e4).
+    singular = reference["condition"] > 1e6
+    assert (compiled["condition"][singular] > 1e6).all()
+    assert_allclose(compiled["condition"][~singular], reference["condition"][~singular], rtol=1e-6)
+    assert_allclose(compiled["residual"], reference["residual"], rtol=1e-6, atol=1e-9)
+
+
+def test_numpy_fit_is_the_reference_fit():
+    # The reference's fit is _fit from the numpy sums; the compiled route takes
+    # fit_from_sums, held to _fit in test_ps_routes. Here: one scene end to end.
+    chunk, lights = near_scene(60.0, np.float64, False)
+    obs, energy = chunk[0], chunk[1]
+    options = _check_options("lsq", 0.01, 100.0, 0.05, 0.1, 3)
+    a = _system.normal_matrix(lights, np.ones(obs.shape))
+    condition = _system.condition(a)
+    g = _system.moment(lights, None, obs)
+    used = np.full(obs.shape[1], N_LIGHTS)
+    normals, *_ = _fit(a, g, energy, used.astype(float), used, condition, 100.0)
+    compiled = solve_block(*chunk, lights, None, options)
+    ok = compiled["reason"] == Reason.OK
+    assert ok.mean() > 0.5
+    assert_allclose(compiled["normals"][ok], normals[ok], atol=1e-9)
