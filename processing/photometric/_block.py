@@ -111,17 +111,7 @@ def _distant_fit(
     """One light matrix (L, 3): condition and count of the lights used, and the fit."""
     n_lights, n = grey.shape
     if options.method == "irls":
-        # The reweighting and the fit's sums in one compiled pass.
-        _, sums = _robust.irls_fit(
-            _planes(obs),
-            grey,
-            usable,
-            lights,
-            shadow_fraction=options.shadow_fraction,
-            highlight_fraction=options.highlight_fraction,
-            iterations=options.irls_iterations,
-            max_condition=options.max_condition,
-        )
+        sums = _irls_sums(_planes(obs), grey, usable, lights, options)
     else:
         weights = _weights(grey, usable, lights, all_usable, options)
         if weights is None:  # every observation, unit weight
@@ -150,16 +140,33 @@ def _near_sums(obs, grey, usable, all_usable: bool, lights, options) -> tuple:
     light_planes = np.ascontiguousarray(np.moveaxis(lights, 2, 0))
     planes = _planes(obs)
     unit = np.ones((n_lights, n), np.float32)
-    weights = _weights(grey, usable, lights, all_usable, options)
-    sums = sum_arrays(n, planes.shape[0])
-    near_weighted_sums(
-        unit if weights is None else np.ascontiguousarray(weights), planes, light_planes, *sums
-    )
-    if weights is None:  # every observation, unit weight: the fit's own sums
-        return _conditions(sums[0]), sums
+    if options.method == "irls":
+        sums = _irls_sums(planes, grey, usable, light_planes, options)
+    else:
+        weights = _weights(grey, usable, lights, all_usable, options)
+        sums = sum_arrays(n, planes.shape[0])
+        near_weighted_sums(
+            unit if weights is None else np.ascontiguousarray(weights), planes, light_planes, *sums
+        )
+        if weights is None:  # every observation, unit weight: the fit's own sums
+            return _conditions(sums[0]), sums
     full = sum_arrays(n, 0)
     near_weighted_sums(unit, planes[:0], light_planes, *full)
     return _conditions(full[0]), sums
+
+
+def _irls_sums(planes, grey, usable, lights, options) -> tuple:
+    """The IRLS reweighting and the fit's sums in one compiled pass (:func:`._robust.irls_fit`)."""
+    return _robust.irls_fit(
+        planes,
+        grey,
+        usable,
+        lights,
+        shadow_fraction=options.shadow_fraction,
+        highlight_fraction=options.highlight_fraction,
+        iterations=options.irls_iterations,
+        max_condition=options.max_condition,
+    )[1]
 
 
 def _weights(grey, usable, lights, all_usable: bool, options) -> np.ndarray | None:

@@ -1,9 +1,11 @@
 """Near lamps: the compiled per-pixel route gives the numpy route's answer.
 
-With a light vector per pixel, the sums of the fit and the conditions run
-compiled (``_near_kernel``). The reference here takes the same steps in
-numpy: the per-pixel normal matrices, moments and energies as einsums, the
-conditions from batched eigenvalues, the fit by ``_block._fit``.
+With a light vector per pixel, the IRLS reweighting, the sums of the fit and
+the conditions run compiled (``_irls_kernel``, ``_near_kernel``). The
+reference here takes the same steps in numpy (``ps_numpy_route``): the IRLS
+steps with a sort per pixel, the per-pixel normal matrices, moments and
+energies as einsums, the conditions from batched eigenvalues, the fit by
+``_block._fit``.
 """
 
 import numpy as np
@@ -15,7 +17,13 @@ from processing.photometric._block import _fit, _weights, solve_block
 from processing.photometric._inputs import check_stack
 from processing.photometric._kernels import sum_arrays
 from processing.photometric._near_kernel import near_weighted_sums
+from processing.photometric._robust import reference_level
 from processing.photometric._solve import _check_options, _read_chunk
+from tests.processing.photometric.ps_numpy_route import (
+    condition,
+    irls_weights_stepwise,
+    normal_matrix,
+)
 from tests.processing.photometric.ps_synthetic import ring_directions
 
 N_LIGHTS = 16
@@ -65,12 +73,23 @@ def near_scene(distance_mm, dtype, colour, seed=0):
 
 
 def numpy_near_sums(obs, grey, usable, all_usable, lights, options):
-    """:func:`_block._near_sums` in numpy: einsums and batched eigenvalues."""
+    """:func:`_block._near_sums` in numpy: the numpy IRLS steps, einsums, batched eigenvalues."""
     n = grey.shape[1]
-    a_full = _system.normal_matrix(lights, np.ones(grey.shape))
-    weights = _weights(grey, usable, lights, all_usable, options)
+    a_full = normal_matrix(lights, np.ones(grey.shape))
+    if options.method == "irls":
+        weights = irls_weights_stepwise(
+            grey,
+            usable,
+            lights,
+            shadow_fraction=options.shadow_fraction,
+            highlight_fraction=options.highlight_fraction,
+            iterations=options.irls_iterations,
+            max_condition=options.max_condition,
+        )
+    else:
+        weights = _weights(grey, usable, lights, all_usable, options)
     w = np.ones(grey.shape) if weights is None else weights.astype(np.float64)
-    a = _system.normal_matrix(lights, w)
+    a = normal_matrix(lights, w)
     g = _system.moment(lights, w, obs)
     wobs = obs * (w[..., None] if obs.ndim == 3 else w)
     e = np.einsum("ln...,ln...->n...", wobs, obs)
@@ -78,7 +97,17 @@ def numpy_near_sums(obs, grey, usable, all_usable, lights, options):
     moment = g[..., None] if g.ndim == 2 else g
     energy = e[:, None] if e.ndim == 1 else e
     sums = (upper, moment.transpose(2, 1, 0), energy.T, w.sum(axis=0), np.count_nonzero(w, 0))
-    return _system.condition(a_full), tuple(np.ascontiguousarray(s, float) for s in sums)
+    return condition(a_full), tuple(np.ascontiguousarray(s, float) for s in sums)
+
+
+def _floor_ties(obs, options):
+    """Pixels with an observation whose support differs in float32 and float64."""
+    grey = obs.mean(axis=2) if obs.ndim == 3 else obs
+    floor = options.shadow_fraction * reference_level(grey, options.highlight_fraction)
+    floor32 = options.shadow_fraction * reference_level(
+        grey.astype(np.float32), options.highlight_fraction
+    ).astype(np.float64)
+    return ((grey >= floor) != (grey.astype(np.float32) >= floor32)).any(axis=0)
 
 
 @pytest.mark.parametrize("n_lights", [3, 5, 9])
@@ -93,7 +122,7 @@ def test_near_weighted_sums_match_the_einsums(n_lights, channels):
     sums = sum_arrays(n, channels)
     near_weighted_sums(weights, planes, np.ascontiguousarray(np.moveaxis(lights, 2, 0)), *sums)
     w = weights.astype(np.float64)
-    a = _system.normal_matrix(lights, w)
+    a = normal_matrix(lights, w)
     assert_allclose(sums[0], a.reshape(n, 9)[:, [0, 1, 2, 4, 5, 8]].T, rtol=1e-12, atol=1e-12)
     assert_allclose(sums[1], np.einsum("lni,ln,cln->cin", lights, w, planes), rtol=1e-12,
                     atol=1e-12)  # fmt: skip
@@ -113,20 +142,52 @@ def test_compiled_near_route_matches_the_numpy_route(
     compiled = solve_block(*chunk, lights, None, options)
     monkeypatch.setattr(_block, "_near_sums", numpy_near_sums)
     reference = solve_block(*chunk, lights, None, options)
+    if method == "irls":
+        # The compiled reweighting compares its float32 copy of the observations
+        # with the shadow floor (5 % of the reference level), the numpy steps the
+        # float64 values: where 8-bit levels sit exactly on the floor the two
+        # support decisions differ and the iterations part. Those pixels aside.
+        ties = _floor_ties(chunk[0], options)
+        assert ties.mean() < 0.05
+        compiled = {key: value[~ties] for key, value in compiled.items()}
+        reference = {key: value[~ties] for key, value in reference.items()}
     assert_array_equal(compiled["reason"], reference["reason"])
     reasons = set(compiled["reason"].tolist())
     assert {Reason.OK, Reason.DARK, Reason.COPLANAR_LIGHTS} <= reasons
     if dtype == np.uint8:
         assert Reason.SATURATED in reasons
-    assert_array_equal(compiled["lights_used"], reference["lights_used"])
-    assert_allclose(compiled["normals"], reference["normals"], atol=1e-9)
-    assert_allclose(compiled["albedo"], reference["albedo"], rtol=1e-9, atol=1e-12)
+    # lsq, threshold: the same weights, float64 sums in another order. irls: float32
+    # reweighting with sums in another order, weights equal to ~3e-4 (normals seen
+    # to ~1e-4), the same tolerances as distant lamps against the numpy steps.
+    normal, albedo, cond, residual = (
+        (1e-3, 1e-3, 1e-3, (1e-2, 1e-5)) if method == "irls" else (1e-9, 1e-9, 1e-6, (1e-6, 1e-9))
+    )
     # Exactly coplanar light vectors: a condition from rounding noise, > 1e6 both ways;
     # otherwise the smallest eigenvalue is good to ~eps·λmax: rtol ~eps·cond² (1e-8 at 1e4).
     singular = reference["condition"] > 1e6
-    assert (compiled["condition"][singular] > 1e6).all()
-    assert_allclose(compiled["condition"][~singular], reference["condition"][~singular], rtol=1e-6)
-    assert_allclose(compiled["residual"], reference["residual"], rtol=1e-6, atol=1e-9)
+    agree = (
+        (compiled["reason"] == reference["reason"])
+        & (compiled["lights_used"] == reference["lights_used"])
+        & _close(compiled["normals"], reference["normals"], 0.0, normal)
+        & _close(compiled["albedo"], reference["albedo"], albedo, 1e-8)
+        & np.where(
+            singular,
+            compiled["condition"] > 1e6,
+            _close(compiled["condition"], reference["condition"], cond, 0.0),
+        )
+        # a residual near 0 is the root of a cancelling difference of sums
+        & _close(compiled["residual"], reference["residual"], *residual)
+    )
+    # irls: an observation's weight near a cut (the biweight's edge, the attached
+    # shadow test) may fall the other way in float32 and part the iterations (8-bit
+    # levels tie often).
+    assert (~agree).mean() <= (0.01 if method == "irls" else 0.0)  # irls: 0.65 % seen
+
+
+def _close(actual, desired, rtol, atol):
+    """Per pixel: every value within ``atol + rtol·|desired|`` (over channels or axes)."""
+    ok = np.abs(actual - desired) <= atol + rtol * np.abs(desired)
+    return ok.reshape(len(ok), -1).all(axis=1)
 
 
 def test_numpy_fit_is_the_reference_fit():
@@ -135,11 +196,11 @@ def test_numpy_fit_is_the_reference_fit():
     chunk, lights = near_scene(60.0, np.float64, False)
     obs, energy = chunk[0], chunk[1]
     options = _check_options("lsq", 0.01, 100.0, 0.05, 0.1, 3)
-    a = _system.normal_matrix(lights, np.ones(obs.shape))
-    condition = _system.condition(a)
+    a = normal_matrix(lights, np.ones(obs.shape))
+    cond = condition(a)
     g = _system.moment(lights, None, obs)
     used = np.full(obs.shape[1], N_LIGHTS)
-    normals, *_ = _fit(a, g, energy, used.astype(float), used, condition, 100.0)
+    normals, *_ = _fit(a, g, energy, used.astype(float), used, cond, 100.0)
     compiled = solve_block(*chunk, lights, None, options)
     ok = compiled["reason"] == Reason.OK
     assert ok.mean() > 0.5
