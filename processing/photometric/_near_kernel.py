@@ -4,11 +4,13 @@ Near lamps give every pixel its own light vectors, taken here as three
 C-contiguous planes ``(3, L, n)`` (x, y, z of every light and pixel), so each
 inner loop runs over contiguous pixels of one light, as in :mod:`._kernels`;
 the sums are those of :func:`._kernels.weighted_sums`, with ``s`` varying
-along the pixels.
+along the pixels. The planes themselves are computed here too, from the lamp
+positions and the surface points.
 """
 
 from __future__ import annotations
 
+import numpy as np
 from numba import njit
 
 from ._kernels import TILE
@@ -81,3 +83,26 @@ def near_weighted_sums_tile(
                 g2[i] += s2[i] * wi
             for i in range(m):
                 e[i] += w[i] * row[i] * row[i]
+
+
+@njit(cache=True, nogil=True, fastmath=_CONTRACT)
+def near_light_planes(positions, gain, points, out):
+    """Light vectors of point lamps at every point, as x, y, z planes.
+
+    positions : (L, 3) float64 lamp positions; gain : (L,) float64, brightness ×
+    r0² of each lamp; points : (3, n) float64 surface points (x, y, z rows).
+    Out: out (3, L, n) float64, ``(p_l − x) · gain_l / |p_l − x|³``: the unit
+    direction to the lamp × brightness × (r0 / r)².
+    """
+    n_lights, n = positions.shape[0], points.shape[1]
+    px, py, pz = points[0], points[1], points[2]
+    for light in range(n_lights):
+        lx, ly, lz, g = positions[light, 0], positions[light, 1], positions[light, 2], gain[light]
+        ox, oy, oz = out[0, light], out[1, light], out[2, light]
+        for i in range(n):
+            dx, dy, dz = lx - px[i], ly - py[i], lz - pz[i]
+            r2 = dx * dx + dy * dy + dz * dz
+            scale = g / (r2 * np.sqrt(r2))
+            ox[i] = dx * scale
+            oy[i] = dy * scale
+            oz[i] = dz * scale

@@ -141,3 +141,12 @@ def median(magnitude: np.ndarray, support: np.ndarray) -> np.ndarray:
     hi = np.take_along_axis(rows, upper[:, None], axis=1)[:, 0]
     median = 0.5 * (lo.astype(np.float64) + hi)
     return np.where(count > 0, median, 0.0)
+
+
+def near_light_vectors(positions_mm, brightness, points_mm):
+    """Point lamps' light vectors (L, N, 3): unit direction × brightness × (r0 / r)²."""
+    to_lamp = positions_mm[:, None, :] - points_mm[None, :, :]
+    r2 = np.einsum("lni,lni->ln", to_lamp, to_lamp)
+    r0_sq = np.einsum("li,li->l", positions_mm, positions_mm)
+    scale = (brightness * r0_sq)[:, None] / (r2 * np.sqrt(r2))
+    return to_lamp * scale[..., None]

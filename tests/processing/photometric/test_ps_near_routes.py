@@ -22,6 +22,7 @@ from processing.photometric._solve import _check_options, _read_chunk
 from tests.processing.photometric.ps_numpy_route import (
     condition,
     irls_weights_stepwise,
+    near_light_vectors,
     normal_matrix,
 )
 from tests.processing.photometric.ps_synthetic import ring_directions
@@ -188,6 +189,19 @@ def _close(actual, desired, rtol, atol):
     """Per pixel: every value within ``atol + rtol·|desired|`` (over channels or axes)."""
     ok = np.abs(actual - desired) <= atol + rtol * np.abs(desired)
     return ok.reshape(len(ok), -1).all(axis=1)
+
+
+@pytest.mark.parametrize("distance_mm", [15.0, 60.0, 1000.0])
+def test_compiled_light_vectors_match_the_numpy_formula(distance_mm):
+    rng = np.random.default_rng(1)
+    points = np.column_stack([rng.uniform(-10, 10, (500, 2)), rng.uniform(-2, 2, 500)])
+    positions = lamp_positions(distance_mm)
+    intensities = rng.uniform(0.5, 2.0, N_LIGHTS)
+    lights = NearLights(positions, intensities).light_vectors(points)
+    assert lights.shape == (N_LIGHTS, 500, 3)
+    # the x, y, z planes the compiled route reads, without a copy
+    assert np.moveaxis(lights, 2, 0).flags.c_contiguous
+    assert_allclose(lights, near_light_vectors(positions, intensities, points), rtol=1e-13)
 
 
 def test_numpy_fit_is_the_reference_fit():
