@@ -238,7 +238,7 @@ def _planes(obs: np.ndarray) -> np.ndarray:
 
 
 def _conditions(upper: np.ndarray) -> np.ndarray:
-    """:func:`._system.condition` of the compiled sums' normal matrices, compiled: (n,)."""
+    """Conditions (:func:`._kernels.condition3`) of the compiled sums' normal matrices: (n,)."""
     out = np.empty(upper.shape[1])
     conditions(upper, out)
     return out
