@@ -20,7 +20,7 @@ import numpy as np
 from numba import njit
 
 from ._kernels import condition3, weighted_sums_tile
-from ._near_kernel import near_weighted_sums_tile
+from ._near_kernel import near_light_sums, near_weighted_sums_tile
 
 #: Pixels per tile: the tile's keys, residuals, weights and support (L × TILE
 #: each) stay in L2 through the selection passes.
@@ -177,7 +177,7 @@ def _weighted_fit(weights, grey, lights, t0, m, max_condition, fit):
     if lights.ndim == 2:  # one light matrix (pruned when compiled)
         _shared_light_sums(weights, grey, lights, t0, m, sums)
     else:
-        _per_pixel_light_sums(weights, grey, lights, t0, m, sums)
+        near_light_sums(weights, grey, lights, t0, m, sums)
     for i in range(m):
         a00, a01, a02 = np.float64(sums[0, i]), np.float64(sums[1, i]), np.float64(sums[2, i])
         a11, a12, a22 = np.float64(sums[3, i]), np.float64(sums[4, i]), np.float64(sums[5, i])
@@ -251,35 +251,6 @@ def _shared_light_sums(weights, grey, lights, t0, m, sums):
             g0s[i] += s0 * wg
             g1s[i] += s1 * wg
             g2s[i] += s2 * wg
-
-
-@njit(cache=True, nogil=True, fastmath=_CONTRACT)
-def _per_pixel_light_sums(weights, grey, lights, t0, m, sums):
-    """:func:`_shared_light_sums` with a light vector per pixel, lights (3, L, n)."""
-    n_lights = grey.shape[0]
-    m00, m01, m02, m11, m12, m22 = sums[0], sums[1], sums[2], sums[3], sums[4], sums[5]
-    g0s, g1s, g2s = sums[6], sums[7], sums[8]
-    for light in range(n_lights):
-        w = weights[light, t0 : t0 + m]
-        row = grey[light, :m]
-        s0 = lights[0, light, t0 : t0 + m]
-        s1 = lights[1, light, t0 : t0 + m]
-        s2 = lights[2, light, t0 : t0 + m]
-        for i in range(m):
-            ws = w[i] * s0[i]
-            m00[i] += ws * s0[i]
-            m01[i] += ws * s1[i]
-            m02[i] += ws * s2[i]
-        for i in range(m):
-            ws = w[i] * s1[i]
-            m11[i] += ws * s1[i]
-            m12[i] += ws * s2[i]
-            m22[i] += w[i] * s2[i] * s2[i]
-        for i in range(m):
-            wg = w[i] * row[i]
-            g0s[i] += s0[i] * wg
-            g1s[i] += s1[i] * wg
-            g2s[i] += s2[i] * wg
 
 
 @njit(cache=True, nogil=True)

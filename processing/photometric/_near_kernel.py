@@ -4,8 +4,9 @@ Near lamps give every pixel its own light vectors, taken here as three
 C-contiguous planes ``(3, L, n)`` (x, y, z of every light and pixel), so each
 inner loop runs over contiguous pixels of one light, as in :mod:`._kernels`;
 the sums are those of :func:`._kernels.weighted_sums`, with ``s`` varying
-along the pixels. The planes themselves are computed here too, from the lamp
-positions and the surface points.
+along the pixels, and the float32 sums of the IRLS steps
+(:func:`._irls_kernel.irls_fit_kernel` takes either light layout). The planes
+themselves are computed here too, from the lamp positions and the surface points.
 """
 
 from __future__ import annotations
@@ -106,3 +107,36 @@ def near_light_planes(positions, gain, points, out):
             ox[i] = dx * scale
             oy[i] = dy * scale
             oz[i] = dz * scale
+
+
+@njit(cache=True, nogil=True, fastmath=_CONTRACT)
+def near_light_sums(weights, grey, lights, t0, m, sums):
+    """Float32 ``Σ w s sᵀ`` (6 rows) and ``Σ w I s`` (3 rows) of a tile for the IRLS steps.
+
+    weights : (L, n), pixels ``t0 … t0 + m``; grey : (L, ≥ m), the tile's
+    observations; lights : (3, L, n) float32; sums : (9, m) float32, added to.
+    """
+    n_lights = grey.shape[0]
+    m00, m01, m02, m11, m12, m22 = sums[0], sums[1], sums[2], sums[3], sums[4], sums[5]
+    g0s, g1s, g2s = sums[6], sums[7], sums[8]
+    for light in range(n_lights):
+        w = weights[light, t0 : t0 + m]
+        row = grey[light, :m]
+        s0 = lights[0, light, t0 : t0 + m]
+        s1 = lights[1, light, t0 : t0 + m]
+        s2 = lights[2, light, t0 : t0 + m]
+        for i in range(m):
+            ws = w[i] * s0[i]
+            m00[i] += ws * s0[i]
+            m01[i] += ws * s1[i]
+            m02[i] += ws * s2[i]
+        for i in range(m):
+            ws = w[i] * s1[i]
+            m11[i] += ws * s1[i]
+            m12[i] += ws * s2[i]
+            m22[i] += w[i] * s2[i] * s2[i]
+        for i in range(m):
+            wg = w[i] * row[i]
+            g0s[i] += s0[i] * wg
+            g1s[i] += s1[i] * wg
+            g2s[i] += s2[i] * wg
