@@ -12,6 +12,7 @@ import numpy as np
 
 from . import _robust, _system
 from ._kernels import conditions, fit_from_sums, sum_arrays, weighted_sums
+from ._near_kernel import near_weighted_sums
 from ._result import CONDITION_CAP, Reason
 
 
@@ -54,60 +55,19 @@ def solve_block(
     n_unsaturated = n_lights - (clipped.sum(axis=0) if clipped is not None else 0)
     usable = ~clipped if clipped is not None else np.ones(grey.shape, bool)
 
-    if lights.ndim == 2:
+    if lights.ndim == 3:
+        condition_full, sums = _near_sums(obs, grey, usable, clipped is None, lights, options)
+        used = sums[4].astype(np.int64)
+        condition_used = _conditions(sums[0])
+        normals, albedo, residual, positive = _fit_compiled(
+            sums, condition_used, options.max_condition
+        )
+    else:
         condition_full = np.full(n, shared_condition)
         if shared_condition > options.max_condition:
             return _coplanar(n, colour, condition_full)
-    else:
-        a_full = _system.normal_matrix(lights, np.ones((n_lights, n)))
-        condition_full = _system.condition(a_full)
-
-    sums = None  # the compiled sums of one shared light matrix, where a weighted solve has them
-    if options.method == "irls" and lights.ndim == 2:
-        # One light matrix: the reweighting and the fit's sums in one compiled pass.
-        _, sums = _robust.irls_fit(
-            _planes(obs),
-            grey,
-            usable,
-            lights,
-            shadow_fraction=options.shadow_fraction,
-            highlight_fraction=options.highlight_fraction,
-            iterations=options.irls_iterations,
-            max_condition=options.max_condition,
-        )
-        used = sums[4].astype(np.int64)
-        condition_used = _conditions(sums[0])
-    else:
-        weights = _weights(grey, usable, lights, clipped is None, options)
-        if weights is None:  # every observation, unit weight
-            condition_used = condition_full
-            a = np.broadcast_to(lights.T @ lights, (n, 3, 3)) if lights.ndim == 2 else a_full
-            g = _system.moment(lights, None, obs)
-            e = energy
-            weight_sum = np.full(n, float(n_lights))
-            used = np.full(n, n_lights)
-        elif lights.ndim == 2:  # one light matrix: all the sums in one compiled pass
-            planes = _planes(obs)
-            sums = sum_arrays(n, planes.shape[0])
-            weighted_sums(np.ascontiguousarray(weights), planes, lights, *sums)
-            used = sums[4].astype(np.int64)
-            condition_used = _conditions(sums[0])
-        else:
-            a = _system.normal_matrix(lights, weights)
-            condition_used = _system.condition(a)
-            g = _system.moment(lights, weights, obs)
-            wobs = obs * (weights[..., None] if colour else weights)
-            e = np.einsum("ln...,ln...->n...", wobs, obs)
-            weight_sum = weights.sum(axis=0)
-            used = np.count_nonzero(weights, axis=0)
-
-    if sums is None:
-        normals, albedo, residual, positive = _fit(
-            a, g, e, weight_sum, used, condition_used, options.max_condition
-        )
-    else:
-        normals, albedo, residual, positive = _fit_compiled(
-            sums, condition_used, options.max_condition
+        condition_used, used, (normals, albedo, residual, positive) = _distant_fit(
+            obs, energy, grey, usable, clipped is None, lights, shared_condition, options
         )
 
     reason = np.select(
@@ -143,6 +103,70 @@ def solve_block(
         "residual": np.where(valid, residual, 0.0),
         "lights_used": used.astype(np.uint16),
     }
+
+
+def _distant_fit(
+    obs, energy, grey, usable, all_usable: bool, lights, shared_condition, options
+) -> tuple:
+    """One light matrix (L, 3): condition and count of the lights used, and the fit."""
+    n_lights, n = grey.shape
+    if options.method == "irls":
+        sums = _irls_sums(_planes(obs), grey, usable, lights, options)
+    else:
+        weights = _weights(grey, usable, lights, all_usable, options)
+        if weights is None:  # every observation, unit weight
+            condition_used = np.full(n, shared_condition)
+            a = np.broadcast_to(lights.T @ lights, (n, 3, 3))
+            g = _system.moment(lights, None, obs)
+            used = np.full(n, n_lights)
+            fit = _fit(a, g, energy, np.full(n, float(n_lights)), used, condition_used,
+                       options.max_condition)  # fmt: skip
+            return condition_used, used, fit
+        planes = _planes(obs)
+        sums = sum_arrays(n, planes.shape[0])
+        weighted_sums(np.ascontiguousarray(weights), planes, lights, *sums)
+    condition_used = _conditions(sums[0])
+    fit = _fit_compiled(sums, condition_used, options.max_condition)
+    return condition_used, sums[4].astype(np.int64), fit
+
+
+def _near_sums(obs, grey, usable, all_usable: bool, lights, options) -> tuple:
+    """Light vectors per pixel (L, n, 3): the conditions of all lights, and the fit's sums.
+
+    Both compiled (:func:`._near_kernel.near_weighted_sums`); returns
+    ``condition_full`` (n,) and the sums as :func:`._kernels.weighted_sums` gives them.
+    """
+    n_lights, n = grey.shape
+    light_planes = np.ascontiguousarray(np.moveaxis(lights, 2, 0))
+    planes = _planes(obs)
+    unit = np.ones((n_lights, n), np.float32)
+    if options.method == "irls":
+        sums = _irls_sums(planes, grey, usable, light_planes, options)
+    else:
+        weights = _weights(grey, usable, lights, all_usable, options)
+        sums = sum_arrays(n, planes.shape[0])
+        near_weighted_sums(
+            unit if weights is None else np.ascontiguousarray(weights), planes, light_planes, *sums
+        )
+        if weights is None:  # every observation, unit weight: the fit's own sums
+            return _conditions(sums[0]), sums
+    full = sum_arrays(n, 0)
+    near_weighted_sums(unit, planes[:0], light_planes, *full)
+    return _conditions(full[0]), sums
+
+
+def _irls_sums(planes, grey, usable, lights, options) -> tuple:
+    """The IRLS reweighting and the fit's sums in one compiled pass (:func:`._robust.irls_fit`)."""
+    return _robust.irls_fit(
+        planes,
+        grey,
+        usable,
+        lights,
+        shadow_fraction=options.shadow_fraction,
+        highlight_fraction=options.highlight_fraction,
+        iterations=options.irls_iterations,
+        max_condition=options.max_condition,
+    )[1]
 
 
 def _weights(grey, usable, lights, all_usable: bool, options) -> np.ndarray | None:
@@ -214,7 +238,7 @@ def _planes(obs: np.ndarray) -> np.ndarray:
 
 
 def _conditions(upper: np.ndarray) -> np.ndarray:
-    """:func:`._system.condition` of the compiled sums' normal matrices, compiled: (n,)."""
+    """Conditions (:func:`._kernels.condition3`) of the compiled sums' normal matrices: (n,)."""
     out = np.empty(upper.shape[1])
     conditions(upper, out)
     return out

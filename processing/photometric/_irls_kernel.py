@@ -20,6 +20,7 @@ import numpy as np
 from numba import njit
 
 from ._kernels import condition3, weighted_sums_tile
+from ._near_kernel import near_light_sums, near_weighted_sums_tile
 
 #: Pixels per tile: the tile's keys, residuals, weights and support (L × TILE
 #: each) stay in L2 through the selection passes.
@@ -49,7 +50,8 @@ def irls_fit_kernel(grey, usable, lights, rank, settings, out, planes, lights64,
     ----------
     grey : (L, n) float32 or float64, C-contiguous
     usable : (L, n) bool, C-contiguous (False: clipped)
-    lights : (L, 3) float32
+    lights : (L, 3) float32, or (3, L, n) float32
+        One light matrix, or a light vector per pixel (x, y, z planes: near lamps).
     rank : int
         Order of the reference level among a pixel's observations.
     settings : (6,) float64
@@ -59,7 +61,8 @@ def irls_fit_kernel(grey, usable, lights, rank, settings, out, planes, lights64,
         The weights.
     planes : (C, L, n) float64
         The observations per channel the final sums take (grey: ``grey[None]``).
-    lights64 : (L, 3) float64
+    lights64 : (L, 3) or (3, L, n) float64
+        The same lights in float64.
     sums : tuple of arrays
         Out: ``upper, moment, energy, weight_sum, used`` as
         :func:`._kernels.weighted_sums` fills them.
@@ -110,7 +113,6 @@ def irls_fit_kernel(grey, usable, lights, rank, settings, out, planes, lights64,
             _weighted_fit(out, tile, lights, t0, m, max_condition, fit)
             count[:m] = 0
             for light in range(n_lights):
-                s0, s1, s2 = lights[light, 0], lights[light, 1], lights[light, 2]
                 row = tile[light, :m]
                 w = out[light, t0 : t0 + m]
                 sup = support[light]
@@ -118,10 +120,20 @@ def irls_fit_kernel(grey, usable, lights, rank, settings, out, planes, lights64,
                 # |residual|, negated where the observation is out of the next
                 # weights (unsupported, or in attached shadow under this fit):
                 # the biweight below then reads one array instead of five.
-                for i in range(m):
-                    predicted = s0 * f0[i] + s1 * f1[i] + s2 * f2[i]
-                    r = abs(row[i] - predicted)
-                    res[i] = r if sup[i] > 0 and predicted > shadow[i] else -r
+                if lights.ndim == 2:  # one light vector for the tile (pruned when compiled)
+                    s0, s1, s2 = lights[light, 0], lights[light, 1], lights[light, 2]
+                    for i in range(m):
+                        predicted = s0 * f0[i] + s1 * f1[i] + s2 * f2[i]
+                        r = abs(row[i] - predicted)
+                        res[i] = r if sup[i] > 0 and predicted > shadow[i] else -r
+                else:
+                    v0 = lights[0, light, t0 : t0 + m]
+                    v1 = lights[1, light, t0 : t0 + m]
+                    v2 = lights[2, light, t0 : t0 + m]
+                    for i in range(m):
+                        predicted = v0[i] * f0[i] + v1[i] * f1[i] + v2[i] * f2[i]
+                        r = abs(row[i] - predicted)
+                        res[i] = r if sup[i] > 0 and predicted > shadow[i] else -r
                 bits = res.view(np.int32)
                 key = keys[light]
                 for i in range(m):
@@ -145,9 +157,14 @@ def irls_fit_kernel(grey, usable, lights, rank, settings, out, planes, lights64,
                     u = res[i] * inverse[i]
                     t = max(np.float32(1.0) - u * u, np.float32(0.0))
                     w[i] = t * t if bits[i] >= 0 else np.float32(0.0)
-        weighted_sums_tile(
-            out, planes, lights64, t0, m, upper_sums, moment, energy, weight_sum, used
-        )
+        if lights64.ndim == 2:
+            weighted_sums_tile(
+                out, planes, lights64, t0, m, upper_sums, moment, energy, weight_sum, used
+            )
+        else:
+            near_weighted_sums_tile(
+                out, planes, lights64, t0, m, upper_sums, moment, energy, weight_sum, used
+            )
 
 
 @njit(cache=True, nogil=True, fastmath=_CONTRACT)
@@ -156,8 +173,34 @@ def _weighted_fit(weights, grey, lights, t0, m, max_condition, fit):
 
     weights : (L, n), pixels ``t0 … t0 + m``; grey : (L, ≥ m), the tile's observations.
     """
-    n_lights = grey.shape[0]
     sums = np.zeros((9, m), np.float32)
+    if lights.ndim == 2:  # one light matrix (pruned when compiled)
+        _shared_light_sums(weights, grey, lights, t0, m, sums)
+    else:
+        near_light_sums(weights, grey, lights, t0, m, sums)
+    for i in range(m):
+        a00, a01, a02 = np.float64(sums[0, i]), np.float64(sums[1, i]), np.float64(sums[2, i])
+        a11, a12, a22 = np.float64(sums[3, i]), np.float64(sums[4, i]), np.float64(sums[5, i])
+        g0, g1, g2 = np.float64(sums[6, i]), np.float64(sums[7, i]), np.float64(sums[8, i])
+        c00 = a11 * a22 - a12 * a12
+        c01 = a02 * a12 - a01 * a22
+        c02 = a01 * a12 - a02 * a11
+        c11 = a00 * a22 - a02 * a02
+        c12 = a01 * a02 - a00 * a12
+        c22 = a00 * a11 - a01 * a01
+        det = a00 * c00 + a01 * c01 + a02 * c02
+        if det != 0 and _within_condition(a00, a01, a02, a11, a12, a22, det, max_condition):
+            fit[0, i] = (c00 * g0 + c01 * g1 + c02 * g2) / det
+            fit[1, i] = (c01 * g0 + c11 * g1 + c12 * g2) / det
+            fit[2, i] = (c02 * g0 + c12 * g1 + c22 * g2) / det
+        else:
+            fit[0, i] = fit[1, i] = fit[2, i] = 0.0
+
+
+@njit(cache=True, nogil=True, fastmath=_CONTRACT)
+def _shared_light_sums(weights, grey, lights, t0, m, sums):
+    """Float32 ``Σ w s sᵀ`` (6 rows) and ``Σ w I s`` (3 rows) of a tile, lights (L, 3)."""
+    n_lights = grey.shape[0]
     m00, m01, m02, m11, m12, m22 = sums[0], sums[1], sums[2], sums[3], sums[4], sums[5]
     g0s, g1s, g2s = sums[6], sums[7], sums[8]
     # Four lights per loop: each accumulator is loaded and stored once per four
@@ -208,23 +251,6 @@ def _weighted_fit(weights, grey, lights, t0, m, max_condition, fit):
             g0s[i] += s0 * wg
             g1s[i] += s1 * wg
             g2s[i] += s2 * wg
-    for i in range(m):
-        a00, a01, a02 = np.float64(sums[0, i]), np.float64(sums[1, i]), np.float64(sums[2, i])
-        a11, a12, a22 = np.float64(sums[3, i]), np.float64(sums[4, i]), np.float64(sums[5, i])
-        g0, g1, g2 = np.float64(sums[6, i]), np.float64(sums[7, i]), np.float64(sums[8, i])
-        c00 = a11 * a22 - a12 * a12
-        c01 = a02 * a12 - a01 * a22
-        c02 = a01 * a12 - a02 * a11
-        c11 = a00 * a22 - a02 * a02
-        c12 = a01 * a02 - a00 * a12
-        c22 = a00 * a11 - a01 * a01
-        det = a00 * c00 + a01 * c01 + a02 * c02
-        if det != 0 and _within_condition(a00, a01, a02, a11, a12, a22, det, max_condition):
-            fit[0, i] = (c00 * g0 + c01 * g1 + c02 * g2) / det
-            fit[1, i] = (c01 * g0 + c11 * g1 + c12 * g2) / det
-            fit[2, i] = (c02 * g0 + c12 * g1 + c22 * g2) / det
-        else:
-            fit[0, i] = fit[1, i] = fit[2, i] = 0.0
 
 
 @njit(cache=True, nogil=True)

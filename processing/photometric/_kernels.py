@@ -367,8 +367,8 @@ def conditions(upper, out):
 def condition3(a00, a01, a02, a11, a12, a22):
     """sqrt(λmax/λmin) of a symmetric 3×3 matrix (its upper triangle).
 
-    The closed form of :func:`._system.condition` (Smith 1961); ``CONDITION_CAP``
-    where the matrix is singular or zero.
+    Closed-form eigenvalues of the characteristic cubic (Smith, CACM 4(4), 1961);
+    ``CONDITION_CAP`` where the matrix is singular or zero.
     """
     q = (a00 + a11 + a22) / 3.0
     off = a01 * a01 + a02 * a02 + a12 * a12

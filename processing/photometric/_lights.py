@@ -13,6 +13,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ._errors import PhotometricError
+from ._near_kernel import near_light_planes
 
 _UNIT_TOLERANCE = 1e-3
 
@@ -177,12 +178,14 @@ class NearLights:
         Returns
         -------
         (L, N, 3) float64
+            A view of x, y, z planes (3, L, N), the layout the compiled
+            per-pixel route reads.
         """
-        to_lamp = self.positions_mm[:, None, :] - points_mm[None, :, :]
-        r2 = np.einsum("lni,lni->ln", to_lamp, to_lamp)
         r0_sq = np.einsum("li,li->l", self.positions_mm, self.positions_mm)
-        scale = (_brightness(self.intensities) * r0_sq)[:, None] / (r2 * np.sqrt(r2))
-        return to_lamp * scale[..., None]
+        points = np.ascontiguousarray(np.asarray(points_mm, np.float64).T)
+        planes = np.empty((3, self.n_lights, points.shape[1]))
+        near_light_planes(self.positions_mm, _brightness(self.intensities) * r0_sq, points, planes)
+        return np.moveaxis(planes, 0, 2)
 
     def colour_balance(self) -> np.ndarray | None:
         """(L, 3) per-channel intensity ÷ brightness, or None for (L,) intensities."""

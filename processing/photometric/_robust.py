@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import numpy as np
 
-from . import _system
 from ._irls_kernel import irls_fit_kernel
 from ._kernels import sum_arrays
 
@@ -74,10 +73,9 @@ def irls_weights(
     or drop out (a cast shadow or a specular tail above the floor). The
     per-observation arrays of the iterations are float32 (half the memory
     traffic; weights need no more digits); the 3×3 systems are solved in
-    float64, and so is the final fit with these weights. Distant lamps (one
-    light matrix) run compiled (:func:`irls_fit`, whose sums are dropped
-    here); near lamps, with a light vector per pixel, run the same steps in
-    numpy.
+    float64, and so is the final fit with these weights. Compiled
+    (:func:`irls_fit`, whose sums are dropped here) for one light matrix
+    (L, 3) and for a light vector per pixel (L, n, 3).
     """
     options = {
         "shadow_fraction": shadow_fraction,
@@ -85,9 +83,9 @@ def irls_weights(
         "iterations": iterations,
         "max_condition": max_condition,
     }
-    if lights.ndim == 2:
-        return irls_fit(grey[None], grey, usable, lights, **options)[0]
-    return _irls_weights_stepwise(grey, usable, lights, **options)
+    if lights.ndim == 3:  # (L, n, 3) → x, y, z planes (3, L, n)
+        lights = np.ascontiguousarray(np.moveaxis(lights, 2, 0))
+    return irls_fit(grey[None], grey, usable, lights, **options)[0]
 
 
 def irls_fit(
@@ -101,7 +99,7 @@ def irls_fit(
     iterations: int,
     max_condition: float,
 ) -> tuple[np.ndarray, tuple]:
-    """IRLS weights with one light matrix, and the sums of the fit with them, compiled.
+    """IRLS weights and the sums of the fit with them, compiled.
 
     Parameters
     ----------
@@ -110,7 +108,9 @@ def irls_fit(
     grey : (L, n) float32 or float64
         The observations reweighted (colour: the mean over channels).
     usable : (L, n) bool
-    lights : (L, 3) float64
+    lights : (L, 3) float64, or (3, L, n) float64
+        One light matrix, or a light vector per pixel as x, y, z planes
+        (near lamps).
 
     Returns
     -------
@@ -138,57 +138,3 @@ def irls_fit(
         sums,
     )
     return weights, sums
-
-
-def _irls_weights_stepwise(
-    grey, usable, lights, *, shadow_fraction, highlight_fraction, iterations, max_condition
-) -> np.ndarray:
-    """:func:`irls_weights` with a light vector per pixel (L, n, 3), in numpy."""
-    ref = reference_level(grey, highlight_fraction)
-    support = usable & (grey >= shadow_fraction * ref)
-    weights = (support & (grey <= ref)).astype(np.float32)
-    floor = _SCALE_FLOOR * np.maximum(ref, 0.0)
-    grey32 = grey.astype(np.float32)
-    lights32 = lights.astype(np.float32)
-    shadow_level = (shadow_fraction * ref).astype(np.float32)
-    for _ in range(iterations):
-        a = _system.normal_matrix(lights32, weights).astype(np.float64)
-        ok = _system.condition(a) <= max_condition
-        g = _system.moment(lights32, weights, grey32).astype(np.float64)
-        b = _system.solve_sym3(a, g, ok).astype(np.float32)
-        predicted = _system.predict(lights32, b)
-        # |residual| in place: the biweight below needs only its square.
-        residual = np.subtract(grey32, predicted)
-        np.abs(residual, out=residual)
-        scale = np.maximum(_MAD_TO_SIGMA * _median(residual, weights > 0), floor)
-        inverse = np.divide(1.0, TUKEY_C * scale, out=np.zeros_like(scale), where=scale > 0)
-        u = np.multiply(residual, inverse.astype(np.float32), out=residual)
-        # Tukey's biweight (1 − u²)²₊ with u = residual / (c · scale), in place.
-        u2 = np.square(u, out=u)
-        tukey = np.square(np.clip(np.subtract(1.0, u2, out=u2), 0.0, None, out=u2), out=u2)
-        # An observation the current fit puts in attached shadow carries no information.
-        weights = np.multiply(tukey, support & (predicted > shadow_level), out=tukey)
-    return weights
-
-
-def _median(magnitude: np.ndarray, support: np.ndarray) -> np.ndarray:
-    """Per-pixel median of ``magnitude`` (L, n), ≥ 0, over the supported observations.
-
-    0 where a pixel has none. Sorted pixel by pixel in contiguous float32 rows
-    (sorting along the light axis of the (L, n) layout is 5–10× slower; the
-    scale needs no more than float32's digits). Dividing by ``support`` masks,
-    converts and transposes in one pass: unsupported entries become inf or
-    NaN, which both sort last.
-    """
-    n_lights, n = magnitude.shape
-    rows = np.empty((n, n_lights), np.float32)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        np.divide(magnitude, support, out=rows.T, casting="same_kind")
-    rows.sort(axis=1)
-    count = support.sum(axis=0)
-    lower = np.clip((count - 1) // 2, 0, None)
-    upper = np.clip(count // 2, 0, None)
-    lo = np.take_along_axis(rows, lower[:, None], axis=1)[:, 0]
-    hi = np.take_along_axis(rows, upper[:, None], axis=1)[:, 0]
-    median = 0.5 * (lo.astype(np.float64) + hi)
-    return np.where(count > 0, median, 0.0)

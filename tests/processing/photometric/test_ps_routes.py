@@ -10,7 +10,7 @@ import numpy as np
 import pytest
 from numpy.testing import assert_allclose, assert_array_equal
 
-from processing.photometric import DistantLights, PhotometricError, Reason, _system, solve
+from processing.photometric import DistantLights, PhotometricError, Reason, solve
 from processing.photometric._block import _fit, _fit_compiled, solve_block
 from processing.photometric._inputs import check_stack
 from processing.photometric._irls_kernel import (
@@ -21,8 +21,14 @@ from processing.photometric._irls_kernel import (
 )
 from processing.photometric._kernels import condition3, conditions, sum_arrays, weighted_sums
 from processing.photometric._result import CONDITION_CAP
-from processing.photometric._robust import _median, irls_weights
+from processing.photometric._robust import irls_weights
 from processing.photometric._solve import _check_options, _read_chunk
+from tests.processing.photometric.ps_numpy_route import (
+    FULL_FROM_PAIRS,
+    condition,
+    irls_weights_stepwise,
+    median,
+)
 from tests.processing.photometric.ps_synthetic import ring_directions
 
 DIRS = ring_directions(16, theta_deg=(20, 45, 65))
@@ -130,11 +136,11 @@ def test_irls_scale_is_the_median_of_the_supported_residuals(n_lights):
         np.median(np.abs(residual[support[:, j], j])) if support[:, j].any() else 0.0
         for j in range(40)
     ]
-    assert_allclose(_median(np.abs(residual), support), expected, rtol=1e-6)
+    assert_allclose(median(np.abs(residual), support), expected, rtol=1e-6)
 
 
 def _irls_both_ways(grey, usable):
-    """IRLS weights with the lamps given once (compiled) and per pixel (numpy steps)."""
+    """IRLS weights with the lamps given once (compiled) and per pixel (the numpy steps)."""
     options = {
         "shadow_fraction": 0.05,
         "highlight_fraction": 0.1,
@@ -144,13 +150,13 @@ def _irls_both_ways(grey, usable):
     per_pixel = np.broadcast_to(DIRS[:, None, :], (*grey.shape, 3))
     return (
         irls_weights(grey, usable, DIRS, **options),
-        irls_weights(grey, usable, per_pixel, **options),
+        irls_weights_stepwise(grey, usable, per_pixel, **options),
     )
 
 
 def test_compiled_irls_weights_match_the_per_pixel_light_steps():
     # Distant lamps reweight compiled; the same lamps given per pixel (as near
-    # lamps are) take the numpy steps. Both must give the same weights.
+    # lamps are) through the numpy steps must give the same weights.
     images = scene(np.float64, False, exclusions=True)
     grey = images.reshape(len(DIRS), -1)
     usable = np.random.default_rng(3).random(grey.shape) > 0.05
@@ -239,9 +245,9 @@ def test_compiled_weighted_sums_match_the_sums_over_the_lights(n_lights, weight_
 @pytest.mark.parametrize("dtype", [np.float32, np.uint8])
 @pytest.mark.parametrize("colour", [False, True])
 def test_irls_in_one_compiled_pass_matches_the_per_pixel_light_steps(dtype, colour):
-    # With one light matrix the reweighting and the final fit's sums are one
-    # compiled pass; the same lamps given per pixel take the numpy steps and
-    # sums. Dark, clipped, shadowed, glossy and facing-away pixels included.
+    # The reweighting and the final fit's sums are one compiled pass, with one
+    # light matrix or (the same lamps) a light vector per pixel, as near lamps
+    # are given. Dark, clipped, shadowed, glossy and facing-away pixels included.
     images = scene(dtype, colour, exclusions=True)
     stack = check_stack(images, len(DIRS), None)
     options = _check_options("irls", 0.01, 100.0, 0.05, 0.1, 3)
@@ -273,7 +279,7 @@ def test_compiled_conditions_match_the_batched_eigenvalues():
     upper = a.reshape(-1, 9)[:, [0, 1, 2, 4, 5, 8]].T.copy()
     out = np.empty(300)
     conditions(upper, out)
-    expected = _system.condition(a)
+    expected = condition(a)
     # Singular systems: both give rounding noise far above any limit, or the cap.
     assert (out[:100] > 1e6).all() and (expected[:100] > 1e6).all()
     assert out[100] == expected[100] == CONDITION_CAP
@@ -299,7 +305,7 @@ def test_compiled_fit_from_sums_matches_the_numpy_fit(channels):
     upper, moment, energy, weight_sum, used = sums
     condition = np.empty(n)
     conditions(upper, condition)
-    a = upper.T[:, _system.FULL_FROM_PAIRS].reshape(-1, 3, 3)
+    a = upper.T[:, FULL_FROM_PAIRS].reshape(-1, 3, 3)
     g = moment.transpose(2, 1, 0) if channels > 1 else moment[0].T
     e = energy.T if channels > 1 else energy[0]
     for limit in (100.0, 3.0):
