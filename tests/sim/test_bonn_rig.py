@@ -114,7 +114,7 @@ def test_a_grazing_frame_without_markers_registers_from_the_rigs_pose():
     (posed,) = measure(grazing, posed_rail_error_deg=0.0)
     assert posed["markers"] == 0
     assert posed["reason"] == Reason.FROM_RIG_POSE and posed["valid"]
-    assert posed["rmse"] < 0.17, posed["rmse"]  # the frame holds ~6 px across the sample
+    assert posed["rmse"] < 0.17, posed["rmse"]  # ~11 px across the foreshortened sample
     (off,) = measure(grazing, posed_rail_error_deg=-3.0)
     assert off["reason"] == Reason.FROM_RIG_POSE
     assert off["rmse"] > 2 * posed["rmse"], (off["rmse"], posed["rmse"])
