@@ -12,6 +12,7 @@ from processing.registration._homography import (
     PlaneHomography,
     distort_px,
     fit_plane_homography,
+    pose_plane_homography,
     undistort_px,
 )
 from processing.registration._markers import (
@@ -38,6 +39,7 @@ __all__ = [
     "distort_px",
     "fit_plane_homography",
     "marker_corners_mm",
+    "pose_plane_homography",
     "rectify",
     "register_capture",
     "register_frame",

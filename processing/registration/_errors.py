@@ -15,7 +15,10 @@ class RegistrationError(RigError, ValueError):
 
 
 class Reason(IntEnum):
-    """Why a frame's homography is usable or not; the first failing check wins."""
+    """Why a frame's homography is usable or not; the first failing check wins.
+
+    ``OK`` and ``FROM_RIG_POSE`` are usable; the others flag the frame.
+    """
 
     OK = 0
     #: Fewer markers found than ``min_markers``.
@@ -29,3 +32,7 @@ class Reason(IntEnum):
     HIGH_REPROJECTION = 4
     #: The sample square does not project in front of the camera.
     SAMPLE_NOT_VISIBLE = 5
+    #: Usable, but from the rig's reported pose, not the markers: the markers
+    #: gave no valid homography and the posed camera model's plane homography
+    #: was used instead (a grazing view where no marker is found, say).
+    FROM_RIG_POSE = 6

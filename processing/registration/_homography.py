@@ -26,7 +26,7 @@ from processing.registration._markers import MarkerDetection, marker_corners_mm
 from rig.camera import PinholeCamera
 from rig.config import Holder
 
-__all__ = ["PlaneHomography", "fit_plane_homography", "undistort_px"]
+__all__ = ["PlaneHomography", "fit_plane_homography", "pose_plane_homography", "undistort_px"]
 
 _GN_ITERATIONS = 10
 
@@ -43,7 +43,9 @@ class PlaneHomography:
     image_to_plane : (3, 3) float64
         Its inverse (undistorted pixels → mm); zeros when not ``valid``.
     valid : bool
-        True when ``reason == Reason.OK``: the frame may be warped.
+        True when ``reason`` is ``Reason.OK`` (from the markers) or
+        ``Reason.FROM_RIG_POSE`` (from the posed camera model): the frame may
+        be warped.
     reason : Reason
         The first check that failed.
     ids : (m,) int64
@@ -286,3 +288,39 @@ def fit_plane_homography(
     H = H / H[2, 2] if abs(H[2, 2]) > 1e-12 * np.abs(H).max() else H
     inverse = np.linalg.inv(H)
     return PlaneHomography(H, inverse, True, Reason.OK, used, per_marker, mean_err, gain, outliers)
+
+
+def pose_plane_homography(posed: PinholeCamera, holder: Holder) -> PlaneHomography:
+    """The plate-plane homography a posed camera model gives, without markers.
+
+    The plate plane is z = 0 of the sample frame, so a plate point (x, y)
+    maps to undistorted pixels by ``K [r1 r2 t] (x, y, 1)``, with ``r1, r2``
+    the first two columns of the world→camera rotation [1]_ §8.1.1.
+
+    Parameters
+    ----------
+    posed : PinholeCamera
+        Lens and pose in the sample frame (mm), e.g. from the arm's reported
+        tool pose and the rail (``rig.bonn.camera_model``).
+    holder : rig.config.Holder
+        Its ``sample_mm`` gives the sample square that must be in view.
+
+    Returns
+    -------
+    PlaneHomography
+        ``reason`` ``Reason.FROM_RIG_POSE`` (valid) with no markers, no
+        reprojection error and ``noise_gain`` 0; ``Reason.SAMPLE_NOT_VISIBLE``
+        when a sample corner lies at or behind the camera plane.
+    """
+    H = posed.K @ np.column_stack([posed.R[:, 0], posed.R[:, 1], posed.t])
+    half = holder.sample_mm / 2
+    sample_corners = np.array([[-half, half], [half, half], [half, -half], [-half, -half]])
+    _, in_front = posed.project(np.column_stack([sample_corners, np.zeros(4)]))
+    empty, zero = np.zeros(0, np.int64), np.zeros((3, 3))
+    if not np.all(in_front):
+        reason = Reason.SAMPLE_NOT_VISIBLE
+        return PlaneHomography(zero, zero, False, reason, empty, np.zeros(0), 0.0, 0.0, empty)
+    H = H / H[2, 2]  # t_z > 0 when the sample centre is in front
+    inverse = np.linalg.inv(H)
+    reason = Reason.FROM_RIG_POSE
+    return PlaneHomography(H, inverse, True, reason, empty, np.zeros(0), 0.0, 0.0, empty)

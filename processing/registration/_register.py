@@ -7,7 +7,11 @@ from dataclasses import dataclass
 import numpy as np
 
 from processing.registration._errors import Reason
-from processing.registration._homography import PlaneHomography, fit_plane_homography
+from processing.registration._homography import (
+    PlaneHomography,
+    fit_plane_homography,
+    pose_plane_homography,
+)
 from processing.registration._markers import MarkerDetection, detect_markers
 from processing.registration._rectify import Normtexture, Region, rectify
 from rig.camera import PinholeCamera
@@ -26,7 +30,8 @@ class Registration:
         The rectified texture; all zeros and all invalid when the frame is
         flagged (it is never warped with a bad homography).
     homography : PlaneHomography
-        The fit, its reprojection errors and the reason.
+        The fit, its reprojection errors and the reason (``FROM_RIG_POSE``
+        when the posed camera model stood in for the markers).
     detection : MarkerDetection
         The markers found.
     """
@@ -50,6 +55,7 @@ def register_frame(
     *,
     size: int,
     camera: PinholeCamera | None = None,
+    posed: PinholeCamera | None = None,
     region: Region | None = None,
     extend_texels: int = 0,
     order: int = 1,
@@ -70,6 +76,13 @@ def register_frame(
     camera : PinholeCamera, optional
         Its ``K`` and ``dist`` undistort the marker corners and the sampling
         (the pose is not used: the markers give it).
+    posed : PinholeCamera, optional
+        The camera model posed in the sample frame from the rig's reported
+        positions (``rig.bonn.camera_model``). Where the markers give no valid
+        homography, the frame is rectified through this model's plate-plane
+        homography (:func:`pose_plane_homography`, its lens for the sampling)
+        and flagged ``Reason.FROM_RIG_POSE``: valid, but distinguishable.
+        Without it such a frame keeps the markers' reason.
     region, extend_texels, order :
         Passed to :func:`rectify`.
     min_markers, max_reprojection_px, max_noise_gain :
@@ -79,7 +92,7 @@ def register_frame(
     -------
     Registration
         Check ``valid``; ``homography.mean_reprojection_px`` is the per-frame
-        marker reprojection error in pixels.
+        marker reprojection error in pixels (0 for ``Reason.FROM_RIG_POSE``).
 
     Examples
     --------
@@ -99,6 +112,10 @@ def register_frame(
         max_noise_gain=max_noise_gain,
     )
     n = size + extend_texels
+    if not homography.valid and posed is not None:
+        from_pose = pose_plane_homography(posed, holder)
+        if from_pose.valid:
+            homography, camera = from_pose, posed
     if not homography.valid:
         channels = 1 if np.ndim(frame) == 2 else np.shape(frame)[2]
         blank = Normtexture(np.zeros((n, n, channels), np.float32), np.zeros((n, n), bool), (0, 0))

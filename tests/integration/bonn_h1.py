@@ -4,11 +4,13 @@ captured exactly once, every frame registered and compared with the simulator's 
 (docs/btf.md).
 
 Run as ``python -m tests.integration.bonn_h1 [--views N] [--scale S] [--supersample K]
-[--truth-every M] [--measure-only] OUT_DIR``: ``--views`` keeps the first N of H1's views
-(all 81 lights each) for a shorter run; ``--scale`` and ``--supersample`` set the render
-resolution; every M-th step's normtexture is compared with ``Simulator.btf_truth``;
+[--truth-every M] [--measure-only] [--rows PATH] OUT_DIR``: ``--views`` keeps the first N of
+H1's views (all 81 lights each) for a shorter run; ``--scale`` and ``--supersample`` set the
+render resolution; every M-th step's normtexture is compared with ``Simulator.btf_truth``;
 ``--measure-only`` measures the archive already in OUT_DIR (a run finished with ``rig
-resume``). The rows go to OUT_DIR/rows.json.
+resume``). Frames whose markers give no valid homography are registered from the arm's
+reported tool pose and the rail (``Reason.FROM_RIG_POSE``) and counted apart. The rows go to
+``--rows`` (default OUT_DIR/rows.json).
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ from pathlib import Path
 import numpy as np
 
 from orchestrator.daemon import run_local
-from processing.registration import register_frame
+from processing.registration import Reason, register_frame
 from rig import bonn
 from rig.archive import Archive
 from rig.clock import VirtualClock
@@ -71,7 +73,8 @@ def _progress(start: float, clock: VirtualClock):
 
 
 def _measure(sim, views, h1, archive_path: Path, truth_every: int) -> list[dict]:
-    """One row per step: the pair it captured, registration, reprojection, texture RMSE."""
+    """One row per step: the pair it captured, registration (from the markers or the pose),
+    marker reprojection, texture RMSE."""
     rig = sim.scene.rig
     rows = []
     with Archive.open(archive_path) as archive:
@@ -81,12 +84,14 @@ def _measure(sim, views, h1, archive_path: Path, truth_every: int) -> list[dict]
             rotation = tool.matrix()[:3, :3]
             camera = bonn.camera_model(rig, "cam0", rotation, a["rail_deg"])
             image = archive.read_frame(step.index, "cam0", 0)
-            result = register_frame(image, rig.holder, size=SIZE, camera=camera)
+            result = register_frame(image, rig.holder, size=SIZE, camera=camera, posed=camera)
+            markers = result.reason == Reason.OK
             row = {
                 "view": _nearest(views, step.views_deg["cam0"]),
                 "light": _nearest(h1, step.light_deg),
                 "valid": bool(result.valid),
-                "reproj_px": result.homography.mean_reprojection_px if result.valid else None,
+                "source": "markers" if markers else "pose" if result.valid else None,
+                "reproj_px": result.homography.mean_reprojection_px if markers else None,
                 "rmse": None,
             }
             if result.valid and n % truth_every == 0:
@@ -100,26 +105,36 @@ def _measure(sim, views, h1, archive_path: Path, truth_every: int) -> list[dict]
 
 def _report(rows: list[dict], views, h1) -> None:
     seen = {(r["view"], r["light"]) for r in rows}
-    reproj = np.array([r["reproj_px"] for r in rows if r["valid"]])
-    rmse = np.array([r["rmse"] for r in rows if r["rmse"] is not None])
+    reproj = np.array([r["reproj_px"] for r in rows if r["source"] == "markers"])
+    n_pose = sum(r["source"] == "pose" for r in rows)
     print(f"steps {len(rows)}, distinct pairs {len(seen)} of {len(views) * len(h1)}, "
-          f"registered {len(reproj)}, not registered {len(rows) - len(reproj)}")  # fmt: skip
+          f"registered from the markers {len(reproj)}, from the pose {n_pose}, not registered "
+          f"{len(rows) - len(reproj) - n_pose}")  # fmt: skip
     print(f"mean marker reprojection {reproj.mean():.3f} px (p95 "
-          f"{np.percentile(reproj, 95):.3f}, max {reproj.max():.3f}); texture RMSE "
-          f"{100 * rmse.mean():.2f} % (p95 {100 * np.percentile(rmse, 95):.2f}, max "
-          f"{100 * rmse.max():.2f}) over {len(rmse)} steps")  # fmt: skip
+          f"{np.percentile(reproj, 95):.3f}, max {reproj.max():.3f})")  # fmt: skip
+    for source in ("markers", "pose"):
+        rmse = np.array([r["rmse"] for r in rows if r["source"] == source and r["rmse"]])
+        if len(rmse):
+            print(f"texture RMSE from the {source} {100 * rmse.mean():.2f} % (p95 "
+                  f"{100 * np.percentile(rmse, 95):.2f}, max {100 * rmse.max():.2f}) over "
+                  f"{len(rmse)} steps")  # fmt: skip
     by_theta = defaultdict(list)
     for r in rows:
         by_theta[views[r["view"]][0]].append(r)
-    print("| view θ | steps | registered | reproj. px mean | reproj. px max | texture RMSE % "
-          "(steps) |\n|---|---|---|---|---|---|")  # fmt: skip
+    print("| view θ | steps | from markers | from pose | reproj. px mean | reproj. px max | "
+          "texture RMSE % markers (steps) | texture RMSE % pose (steps) |\n"
+          "|---|---|---|---|---|---|---|---|")  # fmt: skip
     for theta in sorted(by_theta):
         group = by_theta[theta]
-        r = [g["reproj_px"] for g in group if g["valid"]]
-        e = [100 * g["rmse"] for g in group if g["rmse"] is not None]
+        r = [g["reproj_px"] for g in group if g["source"] == "markers"]
         reproj = f"{np.mean(r):.3f} | {np.max(r):.3f}" if r else "– | –"
-        rmse = f"{np.mean(e):.2f} ({len(e)})" if e else "– (0)"
-        print(f"| {theta:.0f}° | {len(group)} | {len(r)} | {reproj} | {rmse} |")
+        cells = []
+        for source in ("markers", "pose"):
+            e = [100 * g["rmse"] for g in group if g["source"] == source and g["rmse"] is not None]
+            cells.append(f"{np.mean(e):.2f} ({len(e)})" if e else "– (0)")
+        n_pose = sum(g["source"] == "pose" for g in group)
+        print(f"| {theta:.0f}° | {len(group)} | {len(r)} | {n_pose} | {reproj} | "
+              f"{cells[0]} | {cells[1]} |")  # fmt: skip
 
 
 def main() -> None:
@@ -132,11 +147,13 @@ def main() -> None:
     parser.add_argument(
         "--measure-only", action="store_true", help="measure the archive in OUT_DIR, no session"
     )
+    parser.add_argument("--rows", type=Path, help="where the rows go (OUT_DIR/rows.json)")
     args = parser.parse_args()
     h1 = [tuple(map(float, d)) for d in Sampling.named("H1").directions]
     views = h1[: args.views]
-    args.out.mkdir(parents=True, exist_ok=True)
-    (args.out / "plan.toml").write_text(_plan(views))
+    if not args.measure_only:
+        args.out.mkdir(parents=True, exist_ok=True)
+        (args.out / "plan.toml").write_text(_plan(views))
     clock = VirtualClock()
     start = time.perf_counter()
     scene = bonn_scene(scale=args.scale, supersample=args.supersample)
@@ -144,7 +161,7 @@ def main() -> None:
         if not args.measure_only:
             _session(sim, args.out, clock, start)
         rows = _measure(sim, views, h1, args.out / "s.zarr", args.truth_every)
-    (args.out / "rows.json").write_text(json.dumps(rows))
+    (args.rows or args.out / "rows.json").write_text(json.dumps(rows))
     _report(rows, views, h1)
     print(f"total {time.perf_counter() - start:.0f} s", flush=True)
 

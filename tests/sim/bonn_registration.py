@@ -48,8 +48,13 @@ def bonn_scene(*, scale: float = 0.5, supersample: int = 3):
     })  # fmt: skip
 
 
-def measure(pairs=PAIRS) -> list[dict]:
-    """One row per pair: markers, reprojection, corner error, texture RMSE (relative)."""
+def measure(pairs=PAIRS, *, posed_rail_error_deg: float | None = None) -> list[dict]:
+    """One row per pair: markers, reprojection, corner error, texture RMSE (relative).
+
+    With ``posed_rail_error_deg`` the frames are registered with the posed camera model
+    too (``register_frame(posed=…)``), its rail position off by that many degrees: where
+    the markers give no valid homography, the pose does (``Reason.FROM_RIG_POSE``).
+    """
     clock = VirtualClock()
     rows = []
     with SimulatedRig(bonn_scene(), clock=clock) as sim:
@@ -69,28 +74,35 @@ def measure(pairs=PAIRS) -> list[dict]:
                 rail.move_to(pose.rail_deg)
                 arm.wait_until_settled()
                 rail.wait_until_settled()
-                rows.append(_row(sim, config, view, light, pose))
+                rows.append(_row(sim, config, view, light, pose, posed_rail_error_deg))
         finally:
             arm.close()
             rail.close()
     return rows
 
 
-def _row(sim, config, view, light, pose) -> dict:
+def _row(sim, config, view, light, pose, posed_rail_error_deg=None) -> dict:
     frame = sim.simulator.render("cam0", sim.world.snapshot())
     rotation = sim.world.snapshot().plate_rotation()  # where the arm really holds the plate
-    camera = bonn.camera_model(sim.scene.rig, "cam0", rotation, sim.world.position("rail"))
-    result = register_frame(frame.image, config.holder, size=SIZE, camera=camera)
+    rail_deg = sim.world.position("rail")
+    camera = bonn.camera_model(sim.scene.rig, "cam0", rotation, rail_deg)
+    posed = None
+    if posed_rail_error_deg is not None:
+        posed = bonn.camera_model(sim.scene.rig, "cam0", rotation, rail_deg + posed_rail_error_deg)
+    result = register_frame(frame.image, config.holder, size=SIZE, camera=camera, posed=posed)
     plate = marker_corners_mm(config.holder)[result.detection.ids].reshape(-1, 2)
     projected, _ = camera.project(np.column_stack([plate, np.zeros(len(plate))]))
     corner = np.linalg.norm(result.detection.corners_px.reshape(-1, 2) - projected, axis=1)
-    rmse = texture_rmse(sim, config, result, rotation, sim.world.position("rail"),
-                        exposure_s=frame.exposure_s, bit_depth=frame.bit_depth)  # fmt: skip
+    rmse = None
+    if result.valid:
+        rmse = texture_rmse(sim, config, result, rotation, rail_deg,
+                            exposure_s=frame.exposure_s, bit_depth=frame.bit_depth)  # fmt: skip
     return {
         "view": view, "light": light, "rail_deg": pose.rail_deg,
         "tilt_deg": bonn.tilt_deg(config, pose.rotation), "markers": len(result.detection),
-        "valid": bool(result.valid), "reproj_px": result.homography.mean_reprojection_px,
-        "corner_px": float(corner.mean()),
+        "valid": bool(result.valid), "reason": result.reason,
+        "reproj_px": result.homography.mean_reprojection_px,
+        "corner_px": float(corner.mean()) if len(corner) else None,
         "rmse": rmse,
     }  # fmt: skip
 

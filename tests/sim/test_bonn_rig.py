@@ -100,3 +100,24 @@ def test_frames_of_the_bonn_lab_register_against_the_simulators_truth():
     assert np.mean([r["reproj_px"] for r in rows]) < 0.15
     assert max(r["corner_px"] for r in rows) < 0.2  # against the Bonn camera model
     assert max(r["rmse"] for r in rows) < 0.035, [r["rmse"] for r in rows]
+
+
+def test_a_grazing_frame_without_markers_registers_from_the_rigs_pose():
+    """At view θ = 85° no marker is found (the plate is foreshortened 11×); the posed camera
+    model of the arm's plate rotation and the rail registers the frame instead, flagged
+    FROM_RIG_POSE, within a bound of the simulator's truth. A rail off by 3° towards the
+    horizon makes the error clearly larger; without a pose the frame stays flagged."""
+    from processing.registration import Reason
+    from tests.sim.bonn_registration import measure
+
+    grazing = (((85.0, 60.0), (34.0, 200.0)),)
+    (posed,) = measure(grazing, posed_rail_error_deg=0.0)
+    assert posed["markers"] == 0
+    assert posed["reason"] == Reason.FROM_RIG_POSE and posed["valid"]
+    assert posed["rmse"] < 0.17, posed["rmse"]  # ~11 px across the foreshortened sample
+    (off,) = measure(grazing, posed_rail_error_deg=-3.0)
+    assert off["reason"] == Reason.FROM_RIG_POSE
+    assert off["rmse"] > 2 * posed["rmse"], (off["rmse"], posed["rmse"])
+    (unposed,) = measure(grazing)
+    assert unposed["reason"] == Reason.TOO_FEW_MARKERS and not unposed["valid"]
+    assert unposed["rmse"] is None

@@ -13,7 +13,9 @@ from processing.registration import (
     RegistrationError,
     fit_plane_homography,
     marker_corners_mm,
+    pose_plane_homography,
 )
+from rig.camera import PinholeCamera
 from rig.config import Holder
 from tests.processing.registration.plate_frames import camera_homography, project
 
@@ -130,3 +132,23 @@ def test_any_marker_subset_gives_a_finite_flagged_or_accurate_fit(
             assert err.max() < 6 * fit.noise_gain * max(noise_px, 1e-3) + 1e-6
     else:
         assert not fit.plane_to_image.any()
+
+
+def test_a_posed_camera_gives_the_plate_homography_without_markers(rig_config, holder):
+    lens = rig_config.camera_model("cam5")
+    camera = PinholeCamera(lens.K, np.zeros(5), lens.R, lens.t, lens.width, lens.height)
+    fit = pose_plane_homography(camera, holder)
+    assert fit.valid and fit.reason == Reason.FROM_RIG_POSE and len(fit.ids) == 0
+    plate = marker_corners_mm(holder).reshape(-1, 2)
+    want, in_front = camera.project(np.column_stack([plate, np.zeros(len(plate))]))
+    assert in_front.all()
+    np.testing.assert_allclose(project(fit.plane_to_image, plate), want, atol=1e-9)
+    np.testing.assert_allclose(fit.image_to_plane @ fit.plane_to_image, np.eye(3), atol=1e-9)
+
+
+def test_a_pose_looking_away_from_the_sample_is_flagged(rig_config, holder):
+    lens = rig_config.camera_model("cam5")
+    turned = np.diag([1.0, -1.0, -1.0])  # half a turn about the camera's x: sample behind
+    camera = PinholeCamera(lens.K, lens.dist, turned @ lens.R, turned @ lens.t, 64, 64)
+    fit = pose_plane_homography(camera, holder)
+    assert not fit.valid and fit.reason == Reason.SAMPLE_NOT_VISIBLE
