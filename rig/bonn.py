@@ -43,6 +43,7 @@ __all__ = [
     "lamp_position_mm",
     "plate_rotation",
     "plate_tool_pose",
+    "recorded_camera",
     "tilt_deg",
 ]
 
@@ -77,6 +78,22 @@ def camera_model(config: RigConfig, camera_id: str, rotation: np.ndarray, rail_d
     r_cam, t = look_at(eye, np.zeros(3), up=np.array([0.0, 0.0, 1.0]))
     return PinholeCamera(nominal.K, nominal.dist, r_cam @ rotation, t, nominal.width,
                          nominal.height)  # fmt: skip
+
+
+def recorded_camera(config: RigConfig, camera_id: str, actuators: dict) -> PinholeCamera:
+    """The rail camera's model in the sample frame at a step, from the arm's and the rail's
+    recorded state (``StepRecord.actuators``: ``tool_rx_deg``, ``tool_ry_deg``,
+    ``tool_rz_deg``, ``rail_deg``)."""
+    try:
+        angles = [float(actuators[f"tool_r{c}_deg"]) for c in "xyz"]
+        rail_deg = float(actuators["rail_deg"])
+    except KeyError as err:
+        raise KinematicsError(
+            f"the step's recorded actuators lack {err.args[0]!r}; a Bonn step records "
+            "tool_rx_deg, tool_ry_deg, tool_rz_deg and rail_deg"
+        ) from err
+    rotation = Pose((0.0, 0.0, 0.0), tuple(np.radians(angles))).matrix()[:3, :3]
+    return camera_model(config, camera_id, rotation, rail_deg)
 
 
 def lamp_position_mm(config: RigConfig, rotation: np.ndarray) -> np.ndarray:

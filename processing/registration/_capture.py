@@ -14,10 +14,11 @@ import numpy as np
 from processing.registration._errors import RegistrationError
 from processing.registration._rectify import Region
 from processing.registration._register import Registration, register_frame
+from rig import bonn
 from rig.archive import StepRecord
 from rig.camera import PinholeCamera
 from rig.config import RigConfig
-from rig.errors import ConfigError
+from rig.errors import ConfigError, KinematicsError
 
 __all__ = ["CaptureRegistration", "register_capture"]
 
@@ -87,7 +88,10 @@ def register_capture(
     Returns
     -------
     CaptureRegistration
-        Check ``registration.valid``; a flagged frame carries its reason.
+        Check ``registration.valid``; a flagged frame carries its reason. On the
+        Bonn lab a frame whose markers give no valid homography is registered from
+        the camera the arm's and the rail's recorded state pose (reason
+        ``FROM_RIG_POSE``).
     """
     if camera_id not in step.cameras:
         raise RegistrationError(
@@ -108,9 +112,24 @@ def register_capture(
         )
     view = np.asarray(step.views_deg[camera_id], dtype=np.float64)
     light = None if step.light_deg is None else np.asarray(step.light_deg, dtype=np.float64)
+    posed = _posed(config, step, camera_id, camera)
     registration = register_frame(
-        frame, config.holder, size=size, camera=camera, region=region,
+        frame, config.holder, size=size, camera=camera, posed=posed, region=region,
         extend_texels=extend_texels, order=order, min_markers=min_markers,
         max_reprojection_px=max_reprojection_px, max_noise_gain=max_noise_gain,
     )  # fmt: skip
     return CaptureRegistration(registration, step.index, camera_id, view, light)
+
+
+def _posed(
+    config: RigConfig, step: StepRecord, camera_id: str, lens: PinholeCamera
+) -> PinholeCamera | None:
+    """On the Bonn lab, the camera posed by the arm's and the rail's recorded state (with
+    ``lens``'s intrinsics, scaled to the frames): frames whose markers fail register from it."""
+    if config.kind != "bonn":
+        return None
+    try:
+        pose = bonn.recorded_camera(config, camera_id, step.actuators)
+    except KinematicsError as err:
+        raise RegistrationError(f"step {step.index}: {err}") from err
+    return PinholeCamera(lens.K, lens.dist, pose.R, pose.t, lens.width, lens.height)

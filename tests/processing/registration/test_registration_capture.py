@@ -5,8 +5,16 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from processing.registration import RegistrationError, register_capture, register_frame
+from processing.registration import (
+    Reason,
+    RegistrationError,
+    pose_plane_homography,
+    register_capture,
+    register_frame,
+)
+from rig import bonn
 from rig.archive import StepRecord
+from rig.config import load_rig_config
 
 
 def test_capture_registers_like_the_frame_with_the_config_camera(frames, rig_config):
@@ -31,3 +39,32 @@ def test_capture_names_a_wrong_camera(rig_config):
     odd = StepRecord(4, "btf", ("camX",), {"camX": (45.0, 0.0)}, (0.0, 0.0))
     with pytest.raises(RegistrationError, match="not in the rig config"):
         register_capture(blank, rig_config, odd, "camX", size=8)
+
+
+def test_a_bonn_frame_without_markers_registers_from_the_recorded_arm_and_rail():
+    """On the Bonn lab the step's recorded tool rotation and rail position pose the camera:
+    a frame with no marker registers from it, with the homography that pose gives."""
+    config = load_rig_config("examples/rigs/bonn.toml")
+    pose = bonn.inverse(config, (85.0, 0.0), (34.0, 200.0))
+    tool = bonn.plate_tool_pose(config, pose.rotation)
+    rotvec_deg = np.degrees(tool.rotvec)
+    actuators = {f"tool_r{c}_deg": float(v) for c, v in zip("xyz", rotvec_deg, strict=True)}
+    step = StepRecord(5, "btf", ("cam0",), {"cam0": (85.0, 0.0)}, (34.0, 200.0),
+                      {**actuators, "rail_deg": pose.rail_deg})  # fmt: skip
+    lens = config.camera_model("cam0")
+    blank = np.zeros((lens.height, lens.width), np.uint8)
+    out = register_capture(blank, config, step, "cam0", size=8).registration
+    assert out.valid and out.reason == Reason.FROM_RIG_POSE
+    posed = bonn.camera_model(config, "cam0", pose.rotation, pose.rail_deg)
+    expected = pose_plane_homography(posed, config.holder).plane_to_image
+    np.testing.assert_allclose(out.homography.plane_to_image, expected, rtol=1e-9, atol=1e-12)
+    moved = StepRecord(5, "btf", ("cam0",), {"cam0": (85.0, 0.0)}, (34.0, 200.0),
+                       {**actuators, "rail_deg": pose.rail_deg + 3.0})  # fmt: skip
+    off = register_capture(blank, config, moved, "cam0", size=8).registration
+    corner = np.array([config.holder.sample_mm / 2, config.holder.sample_mm / 2, 1.0])
+    seen, wanted = off.homography.plane_to_image @ corner, expected @ corner
+    assert np.hypot(*(seen[:2] / seen[2] - wanted[:2] / wanted[2])) > 5.0  # px
+    unrecorded = StepRecord(5, "btf", ("cam0",), {"cam0": (85.0, 0.0)}, (34.0, 200.0),
+                            actuators)  # fmt: skip
+    with pytest.raises(RegistrationError, match="'rail_deg'"):
+        register_capture(blank, config, unrecorded, "cam0", size=8)
