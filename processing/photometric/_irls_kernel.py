@@ -19,7 +19,14 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ._kernels import condition3, weighted_sums_tile
+from ._kernels import (
+    add_moments1,
+    add_moments4,
+    add_normal_sums1,
+    add_normal_sums4,
+    condition3,
+    weighted_sums_tile,
+)
 from ._near_kernel import near_light_sums, near_weighted_sums_tile
 
 #: Pixels per tile: the tile's keys, residuals, weights and support (L × TILE
@@ -201,56 +208,27 @@ def _weighted_fit(weights, grey, lights, t0, m, max_condition, fit):
 def _shared_light_sums(weights, grey, lights, t0, m, sums):
     """Float32 ``Σ w s sᵀ`` (6 rows) and ``Σ w I s`` (3 rows) of a tile, lights (L, 3)."""
     n_lights = grey.shape[0]
-    m00, m01, m02, m11, m12, m22 = sums[0], sums[1], sums[2], sums[3], sums[4], sums[5]
-    g0s, g1s, g2s = sums[6], sums[7], sums[8]
+    upper = (sums[0], sums[1], sums[2], sums[3], sums[4], sums[5])
+    moment = (sums[6], sums[7], sums[8])
     # Four lights per loop: each accumulator is loaded and stored once per four
-    # (stores bound these loops); three accumulators per loop (more stop LLVM
-    # vectorising it).
+    # (stores bound these loops).
     full = n_lights - n_lights % _UNROLL
     for k in range(0, full, _UNROLL):
-        sa, sb, sc, sd = lights[k], lights[k + 1], lights[k + 2], lights[k + 3]
+        four = (lights[k], lights[k + 1], lights[k + 2], lights[k + 3])
         wa, wb = weights[k, t0 : t0 + m], weights[k + 1, t0 : t0 + m]
         wc, wd = weights[k + 2, t0 : t0 + m], weights[k + 3, t0 : t0 + m]
-        for acc, p, q in (
-            (m00, 0, 0),
-            (m01, 0, 1),
-            (m02, 0, 2),
-            (m11, 1, 1),
-            (m12, 1, 2),
-            (m22, 2, 2),
-        ):
-            ca, cb, cc, cd = sa[p] * sa[q], sb[p] * sb[q], sc[p] * sc[q], sd[p] * sd[q]
-            for i in range(m):
-                acc[i] += ca * wa[i] + cb * wb[i] + cc * wc[i] + cd * wd[i]
-        ra, rb = grey[k, :m], grey[k + 1, :m]
-        rc, rd = grey[k + 2, :m], grey[k + 3, :m]
-        for acc, p in ((g0s, 0), (g1s, 1), (g2s, 2)):
-            ca, cb, cc, cd = sa[p], sb[p], sc[p], sd[p]
-            for i in range(m):
-                acc[i] += (
-                    ca * wa[i] * ra[i]
-                    + cb * wb[i] * rb[i]
-                    + cc * wc[i] * rc[i]
-                    + cd * wd[i] * rd[i]
-                )
+        add_normal_sums4(upper, four, (wa, wb, wc, wd), m)
+        add_moments4(
+            moment,
+            four,
+            (wa, wb, wc, wd),
+            (grey[k, :m], grey[k + 1, :m], grey[k + 2, :m], grey[k + 3, :m]),
+            m,
+        )
     for light in range(full, n_lights):
-        s0, s1, s2 = lights[light, 0], lights[light, 1], lights[light, 2]
-        a00, a01, a02, a11, a12, a22 = s0 * s0, s0 * s1, s0 * s2, s1 * s1, s1 * s2, s2 * s2
         w = weights[light, t0 : t0 + m]
-        row = grey[light, :m]
-        for i in range(m):
-            m00[i] += a00 * w[i]
-            m01[i] += a01 * w[i]
-            m02[i] += a02 * w[i]
-        for i in range(m):
-            m11[i] += a11 * w[i]
-            m12[i] += a12 * w[i]
-            m22[i] += a22 * w[i]
-        for i in range(m):
-            wg = w[i] * row[i]
-            g0s[i] += s0 * wg
-            g1s[i] += s1 * wg
-            g2s[i] += s2 * wg
+        add_normal_sums1(upper, lights[light], w, m)
+        add_moments1(moment, lights[light], w, grey[light, :m], m)
 
 
 @njit(cache=True, nogil=True)

@@ -36,6 +36,69 @@ TILE = 1024
 _UNROLL = 4
 
 
+@njit(inline="always")
+def add_normal_sums4(upper, lights, weights, m):
+    """Add four lights' ``w s sᵀ`` to a tile's normal matrices.
+
+    upper : six (m,) accumulators, the upper triangle (00, 01, 02, 11, 12, 22);
+    lights : four (3,) light vectors; weights : the four lights' (m,) weights.
+    Three accumulators or fewer per loop (more stop LLVM vectorising it).
+    """
+    a00, a01, a02, a11, a12, a22 = upper
+    sa, sb, sc, sd = lights
+    wa, wb, wc, wd = weights
+    for acc, p, q in ((a00, 0, 0), (a01, 0, 1), (a02, 0, 2), (a11, 1, 1), (a12, 1, 2), (a22, 2, 2)):
+        ca, cb, cc, cd = sa[p] * sa[q], sb[p] * sb[q], sc[p] * sc[q], sd[p] * sd[q]
+        for i in range(m):
+            acc[i] += ca * wa[i] + cb * wb[i] + cc * wc[i] + cd * wd[i]
+
+
+@njit(inline="always")
+def add_moments4(moment, lights, weights, obs, m):
+    """Add four lights' ``w I s`` to a tile's three moment accumulators (m,).
+
+    lights : four (3,) light vectors; weights, obs : the four lights' (m,)
+    weights and observations.
+    """
+    sa, sb, sc, sd = lights
+    wa, wb, wc, wd = weights
+    ra, rb, rc, rd = obs
+    for acc, p in ((moment[0], 0), (moment[1], 1), (moment[2], 2)):
+        ca, cb, cc, cd = sa[p], sb[p], sc[p], sd[p]
+        for i in range(m):
+            acc[i] += (
+                ca * wa[i] * ra[i] + cb * wb[i] * rb[i] + cc * wc[i] * rc[i] + cd * wd[i] * rd[i]
+            )
+
+
+@njit(inline="always")
+def add_normal_sums1(upper, light, w, m):
+    """:func:`add_normal_sums4` of one light: light (3,), w (m,)."""
+    a00, a01, a02, a11, a12, a22 = upper
+    s0, s1, s2 = light[0], light[1], light[2]
+    p00, p01, p02, p11, p12, p22 = s0 * s0, s0 * s1, s0 * s2, s1 * s1, s1 * s2, s2 * s2
+    for i in range(m):
+        a00[i] += p00 * w[i]
+        a01[i] += p01 * w[i]
+        a02[i] += p02 * w[i]
+    for i in range(m):
+        a11[i] += p11 * w[i]
+        a12[i] += p12 * w[i]
+        a22[i] += p22 * w[i]
+
+
+@njit(inline="always")
+def add_moments1(moment, light, w, row, m):
+    """:func:`add_moments4` of one light: light (3,), w and row (m,)."""
+    g0, g1, g2 = moment
+    s0, s1, s2 = light[0], light[1], light[2]
+    for i in range(m):
+        wi = w[i] * row[i]
+        g0[i] += s0 * wi
+        g1[i] += s1 * wi
+        g2[i] += s2 * wi
+
+
 @njit(cache=True, nogil=True, fastmath=_CONTRACT)
 def pinv_moments(values, start, count, pinv_gain, clip_raw, dark_raw, x_out, clipped, lit):
     """``x = S⁺ (g ∘ I)`` for pixels ``start … start + count`` of ``values``.
@@ -273,22 +336,13 @@ def weighted_sums_tile(weights, planes, lights, t0, m, upper, moment, energy, we
     for c in range(n_channels):
         moment[c, :, t0 : t0 + m] = 0
         energy[c, t0 : t0 + m] = 0
+    upper6 = (a00, a01, a02, a11, a12, a22)
     full = n_lights - n_lights % _UNROLL
     for k in range(0, full, _UNROLL):
-        sa, sb, sc, sd = lights[k], lights[k + 1], lights[k + 2], lights[k + 3]
+        four = (lights[k], lights[k + 1], lights[k + 2], lights[k + 3])
         wa, wb = weights[k, t0 : t0 + m], weights[k + 1, t0 : t0 + m]
         wc, wd = weights[k + 2, t0 : t0 + m], weights[k + 3, t0 : t0 + m]
-        for acc, p, q in (
-            (a00, 0, 0),
-            (a01, 0, 1),
-            (a02, 0, 2),
-            (a11, 1, 1),
-            (a12, 1, 2),
-            (a22, 2, 2),
-        ):
-            ca, cb, cc, cd = sa[p] * sa[q], sb[p] * sb[q], sc[p] * sc[q], sd[p] * sd[q]
-            for i in range(m):
-                acc[i] += ca * wa[i] + cb * wb[i] + cc * wc[i] + cd * wd[i]
+        add_normal_sums4(upper6, four, (wa, wb, wc, wd), m)
         for i in range(m):
             # In float64 from the first term on (float32 weights would sum in float32).
             total[i] += np.float64(wa[i]) + wb[i] + wc[i] + wd[i]
@@ -302,19 +356,8 @@ def weighted_sums_tile(weights, planes, lights, t0, m, upper, moment, energy, we
         for c in range(n_channels):
             ra, rb = planes[c, k, t0 : t0 + m], planes[c, k + 1, t0 : t0 + m]
             rc, rd = planes[c, k + 2, t0 : t0 + m], planes[c, k + 3, t0 : t0 + m]
-            for acc, p in (
-                (moment[c, 0, t0 : t0 + m], 0),
-                (moment[c, 1, t0 : t0 + m], 1),
-                (moment[c, 2, t0 : t0 + m], 2),
-            ):
-                ca, cb, cc, cd = sa[p], sb[p], sc[p], sd[p]
-                for i in range(m):
-                    acc[i] += (
-                        ca * wa[i] * ra[i]
-                        + cb * wb[i] * rb[i]
-                        + cc * wc[i] * rc[i]
-                        + cd * wd[i] * rd[i]
-                    )
+            g = (moment[c, 0, t0 : t0 + m], moment[c, 1, t0 : t0 + m], moment[c, 2, t0 : t0 + m])
+            add_moments4(g, four, (wa, wb, wc, wd), (ra, rb, rc, rd), m)
             e = energy[c, t0 : t0 + m]
             for i in range(m):
                 e[i] += (
@@ -324,33 +367,16 @@ def weighted_sums_tile(weights, planes, lights, t0, m, upper, moment, energy, we
                     + wd[i] * rd[i] * rd[i]
                 )
     for light in range(full, n_lights):
-        s0, s1, s2 = lights[light, 0], lights[light, 1], lights[light, 2]
         w = weights[light, t0 : t0 + m]
-        p00, p01, p02, p11, p12, p22 = s0 * s0, s0 * s1, s0 * s2, s1 * s1, s1 * s2, s2 * s2
-        for i in range(m):
-            a00[i] += p00 * w[i]
-            a01[i] += p01 * w[i]
-            a02[i] += p02 * w[i]
-        for i in range(m):
-            a11[i] += p11 * w[i]
-            a12[i] += p12 * w[i]
-            a22[i] += p22 * w[i]
+        add_normal_sums1(upper6, lights[light], w, m)
         for i in range(m):
             total[i] += w[i]
             count[i] += one if w[i] != 0 else zero
         for c in range(n_channels):
             row = planes[c, light, t0 : t0 + m]
-            g0, g1, g2 = (
-                moment[c, 0, t0 : t0 + m],
-                moment[c, 1, t0 : t0 + m],
-                moment[c, 2, t0 : t0 + m],
-            )
+            g = (moment[c, 0, t0 : t0 + m], moment[c, 1, t0 : t0 + m], moment[c, 2, t0 : t0 + m])
+            add_moments1(g, lights[light], w, row, m)
             e = energy[c, t0 : t0 + m]
-            for i in range(m):
-                wi = w[i] * row[i]
-                g0[i] += s0 * wi
-                g1[i] += s1 * wi
-                g2[i] += s2 * wi
             for i in range(m):
                 e[i] += w[i] * row[i] * row[i]
 

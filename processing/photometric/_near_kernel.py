@@ -20,6 +20,21 @@ from ._kernels import TILE
 _CONTRACT = {"contract"}
 
 
+@njit(inline="always")
+def add_near_moments(moment, light, w, row, m):
+    """Add one light's ``w I s`` to a tile's three moment accumulators (m,), ``s`` per pixel.
+
+    light : its x, y, z (m,) planes; w, row : its (m,) weights and observations.
+    """
+    g0, g1, g2 = moment
+    s0, s1, s2 = light
+    for i in range(m):
+        wi = w[i] * row[i]
+        g0[i] += s0[i] * wi
+        g1[i] += s1[i] * wi
+        g2[i] += s2[i] * wi
+
+
 @njit(cache=True, nogil=True, fastmath=_CONTRACT)
 def near_weighted_sums(weights, planes, lights, upper, moment, energy, weight_sum, used):
     """The per-pixel sums of a weighted fit with a light vector per pixel, in one pass.
@@ -71,17 +86,9 @@ def near_weighted_sums_tile(
             count[i] += one if w[i] != 0 else zero
         for c in range(n_channels):
             row = planes[c, light, t0 : t0 + m]
-            g0, g1, g2 = (
-                moment[c, 0, t0 : t0 + m],
-                moment[c, 1, t0 : t0 + m],
-                moment[c, 2, t0 : t0 + m],
-            )
+            g = (moment[c, 0, t0 : t0 + m], moment[c, 1, t0 : t0 + m], moment[c, 2, t0 : t0 + m])
+            add_near_moments(g, (s0, s1, s2), w, row, m)
             e = energy[c, t0 : t0 + m]
-            for i in range(m):
-                wi = w[i] * row[i]
-                g0[i] += s0[i] * wi
-                g1[i] += s1[i] * wi
-                g2[i] += s2[i] * wi
             for i in range(m):
                 e[i] += w[i] * row[i] * row[i]
 
@@ -135,8 +142,4 @@ def near_light_sums(weights, grey, lights, t0, m, sums):
             m11[i] += ws * s1[i]
             m12[i] += ws * s2[i]
             m22[i] += w[i] * s2[i] * s2[i]
-        for i in range(m):
-            wg = w[i] * row[i]
-            g0s[i] += s0[i] * wg
-            g1s[i] += s1[i] * wg
-            g2s[i] += s2[i] * wg
+        add_near_moments((g0s, g1s, g2s), (s0, s1, s2), w, row, m)
