@@ -24,6 +24,7 @@ from ._kernels import (
     add_moments4,
     add_normal_sums1,
     add_normal_sums4,
+    cofactors3,
     condition3,
     weighted_sums_tile,
 )
@@ -189,13 +190,7 @@ def _weighted_fit(weights, grey, lights, t0, m, max_condition, fit):
         a00, a01, a02 = np.float64(sums[0, i]), np.float64(sums[1, i]), np.float64(sums[2, i])
         a11, a12, a22 = np.float64(sums[3, i]), np.float64(sums[4, i]), np.float64(sums[5, i])
         g0, g1, g2 = np.float64(sums[6, i]), np.float64(sums[7, i]), np.float64(sums[8, i])
-        c00 = a11 * a22 - a12 * a12
-        c01 = a02 * a12 - a01 * a22
-        c02 = a01 * a12 - a02 * a11
-        c11 = a00 * a22 - a02 * a02
-        c12 = a01 * a02 - a00 * a12
-        c22 = a00 * a11 - a01 * a01
-        det = a00 * c00 + a01 * c01 + a02 * c02
+        c00, c01, c02, c11, c12, c22, det = cofactors3(a00, a01, a02, a11, a12, a22)
         if det != 0 and _within_condition(a00, a01, a02, a11, a12, a22, det, max_condition):
             fit[0, i] = (c00 * g0 + c01 * g1 + c02 * g2) / det
             fit[1, i] = (c01 * g0 + c11 * g1 + c12 * g2) / det

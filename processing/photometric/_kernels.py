@@ -418,6 +418,18 @@ def condition3(a00, a01, a02, a11, a12, a22):
     return _CAP
 
 
+@njit(inline="always")
+def cofactors3(a00, a01, a02, a11, a12, a22):
+    """The adjugate (upper triangle) and the determinant of a symmetric 3×3 matrix."""
+    c00 = a11 * a22 - a12 * a12
+    c01 = a02 * a12 - a01 * a22
+    c02 = a01 * a12 - a02 * a11
+    c11 = a00 * a22 - a02 * a02
+    c12 = a01 * a02 - a00 * a12
+    c22 = a00 * a11 - a01 * a01
+    return c00, c01, c02, c11, c12, c22, a00 * c00 + a01 * c01 + a02 * c02
+
+
 @njit(cache=True, nogil=True)
 def fit_from_sums(
     upper, moment, energy, weight_sum, used, condition, max_condition, normals, albedo, residual,
@@ -435,13 +447,7 @@ def fit_from_sums(
     for i in range(n):
         a00, a01, a02 = upper[0, i], upper[1, i], upper[2, i]
         a11, a12, a22 = upper[3, i], upper[4, i], upper[5, i]
-        c00 = a11 * a22 - a12 * a12
-        c01 = a02 * a12 - a01 * a22
-        c02 = a01 * a12 - a02 * a11
-        c11 = a00 * a22 - a02 * a02
-        c12 = a01 * a02 - a00 * a12
-        c22 = a00 * a11 - a01 * a01
-        det = a00 * c00 + a01 * c01 + a02 * c02
+        c00, c01, c02, c11, c12, c22, det = cofactors3(a00, a01, a02, a11, a12, a22)
         solvable = used[i] >= 3 and condition[i] <= max_condition
         inv = 1.0 / det if solvable and det != 0 else 0.0
         i00, i01, i02 = c00 * inv, c01 * inv, c02 * inv
