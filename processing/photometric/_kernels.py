@@ -318,6 +318,20 @@ def weighted_sums(weights, planes, lights, upper, moment, energy, weight_sum, us
         )
 
 
+@njit(inline="always")
+def cleared_tile(upper, moment, energy, weight_sum, used, t0, m):
+    """Pixels ``t0 … t0 + m`` of the sums, zeroed; their normal-matrix rows, Σ w and count."""
+    a00, a01, a02 = upper[0, t0 : t0 + m], upper[1, t0 : t0 + m], upper[2, t0 : t0 + m]
+    a11, a12, a22 = upper[3, t0 : t0 + m], upper[4, t0 : t0 + m], upper[5, t0 : t0 + m]
+    total, count = weight_sum[t0 : t0 + m], used[t0 : t0 + m]
+    for acc in (a00, a01, a02, a11, a12, a22, total, count):
+        acc[:] = 0
+    for c in range(moment.shape[0]):
+        moment[c, :, t0 : t0 + m] = 0
+        energy[c, t0 : t0 + m] = 0
+    return a00, a01, a02, a11, a12, a22, total, count
+
+
 @njit(cache=True, nogil=True, fastmath=_CONTRACT)
 def weighted_sums_tile(weights, planes, lights, t0, m, upper, moment, energy, weight_sum, used):
     """:func:`weighted_sums` of pixels ``t0 … t0 + m``.
@@ -328,14 +342,9 @@ def weighted_sums_tile(weights, planes, lights, t0, m, upper, moment, energy, we
     n_lights = weights.shape[0]
     n_channels = planes.shape[0]
     one, zero = 1.0, 0.0
-    a00, a01, a02 = upper[0, t0 : t0 + m], upper[1, t0 : t0 + m], upper[2, t0 : t0 + m]
-    a11, a12, a22 = upper[3, t0 : t0 + m], upper[4, t0 : t0 + m], upper[5, t0 : t0 + m]
-    total, count = weight_sum[t0 : t0 + m], used[t0 : t0 + m]
-    for acc in (a00, a01, a02, a11, a12, a22, total, count):
-        acc[:] = 0
-    for c in range(n_channels):
-        moment[c, :, t0 : t0 + m] = 0
-        energy[c, t0 : t0 + m] = 0
+    a00, a01, a02, a11, a12, a22, total, count = cleared_tile(
+        upper, moment, energy, weight_sum, used, t0, m
+    )
     upper6 = (a00, a01, a02, a11, a12, a22)
     full = n_lights - n_lights % _UNROLL
     for k in range(0, full, _UNROLL):

@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ._kernels import TILE
+from ._kernels import TILE, cleared_tile
 
 # Fused multiply-add only: nothing assumes finite values.
 _CONTRACT = {"contract"}
@@ -58,14 +58,9 @@ def near_weighted_sums_tile(
     n_lights = weights.shape[0]
     n_channels = planes.shape[0]
     one, zero = 1.0, 0.0
-    a00, a01, a02 = upper[0, t0 : t0 + m], upper[1, t0 : t0 + m], upper[2, t0 : t0 + m]
-    a11, a12, a22 = upper[3, t0 : t0 + m], upper[4, t0 : t0 + m], upper[5, t0 : t0 + m]
-    total, count = weight_sum[t0 : t0 + m], used[t0 : t0 + m]
-    for acc in (a00, a01, a02, a11, a12, a22, total, count):
-        acc[:] = 0
-    for c in range(n_channels):
-        moment[c, :, t0 : t0 + m] = 0
-        energy[c, t0 : t0 + m] = 0
+    a00, a01, a02, a11, a12, a22, total, count = cleared_tile(
+        upper, moment, energy, weight_sum, used, t0, m
+    )
     for light in range(n_lights):
         w = weights[light, t0 : t0 + m]
         s0 = lights[0, light, t0 : t0 + m]
