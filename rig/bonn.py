@@ -44,6 +44,7 @@ __all__ = [
     "plate_rotation",
     "plate_tool_pose",
     "recorded_camera",
+    "recorded_pose",
     "tilt_deg",
 ]
 
@@ -84,6 +85,12 @@ def recorded_camera(config: RigConfig, camera_id: str, actuators: dict) -> Pinho
     """The rail camera's model in the sample frame at a step, from the arm's and the rail's
     recorded state (``StepRecord.actuators``: ``tool_rx_deg``, ``tool_ry_deg``,
     ``tool_rz_deg``, ``rail_deg``)."""
+    rotation, rail_deg = recorded_pose(actuators)
+    return camera_model(config, camera_id, rotation, rail_deg)
+
+
+def recorded_pose(actuators: dict) -> tuple[np.ndarray, float]:
+    """The plate's rotation (3, 3) and the rail position (°) a Bonn step recorded."""
     try:
         angles = [float(actuators[f"tool_r{c}_deg"]) for c in "xyz"]
         rail_deg = float(actuators["rail_deg"])
@@ -92,8 +99,7 @@ def recorded_camera(config: RigConfig, camera_id: str, actuators: dict) -> Pinho
             f"the step's recorded actuators lack {err.args[0]!r}; a Bonn step records "
             "tool_rx_deg, tool_ry_deg, tool_rz_deg and rail_deg"
         ) from err
-    rotation = Pose((0.0, 0.0, 0.0), tuple(np.radians(angles))).matrix()[:3, :3]
-    return camera_model(config, camera_id, rotation, rail_deg)
+    return Pose((0.0, 0.0, 0.0), tuple(np.radians(angles))).matrix()[:3, :3], rail_deg
 
 
 def lamp_position_mm(config: RigConfig, rotation: np.ndarray) -> np.ndarray:

@@ -29,7 +29,6 @@ from rig import bonn
 from rig.archive import Archive
 from rig.clock import VirtualClock
 from rig.geometry import Sampling, angular_distance_deg, direction_vector
-from rig.ur_kinematics import Pose
 from sim.rig import SimulatedRig
 from tests.sim.bonn_registration import SIZE, bonn_scene, texture_rmse
 
@@ -79,10 +78,8 @@ def _measure(sim, views, h1, archive_path: Path, truth_every: int) -> list[dict]
     rows = []
     with Archive.open(archive_path) as archive:
         for n, step in enumerate(archive.step_table()):
-            a = step.actuators
-            tool = Pose((0.0, 0.0, 0.0), tuple(np.radians([a[f"tool_r{c}_deg"] for c in "xyz"])))
-            rotation = tool.matrix()[:3, :3]
-            camera = bonn.camera_model(rig, "cam0", rotation, a["rail_deg"])
+            rotation, rail_deg = bonn.recorded_pose(step.actuators)
+            camera = bonn.camera_model(rig, "cam0", rotation, rail_deg)
             image = archive.read_frame(step.index, "cam0", 0)
             result = register_frame(image, rig.holder, size=SIZE, camera=camera, posed=camera)
             markers = result.reason == Reason.OK
@@ -96,7 +93,7 @@ def _measure(sim, views, h1, archive_path: Path, truth_every: int) -> list[dict]
             }
             if result.valid and n % truth_every == 0:
                 row["rmse"] = texture_rmse(
-                    sim, rig, result, rotation, a["rail_deg"],
+                    sim, rig, result, rotation, rail_deg,
                     exposure_s=step.exposures_s[0], bit_depth=rig.camera("cam0").bit_depth,
                 )  # fmt: skip
             rows.append(row)
