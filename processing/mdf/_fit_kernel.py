@@ -18,6 +18,8 @@ from functools import cache
 import numpy as np
 from numba import njit
 
+from processing._numba_cache import keep_fresh
+from processing.mdf import _reason
 from processing.mdf._reason import Reason
 
 #: Detector codes of :func:`fit_peaks`.
@@ -120,3 +122,6 @@ def _blais_rioux(f0, f1, f2, f3, f4, f5, f6):
     if g_m < 0 and g_0 >= 0:
         return -1.0 - g_m / (g_0 - g_m), True
     return 0.0, False
+
+
+keep_fresh(__name__, _reason)

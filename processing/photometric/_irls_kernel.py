@@ -19,6 +19,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from processing._numba_cache import keep_fresh
+
+from . import _kernels, _near_kernel, _result
 from ._kernels import (
     add_moments1,
     add_moments4,
@@ -378,3 +381,6 @@ def _key_value(key):
     bits = np.empty(1, np.int32)
     bits[0] = key
     return bits.view(np.float32)[0]
+
+
+keep_fresh(__name__, _kernels, _near_kernel, _result)

@@ -20,6 +20,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from processing._numba_cache import keep_fresh
+
+from . import _result
 from ._result import CONDITION_CAP, Reason
 
 _OK, _DARK, _BELOW_HORIZON = int(Reason.OK), int(Reason.DARK), int(Reason.BELOW_HORIZON)
@@ -495,3 +498,6 @@ def fit_from_sums(
         normals[i, 0], normals[i, 1], normals[i, 2] = n0, n1, n2
         residual[i] = np.sqrt(sq / weight_sum[i]) if weight_sum[i] > 0 else 0.0
         positive[i] = solved
+
+
+keep_fresh(__name__, _result)

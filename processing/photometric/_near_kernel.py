@@ -14,6 +14,9 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
+from processing._numba_cache import keep_fresh
+
+from . import _kernels, _result
 from ._kernels import TILE, cleared_tile
 
 # Fused multiply-add only: nothing assumes finite values.
@@ -138,3 +141,6 @@ def near_light_sums(weights, grey, lights, t0, m, sums):
             m12[i] += ws * s2[i]
             m22[i] += w[i] * s2[i] * s2[i]
         add_near_moments((g0s, g1s, g2s), (s0, s1, s2), w, row, m)
+
+
+keep_fresh(__name__, _kernels, _result)
