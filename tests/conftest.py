@@ -5,23 +5,15 @@ that runs for hours cannot afford leaks, and a leaking test hides them.
 """
 
 import contextlib
-import os
 import threading
 import time
 
 import psutil
 import pytest
-from hypothesis import HealthCheck, settings
 
-settings.register_profile(
-    "ci",
-    max_examples=60,
-    deadline=None,
-    derandomize=True,
-    suppress_health_check=[HealthCheck.too_slow],
-)
-settings.register_profile("dev", max_examples=30, deadline=None)
-settings.load_profile("ci" if os.environ.get("CI") else "dev")
+from tests import budgets
+
+budgets.load()
 
 _LEAK_GRACE_S = 3.0
 

@@ -9,13 +9,14 @@ from pathlib import Path
 
 import pytest
 import tomli_w
-from hypothesis import event, given, settings
+from hypothesis import event, given
 from hypothesis import strategies as st
 from typer.testing import CliRunner
 
 from orchestrator.cli import app
 from rig.errors import PlanError
 from rig.plan import Plan, load_plan
+from tests.budgets import fuzz
 
 DEMO = (Path(__file__).parents[2] / "examples" / "plans" / "demo.toml").read_bytes()
 
@@ -93,7 +94,7 @@ def folder(tmp_path_factory):
     return tmp_path_factory.mktemp("plans")
 
 
-@settings(max_examples=1000, deadline=None)
+@fuzz()
 @given(content=PLAN_FILES)
 def test_a_plan_file_is_accepted_or_its_problems_named(folder, content):
     path = folder / "plan.toml"

@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 from rig import bonn
@@ -11,6 +11,7 @@ from rig.errors import KinematicsError, PlanError
 from rig.geometry import angular_distance_deg, direction_vector
 from rig.plan import parse_plan
 from rig.schedule import compile_plan
+from tests.budgets import scaled
 
 
 def _lab(**section):
@@ -127,7 +128,7 @@ def test_the_tour_beats_a_plan_order_that_jumps_about():
         schedule.estimate.total_s, schedule.naive_estimate.total_s)
 
 
-@settings(max_examples=40, deadline=None)
+@scaled(2 / 3)
 @given(
     st.floats(0, 85), st.floats(0, 360), st.floats(0, 85), st.floats(0, 360),
 )  # fmt: skip

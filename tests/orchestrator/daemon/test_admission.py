@@ -5,7 +5,7 @@ import math
 
 import pytest
 import tomli_w
-from hypothesis import HealthCheck, event, given, settings
+from hypothesis import event, given
 from hypothesis import strategies as st
 
 from orchestrator.daemon.admission import (
@@ -19,6 +19,7 @@ from rig.config import default_rig_config
 from rig.errors import ConfigError, PlanError
 from rig.plan import parse_plan
 from rig.schedule import compile_plan
+from tests.budgets import fuzz
 
 
 def _mostly(valid, invalid):
@@ -97,7 +98,7 @@ def _admit(text: str):
         return err
 
 
-@settings(max_examples=1000, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@fuzz()
 @given(_plan)
 def test_any_plan_is_compiled_or_refused_naming_a_field(data):
     outcome = _admit(tomli_w.dumps(data))

@@ -6,7 +6,7 @@ import time
 
 import pytest
 import zmq
-from hypothesis import HealthCheck, given, settings
+from hypothesis import HealthCheck, given
 from hypothesis import strategies as st
 
 from orchestrator.client import (
@@ -19,6 +19,7 @@ from orchestrator.client import abort as client_abort
 from orchestrator.daemon import Session
 from orchestrator.daemon.protocol import MAX_CONTROL_BYTES, MAX_JSON_DEPTH, MAX_PLAN_PAIRS
 from rig.archive import Archive
+from tests.budgets import fuzz
 from tests.orchestrator.daemon.conftest import LAMP_PLAN, running_daemon
 
 
@@ -194,9 +195,7 @@ def test_fuzzed_control_messages_then_a_normal_session(config, rig, tmp_path, mo
         dealer.connect(endpoints.control)
         codes = set()
 
-        @settings(
-            max_examples=1000,
-            deadline=None,
+        @fuzz(
             database=None,
             suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
         )

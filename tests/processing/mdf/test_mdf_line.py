@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 from scipy.ndimage import binary_erosion
 
@@ -13,6 +13,7 @@ from processing.mdf import (
     plate_points,
     profile_axis_for,
 )
+from tests.budgets import scaled
 from tests.processing.mdf.mdf_scenes import CONFIG, frames, region, scan
 
 
@@ -111,7 +112,7 @@ def test_bad_inputs_name_the_problem():
         type(reg).from_holder(reg.camera, sample_mm=170.0, plate_mm=180.0, margin_mm=4.0)
 
 
-@settings(max_examples=25)
+@scaled(0.4)
 @given(
     seed=st.integers(0, 2**31),
     level=st.integers(0, 255),

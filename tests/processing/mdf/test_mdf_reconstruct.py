@@ -6,7 +6,7 @@ Ground truth comes from ray marching the analytic height field
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 from processing.mdf import (
@@ -32,6 +32,7 @@ from processing.mdf.synthetic import (
     true_distance,
     visible_from,
 )
+from tests.budgets import scaled
 from tests.processing.mdf.mdf_scenes import (
     ARCS,
     CONFIG,
@@ -230,7 +231,7 @@ def test_frame_count_mismatch_is_an_error():
         displacement_image(tracker.result(), planes, camera(), grid()[0], weight=1.0)
 
 
-@settings(max_examples=8)
+@scaled(0.15)
 @given(
     theta=st.sampled_from(["cam0", "cam1", "cam4", "cam5"]),
     arc=st.floats(0, 360),

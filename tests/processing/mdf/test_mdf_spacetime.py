@@ -2,7 +2,7 @@
 
 import numpy as np
 import pytest
-from hypothesis import given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 
 from processing.mdf import (
@@ -15,6 +15,7 @@ from processing.mdf import (
     space_time_peaks,
 )
 from processing.mdf._fit_kernel import METHOD_CODES, fit_peaks, log_table
+from tests.budgets import scaled
 
 
 def sweep(centres, n_frames, *, sigma=1.2, peak=180.0, ambient=12.0, noise=0.0, seed=0):
@@ -37,7 +38,7 @@ def test_sub_frame_peak_times(method):
     assert np.median(np.abs(peaks.time - centres)) < tol
 
 
-@settings(max_examples=30)
+@scaled(0.5)
 @given(
     seed=st.integers(0, 2**31),
     n_frames=st.integers(1, 30),
@@ -141,7 +142,7 @@ def test_bad_inputs():
         space_time_peaks([], min_contrast=1)
 
 
-@settings(max_examples=20)
+@scaled(1 / 3)
 @given(seed=st.integers(0, 2**31), block=st.integers(1, 9), pause=st.integers(1, 24))
 def test_block_size_and_a_result_midway_change_nothing(seed, block, pause):
     centres = np.random.default_rng(seed).uniform(2, 22, (6, 5))
@@ -245,7 +246,7 @@ def test_blocks_equal_frames_with_peaks_at_block_and_sequence_edges(method, size
         assert {Reason.OK, Reason.AT_SEQUENCE_EDGE} <= set(got.reason.ravel().tolist())
 
 
-@settings(max_examples=30)
+@scaled(0.5)
 @given(
     seed=st.integers(0, 2**31),
     n_frames=st.integers(1, 40),
