@@ -21,6 +21,9 @@ from sim.rig import SimulatedRig
 from tests.integration.conftest import run_session
 from tests.sim.bonn_registration import bonn_scene
 
+# Sessions, subprocesses or benches: the full tier only (make test), not make quick.
+pytestmark = pytest.mark.slow
+
 PLAN = """
 [sample]
 name = "bonn"

@@ -20,6 +20,9 @@ import tomli_w
 from orchestrator import client
 from rig.archive import Archive
 
+# Sessions, subprocesses or benches: the full tier only (make test), not make quick.
+pytestmark = pytest.mark.slow
+
 RIG = str(Path(sys.executable).with_name("rig"))
 ROOT = Path(__file__).resolve().parents[2]
 PLAN = """

@@ -8,6 +8,7 @@ import signal
 import time
 import tomllib
 
+import pytest
 import tomli_w
 
 from orchestrator import client
@@ -27,6 +28,9 @@ from tests.integration.test_cli_processes import (
     _stop,
     _wait,
 )
+
+# Sessions, subprocesses or benches: the full tier only (make test), not make quick.
+pytestmark = pytest.mark.slow
 
 
 def _committed(connect) -> int:

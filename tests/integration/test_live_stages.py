@@ -20,6 +20,9 @@ from sim import Simulator
 from sim.rig import SimulatedRig
 from sim.scene import scene_from_dict
 
+# Sessions, subprocesses or benches: the full tier only (make test), not make quick.
+pytestmark = pytest.mark.slow
+
 PLAN = """
 [sample]
 name = "live"

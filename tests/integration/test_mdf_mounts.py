@@ -12,6 +12,7 @@ import tomllib
 from pathlib import Path
 
 import numpy as np
+import pytest
 
 from orchestrator.daemon import run_local
 from processing.offline import MdfStage, run_stages
@@ -20,6 +21,9 @@ from rig.clock import VirtualClock
 from sim import Simulator
 from sim.rig import SimulatedRig
 from sim.scene import scene_from_dict
+
+# Sessions, subprocesses or benches: the full tier only (make test), not make quick.
+pytestmark = pytest.mark.slow
 
 SIZE = 48
 PLAN = """

@@ -25,6 +25,9 @@ from rig.material import btf_from_arrays
 from sim.rig import SimulatedRig
 from sim.scene import scene_from_dict
 
+# Sessions, subprocesses or benches: the full tier only (make test), not make quick.
+pytestmark = pytest.mark.slow
+
 SIZE = 32
 PLAN = """
 [sample]

@@ -18,6 +18,9 @@ from sim import Simulator
 from sim.rig import SimulatedRig
 from sim.scene import load_scene
 
+# Sessions, subprocesses or benches: the full tier only (make test), not make quick.
+pytestmark = pytest.mark.slow
+
 SIZE = 48
 PLAN = """
 [sample]

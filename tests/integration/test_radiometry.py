@@ -23,6 +23,9 @@ from rig.archive import Archive, FrameFormat
 from rig.config import RigConfig, default_rig_config
 from rig.material import archive_flat_field_path, read_material
 
+# Sessions, subprocesses or benches: the full tier only (make test), not make quick.
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def archive(tmp_path_factory):

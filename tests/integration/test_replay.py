@@ -13,6 +13,9 @@ from rig.clock import VirtualClock
 from sim.rig import SimulatedRig
 from tests.integration.conftest import run_session
 
+# Sessions, subprocesses or benches: the full tier only (make test), not make quick.
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def recording(scene, tmp_path_factory):

@@ -23,6 +23,9 @@ from sim.scene import scene_from_dict
 from sim.world import WorldSnapshot
 from tests.integration.conftest import run_session
 
+# Sessions, subprocesses or benches: the full tier only (make test), not make quick.
+pytestmark = pytest.mark.slow
+
 
 def _snapshot(record):
     return WorldSnapshot(

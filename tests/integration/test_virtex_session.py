@@ -16,6 +16,9 @@ from orchestrator.cli import app
 from rig.archive import Archive
 from tests.integration.ps_kinds_table import ps_session
 
+# Sessions, subprocesses or benches: the full tier only (make test), not make quick.
+pytestmark = pytest.mark.slow
+
 
 @pytest.mark.parametrize("lamps", [3, 6])
 def test_a_virtex_session_gives_normals_as_good_as_the_wang_rig(tmp_path, lamps):

@@ -4,6 +4,9 @@ import pytest
 
 from orchestrator.calibration_bench import run_bench
 
+# Sessions, subprocesses or benches: the full tier only (make test), not make quick.
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def rows():

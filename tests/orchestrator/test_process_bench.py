@@ -8,6 +8,9 @@ from typer.testing import CliRunner
 from orchestrator.cli import app
 from orchestrator.process_bench import run_bench
 
+# Sessions, subprocesses or benches: the full tier only (make test), not make quick.
+pytestmark = pytest.mark.slow
+
 
 def test_rows_count_the_views_processed_and_speedup_is_against_one_worker():
     rows = run_bench(

@@ -7,6 +7,9 @@ import pytest
 
 from render.bench import run_bench
 
+# Sessions, subprocesses or benches: the full tier only (make test), not make quick.
+pytestmark = pytest.mark.slow
+
 
 @pytest.fixture(scope="module")
 def bench_rows():

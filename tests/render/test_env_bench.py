@@ -2,7 +2,12 @@
 
 import math
 
+import pytest
+
 from render.env_bench import run_bench
+
+# Sessions, subprocesses or benches: the full tier only (make test), not make quick.
+pytestmark = pytest.mark.slow
 
 
 def test_environment_bench_rows():

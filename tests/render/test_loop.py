@@ -26,6 +26,9 @@ from sim.scene import scene_from_dict
 from sim.simulator import Simulator
 from tests.render.conftest import SAMPLE_MM, N, material, ps_view
 
+# Sessions, subprocesses or benches: the full tier only (make test), not make quick.
+pytestmark = pytest.mark.slow
+
 #: float16's relative precision: the renderer reads the same half-float texels
 #: as processing.btf.interpolate (see test_exact.py).
 FLOAT16_EPS = 2.0**-11

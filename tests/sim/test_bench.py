@@ -8,6 +8,9 @@ import sim.bench
 from sim.bench import run_bench
 from sim.simulator import Simulator
 
+# Sessions, subprocesses or benches: the full tier only (make test), not make quick.
+pytestmark = pytest.mark.slow
+
 EFFECTS = ("shadows", "noise")
 
 

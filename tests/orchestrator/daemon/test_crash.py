@@ -8,6 +8,8 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
+
 from orchestrator.client import DaemonClient, follow, wait_for_state
 from orchestrator.daemon import Endpoints
 from rig.archive import Archive
@@ -15,6 +17,9 @@ from rig.plan import parse_plan
 from rig.schedule import compile_plan
 from tests.orchestrator.daemon.conftest import LAMP_PLAN, TINY_PLAN, running_daemon
 from tests.orchestrator.daemon.test_session import _check_archive
+
+# Sessions, subprocesses or benches: the full tier only (make test), not make quick.
+pytestmark = pytest.mark.slow
 
 ROOT = Path(__file__).resolve().parents[3]
 

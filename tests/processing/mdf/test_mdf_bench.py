@@ -7,6 +7,9 @@ from processing.mdf import PEAK_METHODS, SpaceTimeTracker
 from processing.mdf.bench import capture_time_s, run_bench
 from rig.config import default_rig_config
 
+# Sessions, subprocesses or benches: the full tier only (make test), not make quick.
+pytestmark = pytest.mark.slow
+
 
 def test_capture_time_from_the_rig_config():
     config = default_rig_config()

@@ -1,9 +1,13 @@
 """The benchmark entry point runs and reports what it promises (timings not asserted)."""
 
 import numpy as np
+import pytest
 
 from processing.photometric import DistantLights, solve
 from processing.photometric.bench import lamp_layout, run_bench
+
+# Sessions, subprocesses or benches: the full tier only (make test), not make quick.
+pytestmark = pytest.mark.slow
 
 
 def test_run_bench_rows_on_a_small_stack():

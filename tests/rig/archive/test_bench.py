@@ -9,6 +9,9 @@ from rig.archive import Archive, FrameFormat, StepRecord
 from rig.archive.bench import TARGET_MB_S, frame_pool, laser_scan_mb_s, run_bench
 from rig.config import default_rig_config
 
+# Sessions, subprocesses or benches: the full tier only (make test), not make quick.
+pytestmark = pytest.mark.slow
+
 
 def test_target_rate_is_the_seed_laser_scan():
     # seed 001: 8 cameras of 1024×768 RGB at 7.5 Hz while scanning = 141.56 MB/s

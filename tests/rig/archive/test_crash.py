@@ -19,6 +19,9 @@ import pytest
 
 from rig.archive import Archive, StepAlreadyCommitted
 
+# Sessions, subprocesses or benches: the full tier only (make test), not make quick.
+pytestmark = pytest.mark.slow
+
 _RANDOM_KILLS = 8
 WRITER_PATH = Path(__file__).with_name("crash_writer.py")
 _spec = importlib.util.spec_from_file_location("archive_crash_writer", WRITER_PATH)
