@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import signal
 import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -29,6 +30,7 @@ __all__ = [
     "prepare_folder",
     "quiet_dask_logs",
     "reporting_errors",
+    "terminating_as_interrupt",
 ]
 
 # Wide when piped (logs, CI), so benchmark tables do not wrap at 80 columns.
@@ -97,6 +99,21 @@ def reporting_errors(*, debug: bool = False) -> Iterator[None]:
         # rich markup would eat bracketed text of the message ("[…]", "[dask]")
         err_console.print(f"[red]error:[/red] {escape(message)}", soft_wrap=True)  # paths whole
         raise typer.Exit(code) from err
+
+
+@contextmanager
+def terminating_as_interrupt() -> Iterator[None]:
+    """SIGTERM handled like Ctrl-C (SIGINT) while the block runs: a KeyboardInterrupt,
+    so a command's clean-up (a half-written output removed) runs on either."""
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt(f"signal {signal.Signals(signum).name}")
+
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
 
 
 class RigGroup(TyperGroup):

@@ -13,6 +13,7 @@ from pathlib import Path
 import numpy as np
 
 from rig.interchange._errors import InterchangeError
+from rig.interchange._imagesize import check_image_size
 
 __all__ = [
     "IMAGE_SUFFIXES",
@@ -51,9 +52,11 @@ def to_srgb(linear, *, dtype: str = "uint8") -> np.ndarray:
 
 def read_image(path) -> np.ndarray:
     """The pixels of an image file: ``(H, W, C)`` RGB(A) or grey, in the file's dtype
-    (uint8, uint16, or float32 for OpenEXR).
+    (uint8, uint16, or float32 for OpenEXR, finite).
 
-    Raises InterchangeError naming the file when it is not an image this reads.
+    Raises InterchangeError naming the file when it is not an image this reads,
+    when its header claims more than ``MAX_IMAGE_PIXELS`` pixels (checked
+    before decoding), or when an OpenEXR holds NaN or inf.
     """
     path = Path(path)
     suffix = path.suffix.lower()
@@ -61,11 +64,15 @@ def read_image(path) -> np.ndarray:
         raise InterchangeError(
             f"{path}: not an image file (suffix {path.suffix!r}); images are {IMAGE_SUFFIXES}"
         )
+    check_image_size(path)
     if suffix == ".exr":
         return _read_exr(path)
     import cv2
 
-    image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    try:
+        image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    except cv2.error as err:  # a header that contradicts the data
+        raise InterchangeError(f"{path}: unreadable ({err.err})") from err
     if image is None or image.dtype.name not in _CV2_DTYPES:
         what = "unreadable" if image is None else f"of pixel type {image.dtype.name}"
         raise InterchangeError(
@@ -134,7 +141,14 @@ def _read_exr(path: Path) -> np.ndarray:
     for name in ("RGBA", "RGB", "Y"):
         if name in channels:
             data = channels[name]
-            return (data if data.ndim == 3 else data[:, :, np.newaxis]).astype(np.float32)
+            pixels = (data if data.ndim == 3 else data[:, :, np.newaxis]).astype(np.float32)
+            bad = np.count_nonzero(~np.isfinite(pixels))
+            if bad:
+                raise InterchangeError(
+                    f"{path}: {bad} of {pixels.size} values are NaN or inf; radiance is "
+                    "finite (replace them, e.g. by 0 or the neighbours' value)"
+                )
+            return pixels
     raise InterchangeError(f"{path}: OpenEXR channels {sorted(channels)}; expected Y, RGB or RGBA")
 
 
