@@ -225,3 +225,23 @@ def test_sigterm_during_an_import_leaves_no_archive(tmp_path):
     assert done.returncode == 130, done.stdout + done.stderr  # as after Ctrl-C
     assert "Traceback" not in done.stdout + done.stderr
     assert not out.exists()
+
+
+def test_a_btf_holding_nan_is_refused_by_view_and_export_naming_the_array(tmp_path):
+    import zarr
+
+    imported = tmp_path / "a.zarr"
+    assert _run("import", write_ubo_folder(tmp_path / "ubo"), "--out", imported).exit_code == 0
+    processed = _run("process", imported, "--stages", "btf", "--size", SIZE, "--components", 4)
+    assert processed.exit_code == 0, processed.output
+    group = zarr.open_group(imported / "material" / "btf", mode="r+")
+    basis = group["basis"][...]
+    basis[0, 0, 5, 5, 1] = np.nan
+    group["basis"][...] = basis
+    picture = tmp_path / "v.png"
+    viewed = _run("view", imported, "--mesh", "plane", "--size", "32x32", "--out", picture)
+    exported = _run("export", "ubo2003", imported, "--out", tmp_path / "o", "--from-material")
+    for result in (viewed, exported):
+        assert result.exit_code in (1, 2)
+        assert "material/btf: basis holds NaN or inf (1 of" in _said(result)
+    assert not picture.exists() and not (tmp_path / "o").exists()
