@@ -27,6 +27,7 @@ __all__ = [
     "check_new_archive",
     "console",
     "load_config_option",
+    "prepare_file",
     "prepare_folder",
     "quiet_dask_logs",
     "reporting_errors",
@@ -148,6 +149,16 @@ def prepare_folder(path: Path, option: str) -> Path:
         raise ConfigError(
             f"{option}: cannot create the folder {path} ({err.strerror}); give a writable one"
         ) from None
+    return path
+
+
+def prepare_file(path: Path, option: str) -> Path:
+    """Create the folder of the file ``path`` (for ``option``, e.g. ``"--out"``) before
+    any work is done; a ``ConfigError`` naming both when ``path`` is a folder or its
+    folder cannot be made (a file on the way, no permission)."""
+    if path.is_dir():
+        raise ConfigError(f"{option} {path}: is a folder; give a file's path")
+    prepare_folder(path.parent, f"{option} {path}")
     return path
 
 

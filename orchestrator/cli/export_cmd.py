@@ -64,6 +64,8 @@ def _export_to(out: Path, archive: Path, *, overwrite: bool, folder: bool = True
             )
     if not out.parent.is_dir():
         raise ConfigError(f"--out {out}: folder {out.parent} does not exist")
+    from rig.interchange import InterchangeWriteError
+
     tmp = out.with_name(f".{out.name}.exporting")
     _remove(tmp)
     if folder:
@@ -72,6 +74,11 @@ def _export_to(out: Path, archive: Path, *, overwrite: bool, folder: bool = True
         yield tmp
         _remove(out)
         tmp.rename(out)
+    except (OSError, InterchangeWriteError) as err:  # a full disk, a folder not writable
+        what = err if isinstance(err, InterchangeWriteError) else (
+            f"writing {err.filename + ' ' if err.filename else ''}failed: {err.strerror or err}"
+        )  # fmt: skip
+        raise InterchangeWriteError(f"--out {out}: {what}; nothing was written there") from err
     finally:
         _remove(tmp)
 
@@ -216,6 +223,10 @@ def gltf(
         raise ConfigError(f"--out {out}: a binary glTF needs the suffix .glb")
     maps_, sample_mm, manifest = ps_maps(archive, view)
     with _export_to(out, archive, overwrite=overwrite, folder=False) as tmp:
-        write_glb(tmp.with_suffix(".glb"), maps_, sample_mm=sample_mm, mesh=mesh)
-        tmp.with_suffix(".glb").rename(tmp)
+        glb = tmp.with_suffix(".glb")  # write_glb wants the suffix
+        try:
+            write_glb(glb, maps_, sample_mm=sample_mm, mesh=mesh)
+            glb.rename(tmp)
+        finally:
+            glb.unlink(missing_ok=True)
     console.print(escape(f"wrote {out} (view {manifest['view']}, {sample_mm:g} mm plane)"))

@@ -12,7 +12,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rig.interchange._errors import InterchangeError
+from rig.interchange._errors import InterchangeError, InterchangeWriteError
 from rig.interchange._imagesize import check_image_size
 
 __all__ = [
@@ -86,7 +86,11 @@ def read_image(path) -> np.ndarray:
 
 def write_image(path, image) -> Path:
     """Write ``(H, W, C)`` pixels (C = 1, 3 or 4) unchanged: uint8/uint16 as PNG or
-    TIFF, float32 as OpenEXR, chosen by the suffix; returns the path."""
+    TIFF, float32 as OpenEXR, chosen by the suffix; returns the path.
+
+    InterchangeError for pixels or a suffix it cannot write; InterchangeWriteError
+    naming the file when writing fails (a full disk).
+    """
     path = Path(path)
     pixels = _pixels(image, path)
     suffix = path.suffix.lower()
@@ -104,9 +108,11 @@ def write_image(path, image) -> Path:
     try:
         written = cv2.imwrite(str(path), bgr)
     except cv2.error as err:
-        raise InterchangeError(f"{path}: could not be written ({err})") from err
-    if not written:
-        raise InterchangeError(f"{path}: could not be written (is the folder writable?)")
+        raise InterchangeWriteError(f"{path}: could not be written ({err.err})") from err
+    if not written:  # OpenCV says no more than that
+        raise InterchangeWriteError(
+            f"{path}: could not be written (a full disk, or a folder that is not writable)"
+        )
     return path
 
 
@@ -125,8 +131,8 @@ def write_exr(path, image) -> Path:
     try:
         with OpenEXR.File(header, {name: np.ascontiguousarray(data)}) as exr:
             exr.write(str(path))
-    except Exception as err:  # the bindings raise bare exceptions
-        raise InterchangeError(f"{path}: could not be written as OpenEXR ({err})") from err
+    except Exception as err:  # the bindings raise bare exceptions; the pixels were checked
+        raise InterchangeWriteError(f"{path}: could not be written as OpenEXR ({err})") from err
     return path
 
 

@@ -9,8 +9,7 @@ import cv2
 import numpy as np
 import pytest
 
-from rig.interchange import InterchangeError, import_folder, write_image
-from rig.interchange._imagesize import image_size
+from rig.interchange import InterchangeError, image_size, import_folder, write_image
 from tests.rig.interchange.conftest import LIGHTS, VIEWS, write_ubo_folder
 
 CSV_HEADER = "file,light_theta_deg,light_phi_deg,view_theta_deg,view_phi_deg\n"
