@@ -47,8 +47,9 @@ def _check_archive(archive: Path) -> None:
 
 @contextlib.contextmanager
 def _export_to(out: Path, archive: Path, *, overwrite: bool, folder: bool = True) -> Iterator[Path]:
-    """A fresh hidden folder (or file path) that becomes ``out`` when the block succeeds."""
-    from rig.interchange import MANIFEST
+    """A fresh hidden folder (or file path) that becomes ``out`` when the block succeeds;
+    a failed write (a full disk) is an InterchangeWriteError naming ``out``."""
+    from rig.interchange import MANIFEST, InterchangeWriteError
 
     resolved, source = out.resolve(), archive.resolve()
     if resolved == source or source in resolved.parents or resolved in source.parents:
@@ -64,8 +65,6 @@ def _export_to(out: Path, archive: Path, *, overwrite: bool, folder: bool = True
             )
     if not out.parent.is_dir():
         raise ConfigError(f"--out {out}: folder {out.parent} does not exist")
-    from rig.interchange import InterchangeWriteError
-
     tmp = out.with_name(f".{out.name}.exporting")
     _remove(tmp)
     if folder:

@@ -277,7 +277,7 @@ def _run(
 
         try:
             first = draw(0.0, 0.0, 0.0)
-        except RenderError as err:  # what was asked is more than this context draws (--size)
+        except RenderError as err:  # asked more than this context draws (--size, a lamp)
             err_console.print(f"[red]error:[/red] {err}")
             raise typer.Exit(EXIT_INVALID) from err
         exposure_ev = auto_exposure_ev(first) if exposure is None else exposure
