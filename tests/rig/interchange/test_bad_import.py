@@ -123,3 +123,18 @@ def test_a_csv_field_over_the_csv_limit_is_named_with_its_line(tmp_path):
     _image(folder / "f0.png", np.zeros((8, 8, 3), np.uint8))
     (folder / "directions.csv").write_text(CSV_HEADER + "f0.png,0,0,0," + "0" * 140_000 + "\n")
     _refused(folder, tmp_path, r"directions.csv line 2: not a readable CSV row \(field larger")
+
+
+def test_a_tiff_whose_directory_follows_its_pixels_is_sized(tmp_path):
+    path = tmp_path / "big.tif"
+    _image(path, np.random.default_rng(0).integers(0, 65535, (700, 900), np.uint16))
+    assert int.from_bytes(path.read_bytes()[4:8], "little") > 4096  # the IFD is at the end
+    assert image_size(path) == (900, 700)
+
+
+@pytest.mark.parametrize("damage", [b"\xff\xd8\xff\xe0\x00\x00", b"\xff\xd8\xff\xe0\x00\x10JF"])
+def test_a_damaged_jpeg_header_is_named(tmp_path, damage):
+    path = tmp_path / "x.jpg"
+    path.write_bytes(damage)
+    with pytest.raises(InterchangeError, match=r"x\.jpg: unreadable"):
+        image_size(path)
