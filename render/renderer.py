@@ -18,13 +18,7 @@ import moderngl
 import numpy as np
 
 from render._errors import RenderError
-from render._gl import (
-    gl_context,
-    image_framebuffer,
-    mesh_buffers,
-    shader_source,
-    vertex_array,
-)
+from render._gl import gl_context, image_framebuffer, mesh_buffers, shader_source, vertex_array
 from render._lookup import build_lookup
 from render._mdf_shading import mdf_shading
 from render._shadows import ShadowMaps
