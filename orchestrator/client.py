@@ -27,6 +27,7 @@ from rig.errors import ConfigError, RigError
 __all__ = [
     "DaemonClient",
     "DaemonRequestError",
+    "DaemonRequestInvalid",
     "DaemonUnreachable",
     "abort",
     "follow",
@@ -53,6 +54,16 @@ class DaemonRequestError(RigError):
         self.message = error.get("message")
         where = f" ({self.field})" if self.field else ""
         super().__init__(f"{command}: {self.code}{where}: {self.message}")
+
+
+class DaemonRequestInvalid(DaemonRequestError, ConfigError):
+    """The daemon refused what was asked as invalid: a plan the rig cannot do, a field of
+    the request (``code`` ``plan_invalid`` or ``invalid``); invalid input, so the CLI
+    exits 2."""
+
+
+#: error codes of a reply that say the request itself was invalid
+_INVALID_CODES = ("plan_invalid", "invalid")
 
 
 class DaemonClient:
@@ -92,7 +103,9 @@ class DaemonClient:
             )  # fmt: skip
         reply = self.request_raw([body], expect_id=rid)
         if not reply.get("ok"):
-            raise DaemonRequestError(command, reply.get("error") or {})
+            error = reply.get("error") or {}
+            invalid = error.get("code") in _INVALID_CODES
+            raise (DaemonRequestInvalid if invalid else DaemonRequestError)(command, error)
         return reply.get("result") or {}
 
     def request_raw(self, parts: list[bytes], *, expect_id: str | None = None) -> dict:

@@ -41,7 +41,7 @@ from orchestrator.daemon.protocol import (
 from processing.live import LIVE_STAGES
 from rig.errors import ConfigError
 
-__all__ = ["STAGES", "frame_stats", "run_worker"]
+__all__ = ["STAGES", "frame_stats", "run_worker", "worker_stages"]
 
 log = logging.getLogger(__name__)
 
@@ -81,6 +81,19 @@ def _stats(image: np.ndarray, header: dict) -> dict:
 STAGES: dict[str, Callable[[np.ndarray, dict], dict]] = {"stats": _stats, **LIVE_STAGES}
 
 
+def worker_stages(stage: str) -> dict[str, Callable[[np.ndarray, dict], dict]]:
+    """The functions of ``stage`` (comma-separated names of ``STAGES``), in order;
+    ``ConfigError`` naming the unknown ones."""
+    names = [n.strip() for n in stage.split(",") if n.strip()]
+    unknown = [n for n in names if n not in STAGES]
+    if unknown or not names:
+        raise ConfigError(
+            f"live stage(s) {stage!r}: unknown {unknown or stage!r}; the stages are "
+            f"{sorted(STAGES)}"
+        )
+    return {n: STAGES[n] for n in names}
+
+
 def run_worker(
     stage: str,
     connect: Endpoints | str = "tcp://127.0.0.1",
@@ -94,11 +107,7 @@ def run_worker(
 
     Raises ``ConfigError`` for an unknown stage.
     """
-    names = [n.strip() for n in stage.split(",") if n.strip()]
-    unknown = [n for n in names if n not in STAGES]
-    if unknown or not names:
-        raise ConfigError(f"unknown stage(s) {unknown or stage!r}; the stages are {sorted(STAGES)}")
-    functions = {n: STAGES[n] for n in names}
+    functions = worker_stages(stage)
     endpoints = Endpoints.from_base(connect) if isinstance(connect, str) else connect
     worker = name or f"{os.uname().nodename}-{os.getpid()}-{uuid.uuid4().hex[:6]}"
     ctx = zmq.Context()

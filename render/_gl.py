@@ -15,7 +15,7 @@ import numpy as np
 
 from render._errors import RenderError
 
-__all__ = ["gl_context", "mesh_buffers", "shader_source", "vertex_array"]
+__all__ = ["gl_context", "image_framebuffer", "mesh_buffers", "shader_source", "vertex_array"]
 
 _GL_VERSION = 330
 _ATTRIBUTES = (("in_position", 3), ("in_normal", 3), ("in_uv", 2), ("in_tangent", 4))
@@ -42,6 +42,34 @@ def _created_context() -> moderngl.Context:
             f"EGL ({err}); install Mesa's EGL (libegl1, libgl1-mesa-dri) or a GPU driver"
         ) from err
     return ctx
+
+
+def image_framebuffer(ctx: moderngl.Context, size: tuple[int, int]) -> moderngl.Framebuffer:
+    """A float RGBA colour + depth framebuffer of ``size`` (width, height) pixels.
+
+    RenderError naming the size and the GL renderer when the context cannot hold
+    it: beyond its GL_MAX_RENDERBUFFER_SIZE or GL_MAX_VIEWPORT_DIMS, or refused by
+    the driver (llvmpipe gives up on a float framebuffer of over 2 GiB, below
+    those limits).
+    """
+    limits = (ctx.info["GL_MAX_RENDERBUFFER_SIZE"], *ctx.info["GL_MAX_VIEWPORT_DIMS"])
+    largest = min(int(limit) for limit in limits)
+    width, height = size
+    refused = f"{largest}×{largest} pixels at most" if max(size) > largest else None
+    if refused is None:
+        buffers = []
+        try:
+            buffers.append(ctx.renderbuffer(size, 4, dtype="f4"))
+            buffers.append(ctx.depth_renderbuffer(size))
+            return ctx.framebuffer(buffers[:1], buffers[1])
+        except moderngl.Error as err:
+            for buffer in buffers:
+                buffer.release()
+            refused = f"the driver refused it: {err}"
+    raise RenderError(
+        f"image size {width}×{height}: this OpenGL context ({ctx.info['GL_RENDERER']}) cannot "
+        f"draw it ({refused}); give a smaller image size"
+    )
 
 
 def shader_source(name: str) -> str:

@@ -20,7 +20,7 @@ import numpy as np
 
 from render._env_transfer import check_btf, environment_coefficients
 from render._errors import RenderError
-from render._gl import gl_context, shader_source
+from render._gl import gl_context, image_framebuffer, shader_source
 from render._textures import upload_btf
 from render.camera import Camera
 from render.env_pca import check_basis_size, illumination_basis
@@ -213,10 +213,7 @@ class EnvironmentRenderer:
         for unit, texture in enumerate([*self._units, self._coef_texture]):
             texture.use(location=unit)
         if camera.size not in self._fbo:
-            self._fbo[camera.size] = self.ctx.framebuffer(
-                [self.ctx.renderbuffer(camera.size, 4, dtype="f4")],
-                self.ctx.depth_renderbuffer(camera.size),
-            )
+            self._fbo[camera.size] = image_framebuffer(self.ctx, camera.size)
         fbo = self._fbo[camera.size]
         fbo.use()
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)

@@ -26,6 +26,7 @@ import OpenEXR
 
 from render._errors import RenderError
 from rig.geometry import direction_angles, direction_vector
+from rig.interchange import InterchangeError, check_image_size
 
 __all__ = [
     "SYNTHETIC_ENVIRONMENTS",
@@ -117,7 +118,9 @@ def read_environment(path, *, exposure: float = 1.0, rotation_deg: float = 0.0) 
     """An environment map from a Radiance ``.hdr`` or an OpenEXR ``.exr`` file.
 
     The image must be latitude–longitude (width twice the height), RGB, finite
-    and ≥ 0; a :class:`RenderError` names the file and what is wrong otherwise.
+    and ≥ 0, of at most ``rig.interchange.MAX_IMAGE_PIXELS`` pixels (checked
+    from its header before decoding); a :class:`RenderError` names the file and
+    what is wrong otherwise.
     """
     path = Path(path)
     suffix = path.suffix.lower()
@@ -125,8 +128,15 @@ def read_environment(path, *, exposure: float = 1.0, rotation_deg: float = 0.0) 
         raise RenderError(f"{path}: an environment map is a .hdr or .exr file")
     if not path.is_file():
         raise RenderError(f"{path}: no such environment map file")
+    try:
+        check_image_size(path)  # from the header: a damaged one claims any size
+    except InterchangeError as err:
+        raise RenderError(str(err)) from err
     if suffix == ".hdr":
-        bgr = cv2.imread(str(path), cv2.IMREAD_ANYDEPTH | cv2.IMREAD_COLOR)
+        try:
+            bgr = cv2.imread(str(path), cv2.IMREAD_ANYDEPTH | cv2.IMREAD_COLOR)
+        except cv2.error as err:
+            raise RenderError(f"{path}: not a readable Radiance HDR image ({err.err})") from err
         if bgr is None:
             raise RenderError(f"{path}: not a readable Radiance HDR image")
         rgb = bgr[..., ::-1]

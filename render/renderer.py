@@ -18,7 +18,7 @@ import moderngl
 import numpy as np
 
 from render._errors import RenderError
-from render._gl import gl_context, mesh_buffers, shader_source, vertex_array
+from render._gl import gl_context, image_framebuffer, mesh_buffers, shader_source, vertex_array
 from render._lookup import build_lookup
 from render._mdf_shading import mdf_shading
 from render._shadows import ShadowMaps
@@ -265,9 +265,7 @@ class Renderer:
 
     def _framebuffer(self, size: tuple[int, int]) -> moderngl.Framebuffer:
         if size not in self._framebuffers:
-            colour = self.ctx.renderbuffer(size, 4, dtype="f4")
-            depth = self.ctx.depth_renderbuffer(size)
-            self._framebuffers[size] = self.ctx.framebuffer([colour], depth)
+            self._framebuffers[size] = image_framebuffer(self.ctx, size)
         return self._framebuffers[size]
 
     def render(self, camera: Camera, lights) -> np.ndarray:

@@ -69,6 +69,7 @@ class SimulatedRig:
                 f"faults for unknown peer(s) {unknown}; valid are {list(FAULT_PEERS)}"
             )
         self._faults = merged
+        CameraFaults.from_table(merged.get("cameras", {}))  # a bad table fails before any start
         self._transport = transport
         self.world = World(self.scene.rig, clock or RealClock())
         self.simulator: Simulator | None = None
@@ -94,7 +95,7 @@ class SimulatedRig:
                 lambda camera, snapshot, exposure: (
                     simulator.render(camera, snapshot, exposure).image
                 ),
-                faults=CameraFaults(**self._faults.get("cameras", {})),
+                faults=CameraFaults.from_table(self._faults.get("cameras", {})),
             ).start()
         except BaseException:
             self.stop()

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import logging
+import signal
 import sys
 from collections.abc import Iterator
 from contextlib import contextmanager
@@ -26,9 +27,11 @@ __all__ = [
     "check_new_archive",
     "console",
     "load_config_option",
+    "prepare_file",
     "prepare_folder",
     "quiet_dask_logs",
     "reporting_errors",
+    "terminating_as_interrupt",
 ]
 
 # Wide when piped (logs, CI), so benchmark tables do not wrap at 80 columns.
@@ -99,6 +102,21 @@ def reporting_errors(*, debug: bool = False) -> Iterator[None]:
         raise typer.Exit(code) from err
 
 
+@contextmanager
+def terminating_as_interrupt() -> Iterator[None]:
+    """SIGTERM handled like Ctrl-C (SIGINT) while the block runs: a KeyboardInterrupt,
+    so a command's clean-up (a half-written output removed) runs on either."""
+
+    def interrupt(signum, frame):
+        raise KeyboardInterrupt(f"signal {signal.Signals(signum).name}")
+
+    previous = signal.signal(signal.SIGTERM, interrupt)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
 class RigGroup(TyperGroup):
     """The `rig` command group: every command's errors go through ``reporting_errors``."""
 
@@ -131,6 +149,16 @@ def prepare_folder(path: Path, option: str) -> Path:
         raise ConfigError(
             f"{option}: cannot create the folder {path} ({err.strerror}); give a writable one"
         ) from None
+    return path
+
+
+def prepare_file(path: Path, option: str) -> Path:
+    """Create the folder of the file ``path`` (for ``option``, e.g. ``"--out"``) before
+    any work is done; a ``ConfigError`` naming both when ``path`` is a folder or its
+    folder cannot be made (a file on the way, no permission)."""
+    if path.is_dir():
+        raise ConfigError(f"{option} {path}: is a folder; give a file's path")
+    prepare_folder(path.parent, f"{option} {path}")
     return path
 
 

@@ -47,8 +47,9 @@ def _check_archive(archive: Path) -> None:
 
 @contextlib.contextmanager
 def _export_to(out: Path, archive: Path, *, overwrite: bool, folder: bool = True) -> Iterator[Path]:
-    """A fresh hidden folder (or file path) that becomes ``out`` when the block succeeds."""
-    from rig.interchange import MANIFEST
+    """A fresh hidden folder (or file path) that becomes ``out`` when the block succeeds;
+    a failed write (a full disk) is an InterchangeWriteError naming ``out``."""
+    from rig.interchange import MANIFEST, InterchangeWriteError
 
     resolved, source = out.resolve(), archive.resolve()
     if resolved == source or source in resolved.parents or resolved in source.parents:
@@ -72,6 +73,11 @@ def _export_to(out: Path, archive: Path, *, overwrite: bool, folder: bool = True
         yield tmp
         _remove(out)
         tmp.rename(out)
+    except (OSError, InterchangeWriteError) as err:  # a full disk, a folder not writable
+        what = err if isinstance(err, InterchangeWriteError) else (
+            f"writing {err.filename + ' ' if err.filename else ''}failed: {err.strerror or err}"
+        )  # fmt: skip
+        raise InterchangeWriteError(f"--out {out}: {what}; nothing was written there") from err
     finally:
         _remove(tmp)
 
@@ -216,6 +222,10 @@ def gltf(
         raise ConfigError(f"--out {out}: a binary glTF needs the suffix .glb")
     maps_, sample_mm, manifest = ps_maps(archive, view)
     with _export_to(out, archive, overwrite=overwrite, folder=False) as tmp:
-        write_glb(tmp.with_suffix(".glb"), maps_, sample_mm=sample_mm, mesh=mesh)
-        tmp.with_suffix(".glb").rename(tmp)
+        glb = tmp.with_suffix(".glb")  # write_glb wants the suffix
+        try:
+            write_glb(glb, maps_, sample_mm=sample_mm, mesh=mesh)
+            glb.rename(tmp)
+        finally:
+            glb.unlink(missing_ok=True)
     console.print(escape(f"wrote {out} (view {manifest['view']}, {sample_mm:g} mm plane)"))

@@ -9,7 +9,7 @@ import typer
 from rich.markup import escape
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from orchestrator.cli.common import check_new_archive, console
+from orchestrator.cli.common import check_new_archive, console, terminating_as_interrupt
 
 __all__ = ["register"]
 
@@ -47,14 +47,18 @@ def register(app: typer.Typer) -> None:
         The frames are stored linear (sRGB-encoded files decoded), so that
         `rig process --stages btf` (registration skipped) and `rig view` work on
         it. Views missing lights are imported and listed; an unparseable name, a
-        non-image or an image of another size fails naming the file.
+        non-image or an image of another size fails naming the file. An
+        interrupted import (Ctrl-C or SIGTERM) leaves no archive behind.
         """
         from rig.interchange import import_folder
 
         check_new_archive(out, "--out", otherwise="remove it first")
         columns = (TextColumn("[bold]import"), BarColumn(), MofNCompleteColumn(),
                    TimeElapsedColumn())  # fmt: skip
-        with Progress(*columns, console=console, transient=True) as bar:
+        with (
+            terminating_as_interrupt(),
+            Progress(*columns, console=console, transient=True) as bar,
+        ):
             task = bar.add_task("import", total=None)
             report = import_folder(
                 folder, out, sample_mm=sample_mm, encoding=encoding,

@@ -17,11 +17,9 @@ __all__ = ["register", "write_mdf_previews", "write_ps_previews"]
 
 def write_ps_previews(archive_path: Path, out: Path) -> list[Path]:
     """Normal map, albedo and shaded height PNGs of every view in ``material/ps``."""
-    import cv2
-    import numpy as np
-
     from processing.photometric import albedo_preview, hillshade_preview, normal_map_preview
     from rig.archive import Archive
+    from rig.interchange import write_image
 
     out.mkdir(parents=True, exist_ok=True)
     written = []
@@ -38,20 +36,17 @@ def write_ps_previews(archive_path: Path, out: Path) -> list[Path]:
                 "height": hillshade_preview(height, pitch_mm=sample_mm / height.shape[0]),
             }
             for kind, image in images.items():
-                path = out / f"{name}_{kind}.png"
-                bgr = image[..., ::-1] if image.ndim == 3 else image
-                cv2.imwrite(str(path), np.ascontiguousarray(bgr))
-                written.append(path)
+                written.append(write_image(out / f"{name}_{kind}.png", image))
     return written
 
 
 def write_mdf_previews(archive_path: Path, out: Path) -> list[Path]:
     """Each view's MDF as a grey PNG: black at the reference plane, white at the 99th percentile,
     dark red where unseen (−1)."""
-    import cv2
     import numpy as np
 
     from rig.archive import Archive
+    from rig.interchange import write_image
 
     out.mkdir(parents=True, exist_ok=True)
     written = []
@@ -63,10 +58,8 @@ def write_mdf_previews(archive_path: Path, out: Path) -> list[Path]:
     top = float(np.percentile(distance[seen], 99)) if seen.any() else 1.0  # outliers clip
     for name, d, s in zip(names, distance, seen, strict=True):
         grey = np.round(255.0 * np.clip(d / max(top, 1e-9), 0.0, 1.0)).astype(np.uint8)
-        image = np.where(s[..., None], grey[..., None], np.array([0, 0, 96], np.uint8))
-        path = out / f"{name}_mdf.png"
-        cv2.imwrite(str(path), image)
-        written.append(path)
+        image = np.where(s[..., None], grey[..., None], np.array([96, 0, 0], np.uint8))
+        written.append(write_image(out / f"{name}_mdf.png", image))
     return written
 
 

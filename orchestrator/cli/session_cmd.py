@@ -242,10 +242,15 @@ def register(app: typer.Typer) -> None:
     ) -> None:
         """Daemon + workers + submit + follow in one process, for a local session."""
         from orchestrator.daemon import run_local
+        from orchestrator.worker import worker_stages
         from rig.plan import load_plan
 
         if config is not None and sim is not None:
             raise ConfigError("--config and --sim: give one (the scene names its rig)")
+        try:
+            worker_stages(stages)
+        except ConfigError as err:
+            raise ConfigError(f"--stages: {err}") from None
         # The daemon runs here: its archive's folder must be one this machine can make.
         option = "--archive" if archive is not None else "the plan's output.archive"
         archive = archive if archive is not None else load_plan(plan).archive_path()

@@ -14,7 +14,7 @@ import typer
 from rich.markup import escape
 from typer.core import TyperGroup
 
-from orchestrator.cli.common import console
+from orchestrator.cli.common import console, prepare_file
 from rig.config import RIG_KINDS
 from rig.errors import ConfigError
 
@@ -103,6 +103,7 @@ def serve(
 
     if transport not in ("tcp", "rtu"):
         raise ConfigError(f"--transport {transport!r}: valid are 'tcp' and 'rtu'")
+    prepare_file(config_out, "--config-out")  # before the peers start
     mode: Literal["tcp", "rtu"] = "tcp" if transport == "tcp" else "rtu"
     clock = RealClock() if speed == 1.0 else ScaledClock(speed)
     stop = threading.Event()

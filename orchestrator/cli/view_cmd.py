@@ -9,7 +9,7 @@ from typing import Annotated
 import numpy as np
 import typer
 
-from orchestrator.cli.common import EXIT_INVALID, console, err_console
+from orchestrator.cli.common import EXIT_INVALID, console, err_console, prepare_file
 from orchestrator.cli.view_scene import (
     CAMERA_FORMS,
     ENV_FORMS,
@@ -31,6 +31,8 @@ __all__ = ["register"]
 _OUT_SUFFIXES = (".png", ".exr")
 _DEFAULT_LIGHT = "dir:40,-130"
 _GIF_FRAME_MS = 80
+#: --exposure range, stops: 2^±64 spans any radiance a float32 image holds
+_MAX_EXPOSURE_EV = 64.0
 
 
 def _check_out(out: Path | None, turntable: int | None, window: bool) -> None:
@@ -51,6 +53,8 @@ def _check_out(out: Path | None, turntable: int | None, window: bool) -> None:
             "or --window",
             param_hint="--out",
         )
+    if out is not None:
+        prepare_file(out, "--out")  # before anything is read or drawn
 
 
 def register(app: typer.Typer) -> None:
@@ -78,7 +82,13 @@ def register(app: typer.Typer) -> None:
         fov_deg: Annotated[
             float, typer.Option("--fov", min=1.0, max=170.0, help="vertical field of view, degrees")
         ] = 30.0,
-        size: Annotated[str, typer.Option(help="image size WxH in pixels")] = "640x480",
+        size: Annotated[
+            str,
+            typer.Option(
+                help="image size WxH in pixels, each 1…16384 and within what the OpenGL "
+                "context draws"
+            ),
+        ] = "640x480",
         tile_mm: Annotated[
             float | None,
             typer.Option(
@@ -161,6 +171,11 @@ def register(app: typer.Typer) -> None:
             raise typer.BadParameter(f"{median_cut} is not a power of 2", param_hint="--median-cut")
         if vis_res % 2:
             raise typer.BadParameter(f"{vis_res} is odd; give an even n", param_hint="--vis-res")
+        if exposure is not None and not abs(exposure) <= _MAX_EXPOSURE_EV:  # NaN too
+            raise typer.BadParameter(
+                f"{exposure}: give stops in -{_MAX_EXPOSURE_EV:g}…{_MAX_EXPOSURE_EV:g}",
+                param_hint="--exposure",
+            )
         if mdf and env is not None and env_method != "pem":
             raise typer.BadParameter(
                 f"--env-method {env_method} draws no MDF silhouettes; use --env-method pem "
@@ -260,7 +275,11 @@ def _run(
             image = lit.render(camera, turned)
             return image + renderer.render(camera, placed) if placed else image
 
-        first = draw(0.0, 0.0, 0.0)
+        try:
+            first = draw(0.0, 0.0, 0.0)
+        except RenderError as err:  # asked more than this context draws (--size, a lamp)
+            err_console.print(f"[red]error:[/red] {err}")
+            raise typer.Exit(EXIT_INVALID) from err
         exposure_ev = auto_exposure_ev(first) if exposure is None else exposure
         if window:
             from render.window import open_window

@@ -100,9 +100,13 @@ def parse_light(spec: str) -> LightSpec:
     where = _numbers(parts[0], (2,) if kind == "dir" else (3,), "--light", LIGHT_FORMS)
     power = _numbers(parts[1], (1,), "--light", LIGHT_FORMS)[0] if len(parts) > 1 else 1.0
     colour = _numbers(parts[2], (3,), "--light", LIGHT_FORMS) if len(parts) > 2 else [1.0] * 3
-    if power < 0 or min(colour) < 0:
+    from render.lights import MAX_EMISSION
+
+    if power < 0 or min(colour) < 0 or power * max(colour) > MAX_EMISSION:
         raise typer.BadParameter(
-            f"{spec!r}: intensity and colour must be ≥ 0", param_hint="--light"
+            f"{spec!r}: intensity and colour must be ≥ 0, their product at most "
+            f"{MAX_EMISSION:.0e}",
+            param_hint="--light",
         )
     if kind == "dir" and not 0 <= where[0] <= 180:
         raise typer.BadParameter(f"{spec!r}: THETA must be in 0…180°", param_hint="--light")

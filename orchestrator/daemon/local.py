@@ -75,9 +75,11 @@ def daemon_thread(
 
 @contextmanager
 def worker_threads(endpoints: Endpoints, stage: str, n: int):
-    """``n`` workers of ``stage`` on threads of this process."""
-    from orchestrator.worker import run_worker
+    """``n`` workers of ``stage`` on threads of this process; ``ConfigError`` for an
+    unknown stage before any starts (a worker thread's error would reach no one)."""
+    from orchestrator.worker import run_worker, worker_stages
 
+    worker_stages(stage)
     stop = threading.Event()
     threads = [
         threading.Thread(

@@ -45,6 +45,7 @@ from rig.bonn_plan import BonnStep
 from rig.calfile import load_calibration
 from rig.clock import Clock
 from rig.config import RigConfig
+from rig.errors import RigError
 from rig.material import copy_flat_field
 from rig.plan import Plan, parse_plan
 from rig.schedule import Schedule, Step, compile_plan
@@ -219,7 +220,10 @@ class Session:
         except _Aborted:
             log.info("session %s aborted", self.id)
         except Exception as err:  # the session fails with the reason; the daemon goes on
-            log.exception("session %s failed", self.id)
+            if isinstance(err, RigError):  # named and explained: the message is the whole story
+                log.error("session %s failed: %s", self.id, err)
+            else:
+                log.exception("session %s failed", self.id)
             reason = f"{type(err).__name__}: {err}"
             self._log("session", action="failed", session=self.id, reason=reason)
         try:

@@ -11,6 +11,7 @@ from processing.offline.mdf import MdfStage
 from processing.offline.ps import PsStage
 from processing.offline.runner import (
     Stage,
+    StageFailed,
     StageRun,
     StageSkipped,
     View,
@@ -29,6 +30,7 @@ __all__ = [
     "MdfStage",
     "PsStage",
     "Stage",
+    "StageFailed",
     "StageRun",
     "StageSkipped",
     "View",

@@ -44,6 +44,9 @@ class BtfSlot:
     view_deg: tuple[float, float]
     captures: tuple[tuple[int, str], ...]
 
+    def __str__(self) -> str:
+        return f"view slot {self.index} ({self.view_deg[0]:g}°, {self.view_deg[1]:g}°)"
+
 
 @dataclass(frozen=True)
 class BtfStage:

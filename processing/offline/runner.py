@@ -28,6 +28,7 @@ from rig.errors import ConfigError, RigError
 
 __all__ = [
     "Stage",
+    "StageFailed",
     "StageRun",
     "StageSkipped",
     "View",
@@ -50,7 +51,8 @@ class Stage(Protocol):
     name: str
 
     def plan(self, archive: Archive) -> list[Any]:
-        """The independent work items of this archive (small, plain values)."""
+        """The independent work items of this archive (small, plain values; ``str`` of
+        one names it for the user, e.g. ``view cam0_tt000.0``)."""
 
     def compute(self, archive_path: str, item: Any) -> Any:
         """One item's result, from the archive at ``archive_path`` (opened read-only)."""
@@ -74,6 +76,9 @@ class View:
     camera: str
     turntable_deg: float
     steps: tuple[int, ...]
+
+    def __str__(self) -> str:
+        return f"view {self.name}"
 
 
 def views_of(archive: Archive, kind: str) -> list[View]:
@@ -167,7 +172,8 @@ def run_stages(
         A stage finds nothing to do in this archive (e.g. no ps steps), or
         ``scheduler`` is not a scheduler address.
     RigError
-        No scheduler answers at ``scheduler``.
+        No scheduler answers at ``scheduler``; an item's error (``StageFailed``
+        for one that is not btfrig's own names the stage and the item).
     """
     from distributed import LocalCluster, as_completed
 
@@ -187,6 +193,8 @@ def run_stages(
             dashboard_address="127.0.0.1:0", silence_logs=logging.ERROR,
         )  # fmt: skip
     runs = []
+    worker_log = logging.getLogger("distributed.worker")
+    worker_log.addFilter(_reported_here)
     try:
         with _client(cluster if cluster is not None else scheduler) as client:
             for stage in stages:
@@ -197,7 +205,8 @@ def run_stages(
                 if progress is not None:
                     progress(stage.name, 0, len(items))
                 for done, future in enumerate(as_completed(futures), start=1):
-                    results[index[future.key]] = future.result()
+                    item = index[future.key]
+                    results[item] = _result(future, stage.name, items[item])
                     if progress is not None:
                         progress(stage.name, done, len(items))
                 try:
@@ -210,12 +219,41 @@ def run_stages(
                     log.info("stage %s skipped: %s", stage.name, skipped)
                     runs.append(StageRun(stage.name, len(items), {}, skipped=str(skipped)))
                     continue
+                except OSError as err:  # a full disk: replace_material kept the old result
+                    raise StageFailed(
+                        f"{path}/material/{stage.name}: writing the {stage.name} result failed: "
+                        f"{err.strerror or err}; the previous result is unchanged (free space, "
+                        "then run the stage again)"
+                    ) from err
                 log.info("stage %s: %d item(s) into material/", stage.name, len(items))
                 runs.append(StageRun(stage.name, len(items), summary))
     finally:
+        worker_log.removeFilter(_reported_here)
         if cluster is not None:
             cluster.close()
     return runs
+
+
+class StageFailed(RigError):
+    """An item of a stage raised an error that is not one of btfrig's (a bug, or data
+    no check foresaw); the message names the stage, the item and the error."""
+
+
+def _result(future, stage: str, item: Any) -> Any:
+    """The result of ``item``'s future; what its worker raised as one named error
+    (btfrig's own errors already name the file, step or view: they pass unchanged)."""
+    try:
+        return future.result()
+    except RigError:
+        raise
+    except Exception as err:
+        raise StageFailed(f"stage {stage}, {item}: {type(err).__name__}: {err}") from err
+
+
+def _reported_here(record: logging.LogRecord) -> bool:
+    """Drop a local worker's "Compute Failed" report: the item's error reaches the
+    user once, from ``_result``, instead of as Dask's multi-line text."""
+    return not str(record.msg).startswith("Compute Failed")
 
 
 def _client(cluster_or_address):

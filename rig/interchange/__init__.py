@@ -7,7 +7,7 @@ frames, reconstructing a compressed BTF) is the caller's.
 """
 
 from rig.interchange._directions import ENCODINGS, FolderFrame, FolderListing, list_folder
-from rig.interchange._errors import InterchangeError
+from rig.interchange._errors import InterchangeError, InterchangeWriteError
 from rig.interchange._frames import FRAME_FORMATS, export_frames
 from rig.interchange._gltf import write_glb
 from rig.interchange._images import (
@@ -19,6 +19,7 @@ from rig.interchange._images import (
     write_exr,
     write_image,
 )
+from rig.interchange._imagesize import MAX_IMAGE_PIXELS, check_image_size, image_size
 from rig.interchange._import import (
     NORMTEXTURE_CAMERA,
     ImportReport,
@@ -41,16 +42,20 @@ __all__ = [
     "FRAME_FORMATS",
     "IMAGE_SUFFIXES",
     "MANIFEST",
+    "MAX_IMAGE_PIXELS",
     "NORMTEXTURE_CAMERA",
     "FolderFrame",
     "FolderListing",
     "ImportReport",
     "InterchangeError",
+    "InterchangeWriteError",
     "TextureMaps",
     "UboFrame",
     "UboListing",
+    "check_image_size",
     "decode_normal_map",
     "export_frames",
+    "image_size",
     "import_folder",
     "imported_normtextures",
     "list_folder",

@@ -9,6 +9,7 @@ view_phi_deg``) or ``directions.toml`` (``[[frame]]`` tables with ``file``,
 from __future__ import annotations
 
 import csv
+import io
 import math
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,7 +20,7 @@ from rig.interchange._images import IMAGE_SUFFIXES
 from rig.interchange._manifest import MANIFEST
 from rig.tomlfile import read_toml
 
-__all__ = ["ENCODINGS", "FolderFrame", "FolderListing", "list_folder"]
+__all__ = ["ENCODINGS", "FolderFrame", "FolderListing", "hemisphere_direction", "list_folder"]
 
 #: how a file's integer values encode radiance
 ENCODINGS = ("srgb", "linear")
@@ -88,16 +89,33 @@ def _frame(folder: Path, name, light, view, *, where: str) -> FolderFrame:
 def _angles(value, where: str) -> tuple[float, float]:
     try:
         theta, phi = (float(v) for v in value)
-    except (TypeError, ValueError):
+    except (TypeError, ValueError, OverflowError):
         raise InterchangeError(f"{where} = {value!r}: give two numbers [θ, φ] in degrees") from None
+    return hemisphere_direction(theta, phi, where=where)
+
+
+def hemisphere_direction(theta: float, phi: float, *, where: str) -> tuple[float, float]:
+    """``(θ, φ mod 360)`` degrees of a measured direction; InterchangeError naming
+    ``where`` when it is not finite or lies below the horizon (θ > 90°)."""
     if not (math.isfinite(theta) and math.isfinite(phi) and 0.0 <= theta <= 90.0):
-        raise InterchangeError(f"{where} = ({theta}, {phi}): need finite degrees, 0 ≤ θ ≤ 90")
+        raise InterchangeError(
+            f"{where} = ({theta:g}°, {phi:g}°): a measured direction has finite degrees "
+            "and 0 ≤ θ ≤ 90 (θ > 90° lies below the horizon)"
+        )
     return theta, phi % 360.0
 
 
 def _read_csv(table: Path) -> list[FolderFrame]:
-    with table.open(newline="") as f:
-        reader = csv.DictReader(f)
+    try:
+        text = table.read_text(encoding="utf-8")
+    except UnicodeDecodeError as err:
+        line = table.read_bytes()[: err.start].count(b"\n") + 1
+        raise InterchangeError(
+            f"{table} line {line}: not UTF-8 text (byte {err.object[err.start]:#04x}); save the "
+            "table as UTF-8"
+        ) from None
+    reader = csv.DictReader(io.StringIO(text, newline=""))
+    try:
         if tuple(reader.fieldnames or ()) != _CSV_COLUMNS:
             raise InterchangeError(
                 f"{table}: header {reader.fieldnames}; expected {','.join(_CSV_COLUMNS)}"
@@ -112,6 +130,10 @@ def _read_csv(table: Path) -> list[FolderFrame]:
             )
             for number, row in enumerate(reader, start=2)
         ]
+    except csv.Error as err:  # a field over the csv module's limit (raised before its line counts)
+        raise InterchangeError(
+            f"{table} line {reader.line_num + 1}: not a readable CSV row ({err})"
+        ) from None
 
 
 def _read_toml(table: Path) -> tuple[list[FolderFrame], str | None]:

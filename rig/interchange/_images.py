@@ -12,7 +12,8 @@ from pathlib import Path
 
 import numpy as np
 
-from rig.interchange._errors import InterchangeError
+from rig.interchange._errors import InterchangeError, InterchangeWriteError
+from rig.interchange._imagesize import check_image_size
 
 __all__ = [
     "IMAGE_SUFFIXES",
@@ -51,9 +52,11 @@ def to_srgb(linear, *, dtype: str = "uint8") -> np.ndarray:
 
 def read_image(path) -> np.ndarray:
     """The pixels of an image file: ``(H, W, C)`` RGB(A) or grey, in the file's dtype
-    (uint8, uint16, or float32 for OpenEXR).
+    (uint8, uint16, or float32 for OpenEXR, finite).
 
-    Raises InterchangeError naming the file when it is not an image this reads.
+    Raises InterchangeError naming the file when it is not an image this reads,
+    when its header claims more than ``MAX_IMAGE_PIXELS`` pixels (checked
+    before decoding), or when an OpenEXR holds NaN or inf.
     """
     path = Path(path)
     suffix = path.suffix.lower()
@@ -61,11 +64,15 @@ def read_image(path) -> np.ndarray:
         raise InterchangeError(
             f"{path}: not an image file (suffix {path.suffix!r}); images are {IMAGE_SUFFIXES}"
         )
+    check_image_size(path)
     if suffix == ".exr":
         return _read_exr(path)
     import cv2
 
-    image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    try:
+        image = cv2.imread(str(path), cv2.IMREAD_UNCHANGED)
+    except cv2.error as err:  # a header that contradicts the data
+        raise InterchangeError(f"{path}: unreadable ({err.err})") from err
     if image is None or image.dtype.name not in _CV2_DTYPES:
         what = "unreadable" if image is None else f"of pixel type {image.dtype.name}"
         raise InterchangeError(
@@ -79,7 +86,11 @@ def read_image(path) -> np.ndarray:
 
 def write_image(path, image) -> Path:
     """Write ``(H, W, C)`` pixels (C = 1, 3 or 4) unchanged: uint8/uint16 as PNG or
-    TIFF, float32 as OpenEXR, chosen by the suffix; returns the path."""
+    TIFF, float32 as OpenEXR, chosen by the suffix; returns the path.
+
+    InterchangeError for pixels or a suffix it cannot write; InterchangeWriteError
+    naming the file when writing fails (a full disk).
+    """
     path = Path(path)
     pixels = _pixels(image, path)
     suffix = path.suffix.lower()
@@ -97,9 +108,11 @@ def write_image(path, image) -> Path:
     try:
         written = cv2.imwrite(str(path), bgr)
     except cv2.error as err:
-        raise InterchangeError(f"{path}: could not be written ({err})") from err
-    if not written:
-        raise InterchangeError(f"{path}: could not be written (is the folder writable?)")
+        raise InterchangeWriteError(f"{path}: could not be written ({err.err})") from err
+    if not written:  # OpenCV says no more than that
+        raise InterchangeWriteError(
+            f"{path}: could not be written (a full disk, or a folder that is not writable)"
+        )
     return path
 
 
@@ -118,8 +131,8 @@ def write_exr(path, image) -> Path:
     try:
         with OpenEXR.File(header, {name: np.ascontiguousarray(data)}) as exr:
             exr.write(str(path))
-    except Exception as err:  # the bindings raise bare exceptions
-        raise InterchangeError(f"{path}: could not be written as OpenEXR ({err})") from err
+    except Exception as err:  # the bindings raise bare exceptions; the pixels were checked
+        raise InterchangeWriteError(f"{path}: could not be written as OpenEXR ({err})") from err
     return path
 
 
@@ -134,7 +147,14 @@ def _read_exr(path: Path) -> np.ndarray:
     for name in ("RGBA", "RGB", "Y"):
         if name in channels:
             data = channels[name]
-            return (data if data.ndim == 3 else data[:, :, np.newaxis]).astype(np.float32)
+            pixels = (data if data.ndim == 3 else data[:, :, np.newaxis]).astype(np.float32)
+            bad = np.count_nonzero(~np.isfinite(pixels))
+            if bad:
+                raise InterchangeError(
+                    f"{path}: {bad} of {pixels.size} values are NaN or inf; radiance is "
+                    "finite (replace them, e.g. by 0 or the neighbours' value)"
+                )
+            return pixels
     raise InterchangeError(f"{path}: OpenEXR channels {sorted(channels)}; expected Y, RGB or RGBA")
 
 

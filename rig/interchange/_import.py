@@ -10,6 +10,7 @@ that the frames are already rectified and skips registration.
 from __future__ import annotations
 
 import json
+import math
 import shutil
 import time
 from collections.abc import Callable, Mapping
@@ -32,6 +33,8 @@ __all__ = ["NORMTEXTURE_CAMERA", "ImportReport", "import_folder", "imported_norm
 #: the camera name of an imported archive's frames
 NORMTEXTURE_CAMERA = "normtexture"
 _DEFAULT_SAMPLE_MM = 100.0
+#: rows of an image converted to linear values at once
+_BAND_ROWS = 256
 #: progress(frames done, frames in all)
 Progress = Callable[[int, int], None]
 
@@ -81,8 +84,9 @@ def import_folder(
     Raises
     ------
     InterchangeError
-        Names the file: an unparseable name, a non-image, an image of another
-        size or channel count than the first, an unreadable one.
+        Names the file: an unparseable name or a direction below the horizon,
+        a non-image, an image of another size or channel count than the first,
+        an unreadable, oversized, non-finite or partly transparent one.
     """
     folder, out = Path(folder), Path(out)
     if out.exists():
@@ -93,8 +97,11 @@ def import_folder(
     if not (isinstance(sample_mm, int | float) and 0 < sample_mm < 1e5):
         raise InterchangeError(f"sample_mm = {sample_mm!r}: give the sample's side in mm, > 0")
     white = manifest.get("white", 1.0)
-    if not (isinstance(white, int | float) and np.isfinite(white) and white > 0):
-        raise InterchangeError(f"{folder / MANIFEST}: white = {white!r}; expected a number > 0")
+    if not _positive_finite(white):
+        shown = f"{white!r}" if len(repr(white)) < 40 else f"{repr(white)[:20]}…"
+        raise InterchangeError(
+            f"{folder / MANIFEST}: white = {shown}; expected a finite number > 0"
+        )
     if encoding not in (None, *ENCODINGS):
         raise InterchangeError(f"encoding = {encoding!r}: one of {ENCODINGS}")
     if any((folder / name).is_file() for name in ("directions.csv", "directions.toml")):
@@ -107,7 +114,7 @@ def import_folder(
         encoding = encoding or "srgb"
     if not frames:
         raise InterchangeError(f"{folder}: the directions table lists no frames")
-    first = read_image(frames[0].path)
+    first = _opaque(read_image(frames[0].path), frames[0].path)
     encoding = encoding or ("srgb" if first.dtype == np.uint8 else "linear")
     shape = first.shape
     plan = {
@@ -125,7 +132,7 @@ def import_folder(
     try:
         with archive:
             for index, frame in enumerate(frames):
-                image = first if index == 0 else read_image(frame.path)
+                image = first if index == 0 else _opaque(read_image(frame.path), frame.path)
                 if image.shape != shape or image.dtype != first.dtype:
                     raise InterchangeError(
                         f"{frame.path}: {image.shape[1]}×{image.shape[0]}×{image.shape[2]} "
@@ -152,14 +159,45 @@ def import_folder(
     )
 
 
+def _positive_finite(value) -> bool:
+    """Whether a manifest's JSON value is a finite number > 0 (an integer of 400
+    digits is not: it has no float)."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        return False
+    try:
+        return math.isfinite(float(value)) and value > 0
+    except OverflowError:
+        return False
+
+
+def _opaque(image: np.ndarray, path: Path) -> np.ndarray:
+    """``image`` without its alpha channel when that is opaque everywhere (the
+    stages take grey or RGB); InterchangeError naming the file otherwise."""
+    if image.shape[2] != 4:
+        return image
+    opaque = np.iinfo(image.dtype).max if image.dtype.kind == "u" else 1.0
+    if not np.all(image[:, :, 3] == opaque):
+        raise InterchangeError(
+            f"{path}: RGBA pixels with a transparent part; a normtexture is grey or RGB "
+            "(flatten the images onto a background first)"
+        )
+    return image[:, :, :3]
+
+
 def _linear(image: np.ndarray, encoding: str, white: float) -> np.ndarray:
-    """float32 linear values of a file's pixels (integers scaled to [0, 1] first)."""
-    if image.dtype.kind == "f":
-        return (image * white).astype(np.float32)
-    values = image / float(np.iinfo(image.dtype).max)
-    if encoding == "srgb":
-        values = srgb_decode(values)
-    return (values * white).astype(np.float32)
+    """float32 linear values of a file's pixels (integers scaled to [0, 1] first),
+    converted in bands of rows so that the float64 working copy stays small."""
+    linear = np.empty(image.shape, np.float32)
+    for top in range(0, image.shape[0], _BAND_ROWS):
+        band = image[top : top + _BAND_ROWS]
+        if band.dtype.kind == "f":
+            values = band
+        else:
+            values = band / float(np.iinfo(band.dtype).max)
+            if encoding == "srgb":
+                values = srgb_decode(values)
+        linear[top : top + _BAND_ROWS] = values * white
+    return linear
 
 
 def _manifest(folder: Path) -> dict[str, Any]:

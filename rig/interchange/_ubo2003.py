@@ -21,6 +21,7 @@ from pathlib import Path
 import numpy as np
 
 from rig.geometry import Sampling
+from rig.interchange._directions import hemisphere_direction
 from rig.interchange._errors import InterchangeError
 from rig.interchange._images import to_srgb, write_image
 from rig.interchange._manifest import MANIFEST, write_manifest
@@ -86,7 +87,8 @@ def list_ubo2003(folder) -> UboListing:
     """The frames of a UBO2003 folder, from names alone (no image is read).
 
     Raises InterchangeError naming the first entry that is not a view folder
-    (``tv…_pv…``), not a frame name of that view, or an empty layout.
+    (``tv…_pv…``), not a frame name of that view, a direction below the
+    horizon (θ > 90°), or an empty layout.
     """
     folder = Path(folder)
     if not folder.is_dir():
@@ -103,6 +105,7 @@ def list_ubo2003(folder) -> UboListing:
                 f"{{φv:03d}} (e.g. tv015_pv060) and nothing else"
             )
         view = (float(match[1]), float(match[2]))
+        hemisphere_direction(*view, where=f"{entry}: view")
         views.append(view)
         frames.extend(_view_frames(entry, view))
     if not frames:
@@ -126,7 +129,8 @@ def _view_frames(folder: Path, view: tuple[float, float]) -> Iterator[UboFrame]:
         if index in indices:
             raise InterchangeError(f"{path}: light index {index} also names {indices[index].name}")
         indices[index] = path
-        yield UboFrame(path, index, (float(match[2]), float(match[3])), view)
+        light = hemisphere_direction(float(match[2]), float(match[3]), where=f"{path}: light")
+        yield UboFrame(path, index, light, view)
 
 
 def _gaps(frames, views, lights) -> tuple[str, ...]:
@@ -161,6 +165,7 @@ def _sampling_gaps(views, lights) -> Iterator[str]:
 def _shown(directions) -> str:
     shown = ", ".join(f"({t:g}°, {p:g}°)" for t, p in directions[:6])
     return shown + (f" and {len(directions) - 6} more" if len(directions) > 6 else "")
+
 
 def write_ubo2003(
     out,

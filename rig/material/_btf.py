@@ -18,6 +18,7 @@ from rig.material._btf_model import CompressedBTF, GlobalSVD, check_directions
 from rig.material._errors import MaterialError
 from rig.material._groups import (
     check_version,
+    finite_floats,
     format_attrs,
     other_attrs,
     read_arrays,
@@ -111,7 +112,8 @@ def btf_from_arrays(
     """Rebuild the model written by :func:`btf_to_arrays` (float16 textures stay float16).
 
     MaterialError naming ``where`` and the attribute or array at fault for a
-    group that is not a btf group of version 1 or 2, or whose arrays do not fit.
+    group that is not a btf group of version 1 or 2, or whose arrays do not fit
+    (a shape, a dtype, a NaN or inf value).
     """
     check_version(attrs, "btf", _READABLE, where=where)
     kind = attrs.get("kind")
@@ -126,7 +128,7 @@ def btf_from_arrays(
         raise MaterialError(f"{where} ({kind}) lacks arrays {missing}")
     views = check_directions(f"{where}: view_dirs_deg", arrays["view_dirs_deg"])
     lights = check_directions(f"{where}: light_dirs_deg", arrays["light_dirs_deg"])
-    a = {k: np.asarray(arrays[k]) for k in needed}
+    a = {k: finite_floats(k, arrays[k], where=where) for k in needed if k != "rank"}
     n_views, n_lights = len(views), len(lights)
     if kind == "pca":
         c = a["basis"].shape[1] if a["basis"].ndim == 5 else -1
@@ -137,6 +139,7 @@ def btf_from_arrays(
             "singular_values": (n_views, n_lights),
             "rank": (n_views,),
         }
+        a["rank"] = _ranks(arrays["rank"], c, where=where)
         for name, shape in expected.items():
             if a[name].shape != shape:
                 raise MaterialError(f"{where}: {name} has shape {a[name].shape}, expected {shape}")
@@ -155,6 +158,18 @@ def btf_from_arrays(
         )
     rank = int(attrs.get("rank") or c)
     return GlobalSVD(views, lights, a["eigenmaps"], a["weights"], a["singular_values"], rank)
+
+
+def _ranks(value, components: int, *, where: str) -> np.ndarray:
+    """The per-slot ranks: whole numbers in 0…``components``."""
+    rank = np.asarray(value)
+    whole = rank.dtype.kind in "iu"
+    if not whole or (rank.size and not 0 <= rank.min() <= rank.max() <= components):
+        raise MaterialError(
+            f"{where}: rank ({rank.dtype}) must hold whole numbers in 0…{components} (the "
+            "components of each slot's basis)"
+        )
+    return rank
 
 
 @dataclass(frozen=True)
@@ -207,7 +222,7 @@ def write_btf(
 
 def read_btf(group, *, where: str = "material/btf") -> BtfGroup:
     """The ``btf`` group written by :func:`write_btf`."""
-    arrays = read_arrays(group)
+    arrays = read_arrays(group, where=where)
     attrs = dict(group.attrs)
     model = btf_from_arrays(arrays, attrs, where=where)
     n_views = len(model.view_dirs_deg)

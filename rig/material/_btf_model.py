@@ -26,7 +26,10 @@ def check_directions(
     wrong is a :class:`MaterialError`, a wrong argument to a compression a
     ``processing.btf.BtfError``.
     """
-    d = np.asarray(dirs_deg, dtype=np.float64)
+    try:
+        d = np.asarray(dirs_deg, dtype=np.float64)
+    except (TypeError, ValueError) as err:
+        raise error(f"{name}: expected (n, 2) [theta_deg, phi_deg] numbers ({err})") from None
     if d.ndim != 2 or d.shape[1] != 2 or len(d) == 0 or not np.all(np.isfinite(d)):
         raise error(f"{name}: expected finite (n, 2) [theta_deg, phi_deg], got shape {d.shape}")
     if count is not None and len(d) != count:

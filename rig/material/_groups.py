@@ -18,6 +18,7 @@ __all__ = [
     "FORMAT_PREFIX",
     "as_uint8",
     "check_version",
+    "finite_floats",
     "format_attrs",
     "other_attrs",
     "read_arrays",
@@ -79,9 +80,38 @@ def other_attrs(attrs: Mapping[str, Any], *skip: str) -> dict[str, Any]:
     return {k: v for k, v in dict(attrs).items() if k not in _OWN and k not in skip}
 
 
-def read_arrays(group) -> dict[str, np.ndarray]:
-    """Every array directly in ``group``, read into memory."""
-    return {name: np.asarray(array[...]) for name, array in group.arrays()}
+def finite_floats(name: str, value, *, where: str) -> np.ndarray:
+    """``value`` as stored when it is a float array of finite values; MaterialError
+    naming ``where``, the array and what it holds otherwise (a damaged material
+    would render black or export black images)."""
+    array = np.asarray(value)
+    if array.dtype.kind != "f":
+        raise MaterialError(f"{where}: {name} has dtype {array.dtype}; expected float values")
+    bad = array.size - np.count_nonzero(np.isfinite(array))
+    if bad:
+        raise MaterialError(
+            f"{where}: {name} holds NaN or inf ({bad} of {array.size} values); a material "
+            "holds finite values (run `rig process` again for a damaged one)"
+        )
+    return array
+
+
+def read_arrays(group, *, where: str) -> dict[str, np.ndarray]:
+    """Every array directly in ``group``, read into memory; MaterialError naming
+    ``where`` and the array when one cannot be read (a truncated or corrupt chunk,
+    a dtype zarr does not know)."""
+    arrays = {}
+    reading = "the list of its arrays"
+    try:
+        for name, array in group.arrays():
+            reading = f"array {name!r}"
+            arrays[name] = np.asarray(array[...])
+    except Exception as err:  # zarr and its codecs raise their own types for damaged files
+        raise MaterialError(
+            f"{where}: {reading} cannot be read ({type(err).__name__}: {err}); the material is "
+            "damaged: run `rig process` again for it"
+        ) from err
+    return arrays
 
 
 def require_arrays(arrays: Mapping[str, Any], names, *, where: str) -> None:

@@ -128,7 +128,7 @@ def read_live(group, *, where: str = "material/live") -> dict[str, dict[str, Liv
     for stage, stage_group in sorted(group.groups()):
         for camera, camera_group in sorted(stage_group.groups()):
             here = f"{where}/{stage}/{camera}"
-            arrays = read_arrays(camera_group)
+            arrays = read_arrays(camera_group, where=here)
             require_arrays(arrays, ("step", "sub"), where=here)
             step = arrays.pop("step")
             rows = len(step)

@@ -16,6 +16,7 @@ from rig.material._errors import MaterialError
 from rig.material._groups import (
     as_uint8,
     check_version,
+    finite_floats,
     format_attrs,
     other_attrs,
     read_arrays,
@@ -78,13 +79,13 @@ def read_mdf(group, *, where: str = "material/mdf") -> Mdf:
     """The ``mdf`` group (version 0 or 1)."""
     attrs = dict(group.attrs)
     check_version(attrs, "mdf", (0, VERSION), where=where)
-    arrays = _checked(read_arrays(group), where=where)
+    arrays = _checked(read_arrays(group, where=where), where=where)
     return Mdf(**arrays, attrs=other_attrs(attrs, "size", "unseen"))
 
 
 def _checked(arrays: dict[str, Any], *, where: str) -> dict[str, np.ndarray]:
     require_arrays(arrays, _ARRAYS, where=where)
-    distance = np.asarray(arrays["distance_mm"], np.float32)
+    distance = finite_floats("distance_mm", arrays["distance_mm"], where=where).astype(np.float32)
     if distance.ndim != 3 or distance.shape[1] != distance.shape[2] or len(distance) == 0:
         raise MaterialError(
             f"{where}: distance_mm has shape {distance.shape}, expected (n_views, N, N)"

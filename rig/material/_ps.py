@@ -21,6 +21,7 @@ from rig.material._errors import MaterialError
 from rig.material._groups import (
     as_uint8,
     check_version,
+    finite_floats,
     format_attrs,
     other_attrs,
     read_arrays,
@@ -119,7 +120,7 @@ def read_ps(group, *, where: str = "material/ps") -> dict[str, PsView]:
     views = {}
     for name, sub in sorted(group.groups()):
         here = f"{where}/{name}"
-        arrays = _checked(read_arrays(sub), where=here)
+        arrays = _checked(read_arrays(sub, where=here), where=here)
         attrs = dict(sub.attrs)
         radiometry = (
             Radiometry.from_attrs(attrs.get("radiometry"), where=here) if version >= 2
@@ -150,7 +151,7 @@ def _view_deg(value, *, where: str) -> tuple[float, float] | None:
 def _checked(arrays: dict[str, Any], *, where: str) -> dict[str, np.ndarray]:
     """The five maps in their stored dtypes; MaterialError naming the array otherwise."""
     require_arrays(arrays, _ARRAYS, where=where)
-    normals = np.asarray(arrays["normals"])
+    normals = finite_floats("normals", arrays["normals"], where=where)
     if normals.ndim != 3 or normals.shape[2] != 3 or normals.shape[0] != normals.shape[1]:
         raise MaterialError(f"{where}: normals has shape {normals.shape}, expected (N, N, 3)")
     n = normals.shape[0]
@@ -167,13 +168,15 @@ def _checked(arrays: dict[str, Any], *, where: str) -> dict[str, np.ndarray]:
         raise MaterialError(f"{where}: valid has dtype {valid.dtype}, expected bool")
     out = {
         "normals": normals.astype(np.float32),
-        "albedo": np.asarray(arrays["albedo"], np.float32),
+        "albedo": finite_floats("albedo", arrays["albedo"], where=where).astype(np.float32),
         "valid": valid,
         "reason": as_uint8("reason", arrays["reason"], where=where),
-        "height_mm": np.asarray(arrays["height_mm"], np.float32),
+        "height_mm": finite_floats("height_mm", arrays["height_mm"], where=where).astype(
+            np.float32
+        ),
     }
     for name in ("normals", "albedo", "height_mm"):
-        if not np.all(np.isfinite(out[name])):
+        if not np.all(np.isfinite(out[name])):  # float64 beyond float32's range
             raise MaterialError(f"{where}: {name} holds NaN or inf; store finite values")
     length = np.linalg.norm(out["normals"][valid], axis=-1)
     if length.size and float(np.abs(length - 1.0).max()) > _UNIT_TOL:

@@ -27,14 +27,17 @@ import json
 import logging
 import threading
 import zlib
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from concurrent.futures import ThreadPoolExecutor, wait
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
+from typing import Any
 
 import numpy as np
 import zmq
 
 from rig.config import CameraSpec
+from rig.errors import ConfigError
+from sim.peers._faults import check_fault_keys
 from sim.world import World, WorldSnapshot
 
 __all__ = ["CameraFaults", "CameraServer", "RenderFn"]
@@ -70,6 +73,21 @@ class CameraFaults:
     corrupt_frames: int = 0
     wrong_size_frames: int = 0
     camera_id: str | None = None
+
+    @classmethod
+    def from_table(cls, table: Mapping[str, Any]) -> CameraFaults:
+        """The faults of a fault table (a scene's ``[faults.cameras]``, ``rig sim
+        --fault cameras.KEY=VALUE``); ConfigError naming an unknown key or a bad value."""
+        check_fault_keys("cameras", table, {f.name for f in fields(cls)})
+        for key, value in table.items():
+            if key == "camera_id":
+                valid, expected = value is None or isinstance(value, str), "a camera id"
+            else:
+                valid = isinstance(value, int) and not isinstance(value, bool) and value >= 0
+                expected = "a whole number of frames ≥ 0"
+            if not valid:
+                raise ConfigError(f"cameras: fault {key} = {value!r}; expected {expected}")
+        return cls(**table)
 
 
 def _request_id(message: list[bytes]):

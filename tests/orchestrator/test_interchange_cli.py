@@ -4,6 +4,9 @@ never modified, an existing output is replaced only with --overwrite."""
 
 import hashlib
 import json
+import subprocess
+import sys
+from pathlib import Path
 
 import numpy as np
 import pytest
@@ -11,7 +14,7 @@ from typer.testing import CliRunner
 
 from orchestrator.cli import app
 from rig.archive import Archive, FrameFormat, StepRecord
-from rig.interchange import NORMTEXTURE_CAMERA, read_image, srgb_decode
+from rig.interchange import NORMTEXTURE_CAMERA, read_image, srgb_decode, write_image
 from tests.rig.interchange.conftest import LIGHTS, SIZE, VIEWS, normtexture, write_ubo_folder
 
 runner = CliRunner()
@@ -180,3 +183,65 @@ def test_the_white_level_of_an_export_is_undone_by_the_import(imported, tmp_path
     for pair, texture in first.items():
         # codes of v/2: the sRGB step near v/2 = 0.45 is 0.0045 → 0.009 after ×2
         np.testing.assert_allclose(second[pair], texture, atol=0.01)
+
+
+@pytest.mark.parametrize(
+    ("view", "name", "named"),
+    [("tv120_pv000", "00000 tl000 pl000 tv120 pv000.png", "tv120_pv000: view = (120°"),
+     ("tv000_pv000", "00009 tl999 pl000 tv000 pv000.png", "pv000.png: light = (999°")],
+)  # fmt: skip
+def test_a_direction_below_the_horizon_exits_2_naming_the_file(tmp_path, view, name, named):
+    folder = write_ubo_folder(tmp_path / "ubo", views=VIEWS[:1])
+    (folder / view).mkdir(exist_ok=True)
+    write_image(folder / view / name, np.zeros((SIZE, SIZE, 3), np.uint8))
+    result = _run("import", folder, "--out", tmp_path / "a.zarr")
+    assert result.exit_code == 2, result.output
+    assert named in _said(result) and "below the horizon" in _said(result)
+
+
+_TERMINATED_IMPORT = """
+import os, signal, sys
+import rig.interchange._import as importer
+real, calls = importer.read_image, []
+def read_image(path):
+    calls.append(path)
+    if len(calls) == 3:  # mid-import, with frames in the archive already
+        os.kill(os.getpid(), signal.SIGTERM)
+    return real(path)
+importer.read_image = read_image
+from orchestrator.cli import main
+sys.argv = ["rig", "import", sys.argv[1], "--out", sys.argv[2]]
+main()
+"""
+
+
+def test_sigterm_during_an_import_leaves_no_archive(tmp_path):
+    folder = write_ubo_folder(tmp_path / "ubo")
+    out = tmp_path / "a.zarr"
+    done = subprocess.run(
+        [sys.executable, "-c", _TERMINATED_IMPORT, str(folder), str(out)],
+        capture_output=True, text=True, timeout=120, cwd=Path(__file__).resolve().parents[2],
+    )  # fmt: skip
+    assert done.returncode == 130, done.stdout + done.stderr  # as after Ctrl-C
+    assert "Traceback" not in done.stdout + done.stderr
+    assert not out.exists()
+
+
+def test_a_btf_holding_nan_is_refused_by_view_and_export_naming_the_array(tmp_path):
+    import zarr
+
+    imported = tmp_path / "a.zarr"
+    assert _run("import", write_ubo_folder(tmp_path / "ubo"), "--out", imported).exit_code == 0
+    processed = _run("process", imported, "--stages", "btf", "--size", SIZE, "--components", 4)
+    assert processed.exit_code == 0, processed.output
+    group = zarr.open_group(imported / "material" / "btf", mode="r+")
+    basis = group["basis"][...]
+    basis[0, 0, 5, 5, 1] = np.nan
+    group["basis"][...] = basis
+    picture = tmp_path / "v.png"
+    viewed = _run("view", imported, "--mesh", "plane", "--size", "32x32", "--out", picture)
+    exported = _run("export", "ubo2003", imported, "--out", tmp_path / "o", "--from-material")
+    for result in (viewed, exported):
+        assert result.exit_code in (1, 2)
+        assert "material/btf: basis holds NaN or inf (1 of" in _said(result)
+    assert not picture.exists() and not (tmp_path / "o").exists()

@@ -138,3 +138,14 @@ def test_the_back_of_a_surface_shows_the_material_turned_over(pca_model):
     light_deg = np.ravel(direction_angles(local))
     expected = interpolate(pca_model, view_deg=(0.0, 0.0), light_deg=light_deg)[:, ::-1]
     np.testing.assert_allclose(image, expected, atol=FLOAT16_EPS * np.abs(expected).max())
+
+
+def test_a_framebuffer_beyond_the_context_is_named_with_its_limit():
+    from render._gl import gl_context, image_framebuffer
+
+    ctx = gl_context()
+    largest = min(ctx.info["GL_MAX_RENDERBUFFER_SIZE"], *ctx.info["GL_MAX_VIEWPORT_DIMS"])
+    limit = rf"image size {largest + 1}×1: .*\({largest}×{largest} pixels at most\)"
+    with pytest.raises(RenderError, match=limit):
+        image_framebuffer(ctx, (largest + 1, 1))
+    image_framebuffer(ctx, (8, 8)).release()

@@ -93,6 +93,9 @@ def test_turntable_writes_a_gif_whose_frames_turn(store, tmp_path):
         (["--light", "dir:45", "--out", "x.png"], "--light", "not 2 numbers"),
         (["--light", "point:0,0,a", "--out", "x.png"], "--light", "point:X,Y,Z"),
         (["--light", "dir:45,0:-1", "--out", "x.png"], "--light", "≥ 0"),
+        (["--light", "dir:40,-130:1e308", "--out", "x.png"], "--light", "1e+20"),
+        (["--exposure", "1e308", "--out", "x.png"], "--exposure", "-64…64"),
+        (["--exposure", "nan", "--out", "x.png"], "--exposure", "-64…64"),
         (["--camera", "orbit:200,0", "--out", "x.png"], "--camera", "0…180"),
         (["--camera", "top", "--out", "x.png"], "--camera", "orbit:THETA,PHI"),
         (["--size", "64", "--out", "x.png"], "--size", "WxH"),
@@ -202,3 +205,33 @@ def test_point_light_power_is_the_irradiance_at_the_centre():
     assert light.colour == (1.0, 0.5, 0.0)
     turned = parse_light("point:110,0,0").light(centre, 90.0)
     assert_allclose(turned.position, (10.0, 100.0, 0.0), atol=1e-9)
+
+
+def test_an_out_under_a_file_or_a_folder_exits_2_before_drawing(store, tmp_path):
+    (tmp_path / "afile").write_text("")
+    result = _view(store, "--out", str(tmp_path / "afile" / "x.png"))
+    assert result.exit_code == 2, result.output
+    assert f"{tmp_path / 'afile'} is a file, not a folder" in " ".join(result.output.split())
+    (tmp_path / "x.png").mkdir()
+    result = _view(store, "--out", str(tmp_path / "x.png"))
+    assert result.exit_code == 2 and "is a folder" in result.output
+
+
+def test_an_hdr_whose_header_claims_too_many_pixels_exits_2_naming_it(store, tmp_path):
+    hdr = tmp_path / "big.hdr"
+    hdr.write_bytes(b"#?RADIANCE\nFORMAT=32-bit_rle_rgbe\n\n-Y 100000 +X 200000\n" + bytes(64))
+    result = _view(store, "--env", str(hdr), "--out", str(tmp_path / "x.png"))
+    assert result.exit_code == 2, result.output
+    said = " ".join(result.output.split())
+    assert "big.hdr" in said and "200000×100000" in said and "OpenCV" not in said
+
+
+def test_a_size_the_gl_context_cannot_draw_exits_2_naming_it(store, tmp_path):
+    out = tmp_path / "x.png"
+    result = runner.invoke(app, ["view", str(store), "--mesh", "plane", "--size", "16384x16384",
+                                 "--out", str(out)])  # fmt: skip
+    if result.exit_code == 0:
+        pytest.skip("this OpenGL context draws 16384×16384")
+    assert result.exit_code == 2, result.output
+    said = " ".join(result.output.split())
+    assert "image size 16384×16384: this OpenGL context" in said and not out.exists()

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from rig.interchange import InterchangeError, read_image, write_image
+from rig.interchange import InterchangeError, InterchangeWriteError, read_image, write_image
 
 RNG = np.random.default_rng(3)
 
@@ -31,13 +31,18 @@ def test_pixels_round_trip_unchanged(tmp_path, name, pixels):
         ("a.png", np.zeros((4, 4, 3), np.float32), "write uint8/uint16 pixels as .png"),
         ("a.exr", np.full((4, 4, 3), np.nan, np.float32), "NaN or inf"),
         ("a.png", np.zeros((4, 4, 2), np.uint8), "C = 1, 3, 4"),
-        ("missing/a.png", np.zeros((4, 4, 3), np.uint8), "could not be written"),
     ],
 )
 def test_what_cannot_be_written_is_named(tmp_path, name, pixels, complaint):
     with pytest.raises(InterchangeError, match=complaint) as err:
         write_image(tmp_path / name, pixels)
     assert name in str(err.value)
+
+
+def test_a_failed_write_is_a_failure_naming_the_file_not_bad_input(tmp_path):
+    with pytest.raises(InterchangeWriteError, match="could not be written") as err:
+        write_image(tmp_path / "missing" / "a.png", np.zeros((4, 4, 3), np.uint8))
+    assert "missing/a.png" in str(err.value) and not isinstance(err.value, InterchangeError)
 
 
 def test_a_non_image_is_named(tmp_path):
