@@ -51,3 +51,28 @@ def test_gaps_are_marked_when_accepted():
     table = view_slots(_steps(drop=(120.0, LIGHTS[1])), gaps=True)
     assert table.steps[2, 1] == -1 and table.cameras[2, 1] == ""
     assert (np.delete(table.steps.ravel(), 2 * 3 + 1) >= 0).all()
+
+
+def test_a_displaced_capture_fills_the_cell_it_was_asked_for_and_is_listed():
+    # the Bonn lab's retro pair (0°, 0°) × (0°, 0°): the rail's end leaves view and light
+    # 5° to either side of it; the other cells were hit
+    grid_views, grid_lights = [(0.0, 0.0), (30.0, 90.0)], [(0.0, 0.0), (45.0, 180.0)]
+    steps, index = [], 0
+    for view in grid_views:
+        for light in grid_lights:
+            recorded = ((5.0, 90.0), (5.0, 270.0)) if view == light else (view, light)
+            steps.append(StepRecord(index, "btf", ("cam0",), {"cam0": recorded[0]}, recorded[1]))
+            index += 1
+    with pytest.raises(BtfError, match="not captured"):
+        view_slots(steps)
+    table = view_slots(steps, displaced_by_deg={0: 5.0, 1: 0.0})
+    np.testing.assert_allclose(table.view_dirs_deg, grid_views)
+    # lights in order of first capture on the grid: step 1's, then step 2's
+    np.testing.assert_allclose(table.light_dirs_deg, grid_lights[::-1])
+    assert table.steps.tolist() == [[1, 0], [3, 2]]
+    (moved,) = table.displaced
+    assert (moved.slot, moved.light, moved.step, moved.camera) == (0, 1, 0, "cam0")
+    assert moved.view_deg == (5.0, 90.0) and moved.light_deg == (5.0, 270.0)
+    # a displacement bound smaller than the step's offset finds no cell: it is its own slot
+    with pytest.raises(BtfError, match="not captured"):
+        view_slots(steps, displaced_by_deg={0: 2.0})
