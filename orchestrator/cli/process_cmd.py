@@ -107,7 +107,9 @@ def register(app: typer.Typer) -> None:
         normtextures of every view slot, compressed by per-view PCA, --components);
         mdf (the mesostructure distance function of the laser scans, with previews).
         A stage that can use none of its frames (all flagged: saturated, black…) is
-        skipped with the reason, the others still run, and the exit code is 1.
+        skipped with the reason, the others still run, and the exit code is 1. A
+        stage the session captured nothing for (btf or mdf of a PS-only rig) is
+        skipped with the reason too, and is no failure.
         When the archive's calibration has them, ps and btf frames are linearised
         by the camera's response curve and divided by their lamp's flat field
         (--raw: not); the material records what was applied.
@@ -155,7 +157,7 @@ def register(app: typer.Typer) -> None:
             if run.skipped is None and run.stage in writers:
                 for path in writers[run.stage](archive, folder):
                     console.print(escape(f"wrote {path}"))
-        skipped = [run.stage for run in runs if run.skipped is not None]
+        skipped = [run.stage for run in runs if run.skipped is not None and not run.absent]
         if skipped:
             raise RigError(
                 f"{len(skipped)} of {len(runs)} stage(s) skipped: {', '.join(skipped)} "
