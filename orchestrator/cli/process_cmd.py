@@ -98,6 +98,15 @@ def register(app: typer.Typer) -> None:
                 "linearisation and lamp flat fields",
             ),
         ] = False,
+        flat_beyond_mm: Annotated[
+            float,
+            typer.Option(
+                "--flat-beyond-mm",
+                min=0.0,
+                help="ps: the sample is flat beyond this wavelength (mm); its height keeps "
+                "no longer shape (0: the height as integrated)",
+            ),
+        ] = 15.0,
     ) -> None:
         """Run processing stages over a recorded archive into its material/ group.
 
@@ -126,7 +135,11 @@ def register(app: typer.Typer) -> None:
         writers = {"ps": write_ps_previews, "mdf": write_mdf_previews}
         if previews is not None and any(n in writers for n in names):
             prepare_folder(previews, f"--previews {previews}")
-        options = {"btf": {"components": components, "raw": raw}, "ps": {"raw": raw}}
+        flat = flat_beyond_mm or None
+        options = {
+            "btf": {"components": components, "raw": raw},
+            "ps": {"raw": raw, "flat_beyond_mm": flat},
+        }
         chosen = [STAGES[n](size=size, **options.get(n, {})) for n in names]
         columns = (
             TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),

@@ -48,12 +48,15 @@ SATURATION = 0.98
 @dataclass(frozen=True)
 class PsStage:
     """Photometric stereo per view. ``size``: texels per side; ``method``: the solver's;
-    ``raw``: frames as recorded, without the calibration's radiometric corrections."""
+    ``raw``: frames as recorded, without the calibration's radiometric corrections;
+    ``flat_beyond_mm``: the sample is flat beyond this wavelength, its height keeps no
+    longer shape (``processing.photometric.integrate_gradients``; None: as integrated)."""
 
     size: int = 128
     method: str = "irls"
     refine_iterations: int = 2
     raw: bool = False
+    flat_beyond_mm: float | None = 15.0
     name: str = "ps"
 
     def plan(self, archive: Archive) -> list[View]:
@@ -119,14 +122,16 @@ class PsStage:
         options = {"method": self.method, "saturation_level": ceiling, "mask": usable}
         if isinstance(lights, NearLights):
             refined = refine_near(
-                stack, lights, grid=grid, iterations=self.refine_iterations, **options
-            )
+                stack, lights, grid=grid, iterations=self.refine_iterations,
+                flat_beyond_mm=self.flat_beyond_mm, **options,
+            )  # fmt: skip
             result, height = refined.result, refined.height
         else:
             result = solve(stack, lights, **options)
             height = integrate_normals(
-                result.normals, pitch_mm=sample_mm / self.size, mask=result.valid
-            )
+                result.normals, pitch_mm=sample_mm / self.size, mask=result.valid,
+                flat_beyond_mm=self.flat_beyond_mm,
+            )  # fmt: skip
         return {
             "view": item,
             "normals": result.normals,
@@ -158,6 +163,7 @@ def _ps_view(result: dict, stage: PsStage) -> PsView:
             "camera": view.camera, "turntable_deg": view.turntable_deg, "steps": list(view.steps),
             "lamps": result["lamps"], "frames": result["frames"],
             "registered": result["registered"], "method": stage.method,
+            "flat_beyond_mm": stage.flat_beyond_mm,
             "grid": "rig.geometry.texel_centers_mm",
         },
         radiometry=result["radiometry"],
