@@ -11,7 +11,7 @@ from rig.errors import KinematicsError, PlanError
 from rig.geometry import angular_distance_deg, direction_angles, direction_vector
 from rig.plan import parse_plan
 from rig.schedule import compile_plan
-from rig.ur_kinematics import Pose
+from tests.rig.bonn_records import recorded_actuators
 
 
 def _lab(**section):
@@ -173,11 +173,7 @@ def test_a_recorded_step_places_the_lamp_and_bounds_its_displacement(
 ):
     config = _lab(arm={"max_tilt_deg": 180.0})
     pose = bonn.inverse(config, (theta_v, phi_v), (theta_l, phi_l))
-    transform = np.eye(4)
-    transform[:3, :3] = pose.rotation
-    rotvec = np.degrees(Pose.from_matrix(transform).rotvec)
-    tool = {f"tool_r{c}_deg": float(r) for c, r in zip("xyz", rotvec, strict=True)}
-    actuators = {"rail_deg": pose.rail_deg, **tool}
+    actuators = recorded_actuators(pose.rotation, pose.rail_deg)
     lamp = bonn.recorded_lamp_mm(config, "lamp0", actuators)
     _, light = bonn.forward(config, pose.rotation, pose.rail_deg)
     assert np.linalg.norm(lamp) == pytest.approx(config.bonn.lamp_distance_mm)
