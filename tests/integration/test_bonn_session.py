@@ -113,7 +113,9 @@ def test_a_session_with_retro_pairs_goes_through_ps_btf_and_view(tmp_path):
     (ps,) = material.ps.values()
     assert ps.valid.all()
     tilt = np.degrees(np.arccos(np.clip(ps.normals[..., 2], -1, 1)))
-    assert np.percentile(tilt, 95) < 3.0, np.percentile(tilt, 95)
+    assert np.percentile(tilt, 95) < 3.0, np.percentile(tilt, 95)  # measured 2.2°
+    mean = ps.normals.reshape(-1, 3).mean(axis=0)  # a misplaced lamp would tilt them all
+    assert np.degrees(np.arccos(mean[2] / np.linalg.norm(mean))) < 0.2  # measured 0.03°
     # btf: the plan's grid, each retro cell filled by the capture the rail's end allowed,
     # listed with the directions it was measured at (each 5° off the cell's, 10° apart)
     views, lights = material.btf.view_dirs_deg, material.btf.light_dirs_deg
