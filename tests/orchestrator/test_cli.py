@@ -8,6 +8,8 @@ from typer.testing import CliRunner
 
 from orchestrator.cli import app
 from orchestrator.cli.common import EXTRAS
+from processing.offline import STAGES, MdfStage
+from rig.errors import KinematicsError
 
 EXAMPLES = Path(__file__).parents[2] / "examples" / "plans"
 runner = CliRunner()
@@ -324,6 +326,21 @@ def test_a_stage_the_session_did_not_capture_is_skipped_with_the_reason(saturate
     # nothing at all to do is still a request the archive cannot serve
     result = runner.invoke(app, [*args, "--stages", "ps"])
     _fails_cleanly(result, 2, "nothing to process")
+
+
+class PlacelessMdf(MdfStage):
+    """An mdf stage whose items fail as a kinematics error (module level: Dask pickles it)."""
+
+    def compute(self, archive_path, item):
+        raise KinematicsError("the lab's kinematics cannot place this step")
+
+
+def test_a_stage_that_fails_is_one_message_without_dasks_traceback(saturated, monkeypatch, caplog):
+    monkeypatch.setitem(STAGES, "mdf", PlacelessMdf)
+    result = runner.invoke(app, ["process", str(saturated), "--stages", "mdf", "--size", "16"])
+    _fails_cleanly(result, 2, "the lab's kinematics cannot place this step")
+    # Dask's worker logs the task's traceback (to stderr, under the command's one message)
+    assert not [r for r in caplog.records if "Compute Failed" in r.getMessage()], caplog.text
 
 
 @pytest.mark.parametrize(
