@@ -36,6 +36,7 @@ __all__ = [
     "arm_joints",
     "camera_direction",
     "camera_model",
+    "displaced_by_deg",
     "forward",
     "home_joints",
     "home_rotation",
@@ -44,11 +45,15 @@ __all__ = [
     "plate_rotation",
     "plate_tool_pose",
     "recorded_camera",
+    "recorded_lamp_mm",
     "recorded_pose",
     "tilt_deg",
 ]
 
 _LAMP = np.array([1.0, 0.0, 0.0])
+# A recorded rail position this close to an axis end is at it (a servo's read-back
+# is quantised to ~0.005° of rail at the default gear ratio).
+_RAIL_END_DEG = 0.05
 
 
 @dataclass(frozen=True)
@@ -105,6 +110,34 @@ def recorded_pose(actuators: dict) -> tuple[np.ndarray, float]:
 def lamp_position_mm(config: RigConfig, rotation: np.ndarray) -> np.ndarray:
     """(3,) the lamp's position (mm) in the sample frame of a plate held at ``rotation``."""
     return rotation.T @ (_bonn(config).lamp_distance_mm * _LAMP)
+
+
+def recorded_lamp_mm(config: RigConfig, lamp_id: str, actuators) -> np.ndarray:
+    """(3,) the lab's lamp (``lamp_id``, its one) in the sample frame (mm) at a step, from
+    the plate rotation the step recorded (:func:`recorded_pose`)."""
+    if lamp_id != _bonn(config).lamp_id:
+        raise KinematicsError(
+            f"lamp {lamp_id!r}: the Bonn lab has one lamp, {config.bonn.lamp_id!r}"
+        )
+    return lamp_position_mm(config, recorded_pose(actuators)[0])
+
+
+def displaced_by_deg(config: RigConfig, actuators) -> float:
+    """The most (deg) each of a step's recorded view and light lies from the pair it was
+    asked for: 0 unless the rail stood at an end (:func:`inverse`).
+
+    A pair whose view and light are closer than ``rail.axis.min_deg`` (a retro-reflection
+    pair: view = light) or further apart than ``max_deg`` leaves the rail at that end;
+    both directions then turn by half the shortfall about their shared bisector, so each
+    lies at most ``min_deg / 2`` (``(180 − max_deg) / 2``) from the one asked for.
+    """
+    axis = _bonn(config).rail.axis
+    _, rail_deg = recorded_pose(actuators)
+    if rail_deg <= axis.min_deg + _RAIL_END_DEG:
+        return axis.min_deg / 2
+    if rail_deg >= axis.max_deg - _RAIL_END_DEG:
+        return (180.0 - axis.max_deg) / 2
+    return 0.0
 
 
 def _bonn(config: RigConfig):

@@ -28,11 +28,13 @@ from rig.geometry import Sampling, angular_distance_deg, direction_angles, direc
 
 __all__ = [
     "RigPose",
+    "displaced_by_deg",
     "forward",
     "inverse",
     "lamp_position_mm",
     "laser_plane",
     "laser_source_mm",
+    "recorded_lamp_mm",
     "rotate_z",
     "sampling_residuals",
     "wrap_into",
@@ -110,6 +112,21 @@ def lamp_position_mm(
     """(3,) position of lamp ``lamp`` in the sample frame, mm (on the light arc's radius)."""
     radius = config.virtex.radius_mm if config.kind == "virtex" else config.light_arc.radius_mm
     return rotate_z(radius * _source_direction(config, lamp, arc_deg), -turntable_deg)
+
+
+def recorded_lamp_mm(config: RigConfig, lamp_id: str, actuators) -> np.ndarray:
+    """(3,) the lamp's position (mm) in the sample frame at a step, from the step's recorded
+    ``arc_deg`` and ``turntable_deg`` (a VirTex stage records none: its axes are at 0)."""
+    return lamp_position_mm(
+        config, lamp_id, arc_deg=actuators.get("arc_deg", 0.0),
+        turntable_deg=actuators.get("turntable_deg", 0.0),
+    )  # fmt: skip
+
+
+def displaced_by_deg(config: RigConfig, actuators) -> float:
+    """0: a Wang rig's or a VirTex stage's step records the directions its cameras and lamps
+    stand at, the same for every pair that asked for them, so they are its sampling's."""
+    return 0.0
 
 
 def laser_source_mm(

@@ -131,12 +131,24 @@ def load_config_option(path: Path | None) -> RigConfig:
 
 
 def quiet_dask_logs() -> None:
-    """Dask's loggers to WARNING: their INFO lines are for its developers."""
+    """Dask's loggers to WARNING: their INFO lines are for its developers. A worker's
+    "Compute Failed" report (the task's traceback) is dropped: the command reports the
+    task's error itself, once, with the traceback under ``--debug``."""
     import distributed  # noqa: F401  (configures its loggers on import)
 
     for name in list(logging.root.manager.loggerDict):
         if name.split(".")[0] == "distributed":
             logging.getLogger(name).setLevel(logging.WARNING)
+    worker = logging.getLogger("distributed.worker")
+    if not any(isinstance(f, _TaskFailures) for f in worker.filters):
+        worker.addFilter(_TaskFailures())
+
+
+class _TaskFailures(logging.Filter):
+    """Drops a Dask worker's "Compute Failed" records."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return not str(record.msg).startswith("Compute Failed")
 
 
 def prepare_folder(path: Path, option: str) -> Path:

@@ -49,8 +49,8 @@ class BtfSource:
 @contextlib.contextmanager
 def btf_source(archive_path: Path, *, from_material: bool, size: int) -> Iterator[BtfSource]:
     """The normtextures of an archive, with it open read-only while the block runs."""
-    from processing.btf import reconstruct, view_slots
-    from processing.offline.btf import BtfSlot, slot_normtextures
+    from processing.btf import reconstruct
+    from processing.offline.btf import BtfSlot, slot_normtextures, slot_table
     from rig.archive import Archive
     from rig.config import Holder
     from rig.interchange import NORMTEXTURE_CAMERA, imported_normtextures
@@ -79,7 +79,7 @@ def btf_source(archive_path: Path, *, from_material: bool, size: int) -> Iterato
     with Archive.open(archive_path, mode="r") as archive:
         holder = Holder.model_validate(archive.rig_config.get("holder", {}))
         manifest["sample_mm"] = holder.sample_mm
-        table = view_slots(archive.step_table(), gaps=True)
+        table = slot_table(archive, gaps=True)
         imported = imported_normtextures(archive.plan)
         if imported:
             size = archive.cameras[NORMTEXTURE_CAMERA].height

@@ -91,6 +91,15 @@ def register(app: typer.Typer) -> None:
                 "linearisation and lamp flat fields",
             ),
         ] = False,
+        flat_beyond_mm: Annotated[
+            float,
+            typer.Option(
+                "--flat-beyond-mm",
+                min=0.0,
+                help="ps: the sample is flat beyond this wavelength (mm); its height keeps "
+                "no longer shape (0: the height as integrated)",
+            ),
+        ] = 15.0,
     ) -> None:
         """Run processing stages over a recorded archive into its material/ group.
 
@@ -100,7 +109,9 @@ def register(app: typer.Typer) -> None:
         normtextures of every view slot, compressed by per-view PCA, --components);
         mdf (the mesostructure distance function of the laser scans, with previews).
         A stage that can use none of its frames (all flagged: saturated, black…) is
-        skipped with the reason, the others still run, and the exit code is 1.
+        skipped with the reason, the others still run, and the exit code is 1. A
+        stage the session captured nothing for (btf or mdf of a PS-only rig) is
+        skipped with the reason too, and is no failure.
         When the archive's calibration has them, ps and btf frames are linearised
         by the camera's response curve and divided by their lamp's flat field
         (--raw: not); the material records what was applied.
@@ -117,7 +128,11 @@ def register(app: typer.Typer) -> None:
         writers = {"ps": write_ps_previews, "mdf": write_mdf_previews}
         if previews is not None and any(n in writers for n in names):
             prepare_folder(previews, f"--previews {previews}")
-        options = {"btf": {"components": components, "raw": raw}, "ps": {"raw": raw}}
+        flat = flat_beyond_mm or None
+        options = {
+            "btf": {"components": components, "raw": raw},
+            "ps": {"raw": raw, "flat_beyond_mm": flat},
+        }
         chosen = [STAGES[n](size=size, **options.get(n, {})) for n in names]
         columns = (
             TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
@@ -148,7 +163,7 @@ def register(app: typer.Typer) -> None:
             if run.skipped is None and run.stage in writers:
                 for path in writers[run.stage](archive, folder):
                     console.print(escape(f"wrote {path}"))
-        skipped = [run.stage for run in runs if run.skipped is not None]
+        skipped = [run.stage for run in runs if run.skipped is not None and not run.absent]
         if skipped:
             raise RigError(
                 f"{len(skipped)} of {len(runs)} stage(s) skipped: {', '.join(skipped)} "

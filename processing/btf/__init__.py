@@ -22,7 +22,7 @@ from processing.btf._errors import BtfError
 from processing.btf._interpolate import Method, direction_weights, interpolate, reconstruct
 from processing.btf._pca import ViewSlot, compress_view, compress_view_svd
 from processing.btf._quality import psnr_db, rmse
-from processing.btf._slots import SlotTable, view_slots
+from processing.btf._slots import Displaced, SlotTable, view_slots
 from rig.material import CompressedBTF, GlobalSVD
 
 __all__ = [
@@ -30,6 +30,7 @@ __all__ = [
     "BtfError",
     "ColourSpace",
     "CompressedBTF",
+    "Displaced",
     "GlobalSVD",
     "Method",
     "SlotTable",

@@ -5,10 +5,18 @@ light direction; :func:`view_slots` groups the (step, camera) captures into
 view slots (same view direction) and orders each slot's lights the same way,
 so slot j's normtextures can be stacked as (n_lights, N, N, C) and handed to
 :func:`~processing.btf.compress_view`.
+
+A step whose rig could not reach the pair it was asked for records directions
+displaced from it (the Bonn lab's retro-reflection pairs: its rail cannot put
+the camera in the lamp's beam, ``rig.bonn.displaced_by_deg``). Such a capture
+fills the grid cell nearest its recorded view and light within the
+displacement, and is listed in ``SlotTable.displaced`` with the directions it
+was measured at; the grid itself is built from the steps that hit their pair.
 """
 
 from __future__ import annotations
 
+from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -17,7 +25,19 @@ from processing.btf._errors import BtfError
 from rig.archive import StepRecord
 from rig.geometry import angular_distance_deg, direction_vector
 
-__all__ = ["SlotTable", "view_slots"]
+__all__ = ["Displaced", "SlotTable", "view_slots"]
+
+
+@dataclass(frozen=True)
+class Displaced:
+    """A capture filed under a grid cell it was not measured at: the directions it was."""
+
+    slot: int
+    light: int
+    step: int
+    camera: str
+    view_deg: tuple[float, float]
+    light_deg: tuple[float, float]
 
 
 @dataclass(frozen=True)
@@ -34,25 +54,36 @@ class SlotTable:
         Step index of the capture of slot j under light i.
     cameras : (n_views, n_lights) str
         Camera id of that capture (a slot may be served by different cameras).
+    displaced : tuple of Displaced
+        The cells filled by a capture measured off them, with where it was.
     """
 
     view_dirs_deg: np.ndarray
     light_dirs_deg: np.ndarray
     steps: np.ndarray
     cameras: np.ndarray
+    displaced: tuple[Displaced, ...] = ()
 
 
-def _index(table: list[np.ndarray], direction, tol_deg: float) -> int:
-    v = direction_vector(*direction)
-    for i, known in enumerate(table):
-        if angular_distance_deg(known, v) <= tol_deg:
-            return i
-    table.append(v)
+def _index(table: list[tuple[float, float]], direction, tol_deg: float) -> int:
+    """The entry of ``table`` nearest ``direction`` within ``tol_deg``, else a new one."""
+    if table:
+        known = direction_vector(*np.array(table).T)
+        gaps = angular_distance_deg(known, direction_vector(*direction))
+        nearest = int(np.argmin(gaps))
+        if gaps[nearest] <= tol_deg:
+            return nearest
+    table.append(tuple(float(a) for a in direction))
     return len(table) - 1
 
 
 def view_slots(
-    steps: list[StepRecord], *, kind: str = "btf", tol_deg: float = 0.5, gaps: bool = False
+    steps: list[StepRecord],
+    *,
+    kind: str = "btf",
+    tol_deg: float = 0.5,
+    gaps: bool = False,
+    displaced_by_deg: Mapping[int, float] | None = None,
 ) -> SlotTable:
     """Group the ``kind`` steps' captures into view slots × lights.
 
@@ -67,6 +98,9 @@ def view_slots(
     gaps : bool
         Accept (view, light) pairs that were not captured: their step is −1
         and their camera ``""`` (an imported partial data set).
+    displaced_by_deg : mapping step index → deg, optional
+        Steps whose recorded directions each lie up to that far from the pair
+        they were asked for (``rig.kind_kinematics``); missing or 0: on it.
 
     Returns
     -------
@@ -81,25 +115,22 @@ def view_slots(
     """
     if not tol_deg > 0:
         raise BtfError(f"tol_deg = {tol_deg}: must be > 0")
-    views: list[np.ndarray] = []
-    lights: list[np.ndarray] = []
+    displaced_by_deg = displaced_by_deg or {}
     view_deg: list[tuple[float, float]] = []
     light_deg: list[tuple[float, float]] = []
     cells: dict[tuple[int, int], tuple[int, str]] = {}
-    for step in steps:
-        if step.kind != kind:
-            continue
+    displaced = []
+    ours = [s for s in steps if s.kind == kind]
+    # the steps on their pair build the grid first; the displaced then join its nearest cells
+    for step in sorted(ours, key=lambda s: displaced_by_deg.get(s.index, 0.0) > 0):
         if step.light_deg is None:
             raise BtfError(f"step {step.index} ({kind}) records no light direction")
-        li = _index(lights, step.light_deg, tol_deg)
-        if li == len(light_deg):
-            light_deg.append(tuple(step.light_deg))
+        reach = tol_deg + displaced_by_deg.get(step.index, 0.0)
+        li = _index(light_deg, step.light_deg, reach)
         for camera in step.cameras:
             if camera not in step.views_deg:
                 raise BtfError(f"step {step.index} records no view direction for {camera!r}")
-            vj = _index(views, step.views_deg[camera], tol_deg)
-            if vj == len(view_deg):
-                view_deg.append(tuple(step.views_deg[camera]))
+            vj = _index(view_deg, step.views_deg[camera], reach)
             if (vj, li) in cells:
                 first = cells[(vj, li)][0]
                 raise BtfError(
@@ -107,6 +138,12 @@ def view_slots(
                     f"(steps {first} and {step.index}); keep one or widen the sampling"
                 )
             cells[(vj, li)] = (step.index, camera)
+            view = step.views_deg[camera]
+            off = max(_gap_deg(view, view_deg[vj]), _gap_deg(step.light_deg, light_deg[li]))
+            if off > tol_deg:
+                displaced.append(
+                    Displaced(vj, li, step.index, camera, tuple(view), tuple(step.light_deg))
+                )
     if not cells:
         raise BtfError(f"no steps of kind {kind!r} with captures")
     n_views, n_lights = len(view_deg), len(light_deg)
@@ -123,5 +160,9 @@ def view_slots(
         )
     return SlotTable(
         np.array(view_deg, np.float64), np.array(light_deg, np.float64), step_table,
-        camera_table.astype(str),
+        camera_table.astype(str), tuple(sorted(displaced, key=lambda d: (d.slot, d.light))),
     )  # fmt: skip
+
+
+def _gap_deg(a, b) -> float:
+    return float(angular_distance_deg(direction_vector(*a), direction_vector(*b)))

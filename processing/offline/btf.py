@@ -15,6 +15,11 @@ can stand in for it. An imported archive's frames are normtextures already
 When no slot at all can be registered (a saturated or black session) there
 is nothing to compress: the stage is skipped (``StageSkipped``) with the
 count of each flag's reason.
+
+A capture the rig made off the pair it was asked for (the Bonn lab's
+retro-reflection pairs, ``rig.kind_kinematics``) fills that pair's cell and
+is listed in the material's ``displaced`` attribute with the directions it
+was measured at (``docs/btf.md``).
 """
 
 from __future__ import annotations
@@ -24,16 +29,17 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from processing.btf import CompressedBTF, compress_view, view_slots
+from processing.btf import CompressedBTF, SlotTable, compress_view, view_slots
 from processing.offline.radiometry import FrameCorrections, frame_corrections
 from processing.offline.runner import StageSkipped, frame_camera
 from processing.registration import register_capture
 from rig.archive import Archive
 from rig.config import RigConfig
 from rig.interchange import imported_normtextures
+from rig.kind_kinematics import step_kinematics
 from rig.material import Radiometry, write_btf
 
-__all__ = ["BtfSlot", "BtfStage", "slot_normtextures"]
+__all__ = ["BtfSlot", "BtfStage", "slot_normtextures", "slot_table"]
 
 
 @dataclass(frozen=True)
@@ -61,7 +67,7 @@ class BtfStage:
     def plan(self, archive: Archive) -> list[BtfSlot]:
         if not any(s.kind == "btf" for s in archive.step_table()):
             return []
-        table = view_slots(archive.step_table())
+        table = slot_table(archive)
         return [
             BtfSlot(j, (float(v[0]), float(v[1])), _captures(table.steps[j], table.cameras[j]))
             for j, v in enumerate(table.view_dirs_deg)
@@ -97,9 +103,10 @@ class BtfStage:
         empty_basis = np.zeros_like(template.basis)
         empty_weights = np.zeros_like(template.weights)
         slots = [r["compressed"] for r in results]
+        table = slot_table(archive)
         model = CompressedBTF(
             np.array([r["slot"].view_deg for r in results]),
-            view_slots(archive.step_table()).light_dirs_deg,
+            table.light_dirs_deg,
             np.stack([s.mean if s else empty_mean for s in slots]),
             np.stack([s.basis if s else empty_basis for s in slots]),
             np.stack([s.weights if s else empty_weights for s in slots]),
@@ -112,9 +119,26 @@ class BtfStage:
             group, model, units=_units(archive, radiometry),
             slot_valid=np.array([s is not None for s in slots]), radiometry=radiometry,
             attrs={"flagged": [list(f) for f in flagged],
-                   "flagged_columns": ["slot", "light", "step", "camera", "reason"]},
+                   "flagged_columns": ["slot", "light", "step", "camera", "reason"],
+                   "displaced": [[d.slot, d.light, d.step, d.camera, *d.view_deg, *d.light_deg]
+                                 for d in table.displaced],
+                   "displaced_columns": ["slot", "light", "step", "camera", "view_theta_deg",
+                                         "view_phi_deg", "light_theta_deg", "light_phi_deg"]},
         )  # fmt: skip
-        return {"slots": len(slots), "flagged_frames": len(flagged), "components": self.components}
+        return {"slots": len(slots), "flagged_frames": len(flagged),
+                "displaced_pairs": len(table.displaced), "components": self.components}  # fmt: skip
+
+
+def slot_table(archive: Archive, *, gaps: bool = False) -> SlotTable:
+    """The archive's BTF captures as view slots × lights (``processing.btf.view_slots``,
+    ``gaps`` as there), each step's displacement from its pair asked of the rig's kind."""
+    config = RigConfig.model_validate(archive.rig_config)
+    kinematics = step_kinematics(config)
+    steps = archive.step_table()
+    displaced = {
+        s.index: kinematics.displaced_by_deg(config, s.actuators) for s in steps if s.kind == "btf"
+    }
+    return view_slots(steps, gaps=gaps, displaced_by_deg=displaced)
 
 
 def slot_normtextures(

@@ -6,8 +6,9 @@ onto the sample's N×N texel grid (``processing.registration``: holder markers
 → homography → rectified normtexture), so normals, albedo and height share
 the grid of the normtextures and the MDF (``rig.geometry.texel_centers_mm``)
 and are in the sample frame. The lamps are near: their positions come from
-the archive's rig config and each step's recorded arc and turntable angles
-(``rig.kinematics.lamp_position_mm``), and the solve is refined with the
+the archive's rig config and each step's recorded actuators, by the rig's
+kind (``rig.kind_kinematics``: a Wang rig's arc and turntable angles, a Bonn
+lab's plate rotation), and the solve is refined with the
 integrated height (seed 004: Woodham's method, then integration). Frames are
 linearised by the archive's response curve and divided by the part of their
 lamp's flat field the near-lamp model does not explain before they reach the
@@ -35,12 +36,11 @@ from processing.registration import register_capture
 from rig.archive import Archive
 from rig.config import RigConfig
 from rig.geometry import direction_angles, direction_vector
-from rig.kinematics import lamp_position_mm
+from rig.kind_kinematics import step_kinematics
 from rig.material import PsView, write_ps
 
 __all__ = ["PsStage"]
 
-_AXES = ("arc_deg", "turntable_deg")
 #: An observation at or above this fraction of full scale counts as clipped.
 SATURATION = 0.98
 
@@ -48,12 +48,15 @@ SATURATION = 0.98
 @dataclass(frozen=True)
 class PsStage:
     """Photometric stereo per view. ``size``: texels per side; ``method``: the solver's;
-    ``raw``: frames as recorded, without the calibration's radiometric corrections."""
+    ``raw``: frames as recorded, without the calibration's radiometric corrections;
+    ``flat_beyond_mm``: the sample is flat beyond this wavelength, its height keeps no
+    longer shape (``processing.photometric.integrate_gradients``; None: as integrated)."""
 
     size: int = 128
     method: str = "irls"
     refine_iterations: int = 2
     raw: bool = False
+    flat_beyond_mm: float | None = 15.0
     name: str = "ps"
 
     def plan(self, archive: Archive) -> list[View]:
@@ -119,14 +122,16 @@ class PsStage:
         options = {"method": self.method, "saturation_level": ceiling, "mask": usable}
         if isinstance(lights, NearLights):
             refined = refine_near(
-                stack, lights, grid=grid, iterations=self.refine_iterations, **options
-            )
+                stack, lights, grid=grid, iterations=self.refine_iterations,
+                flat_beyond_mm=self.flat_beyond_mm, **options,
+            )  # fmt: skip
             result, height = refined.result, refined.height
         else:
             result = solve(stack, lights, **options)
             height = integrate_normals(
-                result.normals, pitch_mm=sample_mm / self.size, mask=result.valid
-            )
+                result.normals, pitch_mm=sample_mm / self.size, mask=result.valid,
+                flat_beyond_mm=self.flat_beyond_mm,
+            )  # fmt: skip
         return {
             "view": item,
             "normals": result.normals,
@@ -158,6 +163,7 @@ def _ps_view(result: dict, stage: PsStage) -> PsView:
             "camera": view.camera, "turntable_deg": view.turntable_deg, "steps": list(view.steps),
             "lamps": result["lamps"], "frames": result["frames"],
             "registered": result["registered"], "method": stage.method,
+            "flat_beyond_mm": stage.flat_beyond_mm,
             "grid": "rig.geometry.texel_centers_mm",
         },
         radiometry=result["radiometry"],
@@ -170,11 +176,8 @@ def _lights(config: RigConfig, steps) -> NearLights | DistantLights:
     if all(lamp.kind == "directional" for lamp in lamps):
         directions = np.array([direction_vector(*s.light_deg) for s in steps])
         return DistantLights(directions, intensities)
-    positions = [
-        # a rig without axes (a VirTex stage) records none: its axes are at 0
-        lamp_position_mm(config, s.lamp, **{k: s.actuators.get(k, 0.0) for k in _AXES})
-        for s in steps
-    ]
+    kinematics = step_kinematics(config)
+    positions = [kinematics.recorded_lamp_mm(config, s.lamp, s.actuators) for s in steps]
     return NearLights(np.array(positions), intensities)
 
 

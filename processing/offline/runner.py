@@ -137,12 +137,15 @@ def calibrated_camera(
 
 @dataclass(frozen=True)
 class StageRun:
-    """What one stage did; ``skipped``: why it wrote nothing (None when it did)."""
+    """What one stage did; ``skipped``: why it wrote nothing (None when it did);
+    ``absent``: the archive holds no captures of it (the plan asked for none), which is
+    not a failure."""
 
     stage: str
     items: int
     summary: Mapping[str, Any]
     skipped: str | None = None
+    absent: bool = False
 
 
 def run_stages(
@@ -164,13 +167,15 @@ def run_stages(
     progress : called as items finish
 
     A stage that can use none of its items (``StageSkipped``) is reported in
-    its ``StageRun.skipped``, and the stages after it still run.
+    its ``StageRun.skipped``, and the stages after it still run. A stage the
+    archive holds no captures for (a PS-only session asked for btf) is
+    skipped too, with ``absent`` set, as long as another stage has work.
 
     Raises
     ------
     ConfigError
-        A stage finds nothing to do in this archive (e.g. no ps steps), or
-        ``scheduler`` is not a scheduler address.
+        No stage finds anything to do in this archive (e.g. no ps steps for
+        ``ps``), or ``scheduler`` is not a scheduler address.
     RigError
         No scheduler answers at ``scheduler``; an item's error (``StageFailed``
         for one that is not btfrig's own names the stage and the item).
@@ -180,9 +185,16 @@ def run_stages(
     path = str(Path(archive_path).resolve())
     with Archive.open(path, mode="r") as archive:
         plans = {stage.name: stage.plan(archive) for stage in stages}
-    for stage in stages:
-        if not plans[stage.name]:
-            raise ConfigError(f"{path}: nothing for stage {stage.name!r} in this archive")
+        captured = sorted(k for k, v in archive.plan.get("captures", {}).items() if v)
+        kind = archive.rig_config.get("kind", "wang")
+    absent = {
+        stage.name: f"the archive has no {stage.name} captures: its plan captures "
+        f"{', '.join(captured) or 'nothing'}, on a {kind!r} rig"
+        for stage in stages if not plans[stage.name]
+    }  # fmt: skip
+    if len(absent) == len(stages):
+        raise ConfigError(f"{path}: nothing to process; " + "; ".join(
+            f"stage {name!r}: {why}" for name, why in absent.items()))  # fmt: skip
     cluster = None
     if scheduler is None:
         # The scheduler serves HTTP even without a dashboard, on 8787 unless told
@@ -198,6 +210,9 @@ def run_stages(
     try:
         with _client(cluster if cluster is not None else scheduler) as client:
             for stage in stages:
+                if stage.name in absent:
+                    runs.append(StageRun(stage.name, 0, {}, absent[stage.name], absent=True))
+                    continue
                 items = plans[stage.name]
                 futures = [client.submit(stage.compute, path, item, pure=False) for item in items]
                 index = {f.key: i for i, f in enumerate(futures)}

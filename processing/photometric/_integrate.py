@@ -10,6 +10,16 @@ p · pitch`` and ``h[r+1, c] - h[r, c] ≈ -q · pitch``.
 Heights are in mm. The constant of integration is fixed like the rig's
 reference plane: the highest valid point of each connected region is z = 0.
 
+A flat sample (the rig's: it lies on the holder plate) has no shape longer
+than its mesostructure, but its normals, sampled per texel, cannot show the
+cliffs of a textile (yarn sides, the floor seen through gaps), and what those
+cliffs' missing heights add to the gradients' divergence integrates into
+shape at the beat of the weave with the texel grid (``docs/photometric.md``).
+``flat_beyond_mm`` removes the best-fit plane and every wavelength longer than
+it from the height: a high-pass of order 4 in the DCT domain,
+``1 / (1 + (λ / flat_beyond_mm)^8)`` of a wavelength λ kept (half of it at
+the cutoff, 99.6 % at half the cutoff).
+
 References
 ----------
 .. [1] Frankot, R. T., Chellappa, R. "A method for enforcing integrability in
@@ -108,7 +118,9 @@ def gradients_from_normals(normals, *, valid=None, max_slope_deg: float = 80.0) 
     return Gradients(np.where(zero, 0.0, p), np.where(zero, 0.0, q), steep | flat_down)
 
 
-def integrate_gradients(p, q, *, pitch_mm: float, mask=None, method: str = "auto") -> HeightMap:
+def integrate_gradients(
+    p, q, *, pitch_mm: float, mask=None, method: str = "auto", flat_beyond_mm: float | None = None
+) -> HeightMap:
     """Integrate surface gradients to a height map in mm.
 
     Parameters
@@ -125,6 +137,10 @@ def integrate_gradients(p, q, *, pitch_mm: float, mask=None, method: str = "auto
         "dct": least squares with Neumann boundaries by a DCT Poisson solve.
         "fc": Frankot–Chellappa, periodic boundaries, by FFT.
         "lsq": sparse least squares over the mask (scipy.sparse, SuperLU).
+    flat_beyond_mm : float, optional
+        Wavelength (mm) beyond which the surface is a plane (a flat sample):
+        the best-fit plane and longer shape are removed (module docstring).
+        None: the height as integrated.
     """
     p = np.asarray(p, dtype=np.float64)
     q = np.asarray(q, dtype=np.float64)
@@ -137,6 +153,8 @@ def integrate_gradients(p, q, *, pitch_mm: float, mask=None, method: str = "auto
             "p, q: gradients must be finite; clip them with gradients_from_normals"
         )
     pitch = check_positive(pitch_mm, "pitch_mm")
+    if flat_beyond_mm is not None:
+        check_positive(flat_beyond_mm, "flat_beyond_mm")
     use = _check_mask(mask, p.shape, "mask")
     full = bool(use.all())
     if method == "auto":
@@ -154,15 +172,26 @@ def integrate_gradients(p, q, *, pitch_mm: float, mask=None, method: str = "auto
         height, labels = _frankot_chellappa(gx, gy), use.astype(np.int64) - 1
     else:
         height, labels = _masked_lsq(gx, gy, use)
+    if flat_beyond_mm is not None:
+        height = _flattened(height, use, flat_beyond_mm / pitch)
     return HeightMap(_top_at_zero(height, labels).astype(np.float32), use, clipped, method)
 
 
 def integrate_normals(
-    normals, *, pitch_mm: float, mask=None, method: str = "auto", max_slope_deg: float = 80.0
+    normals,
+    *,
+    pitch_mm: float,
+    mask=None,
+    method: str = "auto",
+    max_slope_deg: float = 80.0,
+    flat_beyond_mm: float | None = None,
 ) -> HeightMap:
     """Height map from normals: :func:`gradients_from_normals` then :func:`integrate_gradients`."""
     grads = gradients_from_normals(normals, valid=mask, max_slope_deg=max_slope_deg)
-    height = integrate_gradients(grads.p, grads.q, pitch_mm=pitch_mm, mask=mask, method=method)
+    height = integrate_gradients(
+        grads.p, grads.q, pitch_mm=pitch_mm, mask=mask, method=method,
+        flat_beyond_mm=flat_beyond_mm,
+    )  # fmt: skip
     return HeightMap(height.height_mm, height.valid, grads.clipped, height.method)
 
 
@@ -247,6 +276,24 @@ def _masked_lsq(gx: np.ndarray, gy: np.ndarray, use: np.ndarray) -> tuple[np.nda
     labels = np.full(shape, -1, np.int64)
     labels[use] = region
     return height, labels
+
+
+def _flattened(height: np.ndarray, use: np.ndarray, cutoff_px: float) -> np.ndarray:
+    """``height`` less its best-fit plane over ``use`` and its wavelengths longer than
+    ``cutoff_px`` pixels (order-4 high-pass on the DCT's frequencies); 0 outside ``use``."""
+    rows, cols = np.nonzero(use)
+    basis = np.column_stack([cols, rows, np.ones(len(rows))]).astype(np.float64)
+    plane, *_ = np.linalg.lstsq(basis, height[use], rcond=None)
+    grid_rows, grid_cols = np.indices(height.shape)
+    residual = np.where(use, height - (plane[0] * grid_cols + plane[1] * grid_rows + plane[2]), 0)
+    h, w = height.shape
+    # DCT-II term k spans k half-periods of the (h or w)-pixel side: frequency k / 2N per pixel
+    freq = np.hypot(np.arange(h)[:, None] / (2.0 * h), np.arange(w)[None, :] / (2.0 * w))
+    freq[0, 0] = np.inf  # the mean: the plane's, removed above
+    keep = 1.0 / (1.0 + (1.0 / (cutoff_px * freq)) ** 8)
+    kept = scipy.fft.idctn(scipy.fft.dctn(residual, type=2, norm="ortho") * keep, type=2,
+                           norm="ortho")  # fmt: skip
+    return np.where(use, kept, 0.0)
 
 
 def _top_at_zero(height: np.ndarray, labels: np.ndarray) -> np.ndarray:

@@ -35,6 +35,7 @@ def refine_near(
     grid: PixelGrid,
     iterations: int = 2,
     integrator: str = "dct",
+    flat_beyond_mm: float | None = None,
     **solve_options,
 ) -> NearRefinement:
     """Solve with near lamps, then alternate integrate → re-solve ``iterations`` times.
@@ -51,6 +52,9 @@ def refine_near(
     integrator : {"dct", "fc", "lsq", "auto"}
         Passed to :func:`integrate_normals` over the full grid (invalid
         pixels hold the flat normal, so they integrate as flat).
+    flat_beyond_mm : float, optional
+        Passed to :func:`integrate_normals`: the heights the re-solves lift the
+        pixels to, and the one returned, have no shape longer than it.
     **solve_options
         Keyword options of :func:`solve` (``method``, ``max_condition``…).
     """
@@ -65,6 +69,9 @@ def refine_near(
     height_mm = None
     for _ in range(int(iterations) + 1):
         result = solve(images, lights, pixels=grid.positions_mm(height_mm), **solve_options)
-        height = integrate_normals(result.normals, pitch_mm=grid.pitch_mm, method=integrator)
+        height = integrate_normals(
+            result.normals, pitch_mm=grid.pitch_mm, method=integrator,
+            flat_beyond_mm=flat_beyond_mm,
+        )  # fmt: skip
         height_mm = height.height_mm.astype(np.float64)
     return NearRefinement(result, height, int(iterations))

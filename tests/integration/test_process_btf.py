@@ -77,7 +77,7 @@ def _registered(path, slot, light):
 
 def test_full_rank_pca_gives_back_every_registered_frame(archive):
     (run,) = run_stages(archive, [BtfStage(size=SIZE, components=6)])
-    assert run.summary == {"slots": 3, "flagged_frames": 0, "components": 6}
+    assert run.summary == {"slots": 3, "flagged_frames": 0, "displaced_pairs": 0, "components": 6}
     arrays, attrs = _material(archive)
     assert arrays["slot_valid"].all() and attrs["flagged"] == []
     model = btf_from_arrays(arrays, attrs)

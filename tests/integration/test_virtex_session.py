@@ -34,6 +34,15 @@ def test_a_virtex_session_gives_normals_as_good_as_the_wang_rig(tmp_path, lamps)
     np.testing.assert_allclose([s.light_deg[0] for s in steps], 45.0, atol=1e-9)
     np.testing.assert_allclose([s.views_deg["cam0"][0] for s in steps], 0.0, atol=1e-9)
     assert row["session_s"] < 0.5 * lamps  # lamp warm-up and exposures only
+    if lamps == 3:  # the full set of stages: what the stage cannot capture is skipped
+        args = ["process", str(row["archive"]), "--stages", "ps,btf,mdf", "--size", "16"]
+        result = CliRunner().invoke(app, args)
+        assert result.exit_code == 0, result.output
+        said = " ".join(result.output.split())  # whatever the terminal's width
+        for stage in ("btf", "mdf"):
+            assert (f"{stage}: skipped — the archive has no {stage} captures: its plan "
+                    "captures ps, on a 'virtex' rig") in said  # fmt: skip
+        assert "ps: 1 item(s) → material/ps" in said
 
 
 def test_the_estimate_refuses_captures_a_virtex_stage_cannot_do(tmp_path):

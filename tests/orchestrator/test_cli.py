@@ -8,6 +8,8 @@ from typer.testing import CliRunner
 
 from orchestrator.cli import app
 from orchestrator.cli.common import EXTRAS
+from processing.offline import STAGES, MdfStage
+from rig.errors import KinematicsError
 
 EXAMPLES = Path(__file__).parents[2] / "examples" / "plans"
 runner = CliRunner()
@@ -115,6 +117,8 @@ def test_sim_render_without_the_simulator_names_the_extra(tmp_path, monkeypatch)
     result = runner.invoke(app, args)
     assert result.exit_code == 1, result.output
     assert "btfrig[sim]" in result.output
+
+
 # -- one error path: exit 2 for invalid input, 1 for a failure, one message, no traceback --
 
 
@@ -310,6 +314,33 @@ def test_a_stage_that_can_use_nothing_is_skipped_and_the_others_run(request, ses
     with Archive.open(archive, mode="r") as recorded:
         assert "mdf" in recorded.material and "btf" not in recorded.material
     assert [p.name for p in previews.iterdir()] == ["cam0_tt000.0_mdf.png"]
+
+
+def test_a_stage_the_session_did_not_capture_is_skipped_with_the_reason(saturated, tmp_path):
+    args = ["process", str(saturated), "--size", "16", "--previews", str(tmp_path)]
+    result = runner.invoke(app, [*args, "--stages", "ps,mdf"])
+    assert result.exit_code == 0, result.output
+    said = " ".join(result.output.split())  # whatever the terminal's width
+    assert "ps: skipped — the archive has no ps captures: its plan captures btf, mdf" in said
+    assert "mdf: 1 item(s) → material/mdf" in said
+    # nothing at all to do is still a request the archive cannot serve
+    result = runner.invoke(app, [*args, "--stages", "ps"])
+    _fails_cleanly(result, 2, "nothing to process")
+
+
+class PlacelessMdf(MdfStage):
+    """An mdf stage whose items fail as a kinematics error (module level: Dask pickles it)."""
+
+    def compute(self, archive_path, item):
+        raise KinematicsError("the lab's kinematics cannot place this step")
+
+
+def test_a_stage_that_fails_is_one_message_without_dasks_traceback(saturated, monkeypatch, caplog):
+    monkeypatch.setitem(STAGES, "mdf", PlacelessMdf)
+    result = runner.invoke(app, ["process", str(saturated), "--stages", "mdf", "--size", "16"])
+    _fails_cleanly(result, 2, "the lab's kinematics cannot place this step")
+    # Dask's worker logs the task's traceback (to stderr, under the command's one message)
+    assert not [r for r in caplog.records if "Compute Failed" in r.getMessage()], caplog.text
 
 
 @pytest.mark.parametrize(

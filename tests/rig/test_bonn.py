@@ -8,10 +8,11 @@ from hypothesis import strategies as st
 from rig import bonn
 from rig.config import RigConfig
 from rig.errors import KinematicsError, PlanError
-from rig.geometry import angular_distance_deg, direction_vector
+from rig.geometry import angular_distance_deg, direction_angles, direction_vector
 from rig.plan import parse_plan
 from rig.schedule import compile_plan
 from tests.budgets import scaled
+from tests.rig.bonn_records import recorded_actuators
 
 
 def _lab(**section):
@@ -65,8 +66,11 @@ def test_a_view_next_to_the_light_leaves_an_even_residual_at_the_rail_end():
 
 def test_an_orientation_past_the_tilt_limit_is_refused_naming_the_pair():
     config = _lab(arm={"max_tilt_deg": 30.0})
-    with pytest.raises(KinematicsError, match=r"view \(0°, 0°\), light \(80°, 180°\): the plate "
-                       r"would tilt [0-9.]+° from home, past the arm's max_tilt_deg 30°"):
+    with pytest.raises(
+        KinematicsError,
+        match=r"view \(0°, 0°\), light \(80°, 180°\): the plate "
+        r"would tilt [0-9.]+° from home, past the arm's max_tilt_deg 30°",
+    ):
         bonn.inverse(config, (0.0, 0.0), (80.0, 180.0))
 
 
@@ -75,8 +79,11 @@ def test_an_orientation_outside_the_joint_limits_is_refused_naming_the_pair():
               "joint_max_deg": [10] * 6}  # fmt: skip
     config = _lab(arm={"device": device})
     pair = "view (30°, 0°), light (30°, 180°)"
-    with pytest.raises(KinematicsError, match=r"view \(30°, 0°\), light \(30°, 180°\): ur5e: "
-                       r"the pose .* reachable only outside the joint limits"):
+    with pytest.raises(
+        KinematicsError,
+        match=r"view \(30°, 0°\), light \(30°, 180°\): ur5e: "
+        r"the pose .* reachable only outside the joint limits",
+    ):
         bonn.arm_joints(config, bonn.home_rotation(config), pair=pair)
 
 
@@ -125,7 +132,9 @@ def test_the_tour_beats_a_plan_order_that_jumps_about():
     )
     schedule = compile_plan(plan, _lab())
     assert schedule.estimate.total_s < 0.9 * schedule.naive_estimate.total_s, (
-        schedule.estimate.total_s, schedule.naive_estimate.total_s)
+        schedule.estimate.total_s,
+        schedule.naive_estimate.total_s,
+    )
 
 
 @scaled(2 / 3)
@@ -154,3 +163,26 @@ def test_the_residual_table_of_a_sampling_on_the_bonn_lab():
     rows = sampling_residuals(_lab(), Sampling.named("H1"))
     assert rows[0]["theta_deg"] == 0 and rows[0]["max_view_residual_deg"] == pytest.approx(5.0)
     assert all(r["max_view_residual_deg"] < 1e-6 for r in rows[1:])
+
+
+@scaled(2 / 3)
+@given(
+    st.floats(0, 85), st.floats(0, 360), st.floats(0, 85), st.floats(0, 360),
+)  # fmt: skip
+def test_a_recorded_step_places_the_lamp_and_bounds_its_displacement(
+    theta_v, phi_v, theta_l, phi_l
+):
+    config = _lab(arm={"max_tilt_deg": 180.0})
+    pose = bonn.inverse(config, (theta_v, phi_v), (theta_l, phi_l))
+    actuators = recorded_actuators(pose.rotation, pose.rail_deg)
+    lamp = bonn.recorded_lamp_mm(config, "lamp0", actuators)
+    _, light = bonn.forward(config, pose.rotation, pose.rail_deg)
+    assert np.linalg.norm(lamp) == pytest.approx(config.bonn.lamp_distance_mm)
+    _close(direction_angles(lamp), light)
+    bound = bonn.displaced_by_deg(config, actuators)
+    assert max(pose.view_residual_deg, pose.light_residual_deg) <= bound + 1e-9
+    assert bound in (0.0, 5.0)  # the rail's ends: 10° and 170°
+    if bound == 0.0:
+        assert pose.view_residual_deg < 1e-6 and pose.light_residual_deg < 1e-6
+    with pytest.raises(KinematicsError, match="one lamp, 'lamp0'"):
+        bonn.recorded_lamp_mm(config, "lamp1", actuators)

@@ -36,14 +36,14 @@ PAIRS = (
 _FAST = Retry(timeout_s=0.5, retries=2, backoff_s=0.01)
 
 
-def bonn_scene(*, scale: float = 0.5, supersample: int = 3):
+def bonn_scene(*, scale: float = 0.5, supersample: int = 3, lamp_kind: str = "directional"):
     albedo = {"kind": "noise", "rgb": [0.6, 0.5, 0.4], "variation": 0.3, "scale_mm": 8.0}
     return scene_from_dict({
         "name": "bonn-registration",
         "effects": [],
         "sample": {"generator": "flat", "depth_mm": 0.01, "materials": ["m"]},
         "materials": {"m": {"albedo": albedo}},
-        "rig": {"kind": "bonn", "overrides": {"bonn": {"lamp_kind": "directional"}}},
+        "rig": {"kind": "bonn", "overrides": {"bonn": {"lamp_kind": lamp_kind}}},
         "render": {"scale": scale, "supersample": supersample},
     })  # fmt: skip
 

@@ -1,0 +1,37 @@
+"""The simulator's ray-cast truth of a flat sample on the texel grid, and how much shape
+longer than its mesostructure a height map has (docs/photometric.md, "A flat sample")."""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy import ndimage
+
+from sim import Simulator
+
+#: "Low frequency": a Gaussian of this many texels (6.25 mm on a 100 mm sample at 128²).
+LOW_SIGMA_TEXELS = 8
+
+
+def texel_truth_over_footprints(scene, n: int, supersample: int = 4):
+    """Ray-cast normals at the n² texel centres (n, n, 3), the ray-cast height (mm)
+    averaged over each texel's footprint from supersample² samples (n, n), and the
+    texel pitch (mm)."""
+    with Simulator(scene) as sim:
+        normals = sim.texel_truth(n).normals
+        fine = sim.texel_truth(n * supersample).height.astype(np.float64)
+        pitch_mm = sim.scene.rig.holder.sample_mm / n
+    footprint = fine.reshape(n, supersample, n, supersample).mean(axis=(1, 3))
+    return normals, footprint, pitch_mm
+
+
+def less_plane(height) -> np.ndarray:
+    """A height map less its least-squares plane (a flat sample's reference plane)."""
+    rows, cols = np.indices(height.shape)
+    basis = np.column_stack([cols.ravel(), rows.ravel(), np.ones(height.size)])
+    plane, *_ = np.linalg.lstsq(basis, np.asarray(height, np.float64).ravel(), rcond=None)
+    return height - (basis @ plane).reshape(height.shape)
+
+
+def low_frequency_std(height) -> float:
+    """Std (mm) of the low-frequency part of a height map less its plane."""
+    return float(ndimage.gaussian_filter(less_plane(height), LOW_SIGMA_TEXELS).std())
