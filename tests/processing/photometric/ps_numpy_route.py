@@ -2,21 +2,22 @@
 
 Batched per-pixel 3×3 normal matrices and predictions as einsums, conditions
 from closed-form batched eigenvalues (Smith, CACM 4(4), 1961), and the IRLS
-reweighting of ``processing.photometric._robust`` step by step with a sort
-per pixel for the median. float32 reweighting, float64 3×3 systems, as the
-kernels take them.
+reweighting step by step with a sort per pixel for the median. float32
+reweighting, float64 3×3 systems, as the kernels take them. Nothing here comes
+from the library but its public condition cap: the constants are the method's
+as docs/photometric.md states them, and the sums and solves are plain numpy.
 """
 
 import numpy as np
 
-from processing.photometric import _system
-from processing.photometric._result import CONDITION_CAP
-from processing.photometric._robust import (
-    _MAD_TO_SIGMA,
-    _SCALE_FLOOR,
-    TUKEY_C,
-    reference_level,
-)
+from processing.photometric import CONDITION_CAP
+
+#: Tukey's biweight constant (95 % efficiency under Gaussian noise).
+TUKEY_C = 4.685
+#: MAD → standard deviation for Gaussian noise.
+MAD_TO_SIGMA = 1.4826
+#: The residual scale's floor, relative to the pixel's reference brightness.
+SCALE_FLOOR = 1e-3
 
 # Upper-triangle index pairs of a symmetric 3×3 matrix, and where each of the
 # nine entries finds its value among them.
@@ -92,24 +93,25 @@ def _det3(m: np.ndarray) -> np.ndarray:
 def irls_weights_stepwise(
     grey, usable, lights, *, shadow_fraction, highlight_fraction, iterations, max_condition
 ) -> np.ndarray:
-    """:func:`._robust.irls_weights` with a light vector per pixel (L, n, 3), in numpy."""
+    """IRLS weights (Tukey biweight on MAD-scaled residuals) with a light vector per pixel
+    (L, n, 3), in numpy."""
     ref = reference_level(grey, highlight_fraction)
     support = usable & (grey >= shadow_fraction * ref)
     weights = (support & (grey <= ref)).astype(np.float32)
-    floor = _SCALE_FLOOR * np.maximum(ref, 0.0)
+    floor = SCALE_FLOOR * np.maximum(ref, 0.0)
     grey32 = grey.astype(np.float32)
     lights32 = lights.astype(np.float32)
     shadow_level = (shadow_fraction * ref).astype(np.float32)
     for _ in range(iterations):
         a = normal_matrix(lights32, weights).astype(np.float64)
         ok = condition(a) <= max_condition
-        g = _system.moment(lights32, weights, grey32).astype(np.float64)
-        b = _system.solve_sym3(a, g, ok).astype(np.float32)
+        g = moment(lights32, weights, grey32).astype(np.float64)
+        b = solve(a, g, ok).astype(np.float32)
         predicted = predict(lights32, b)
         # |residual| in place: the biweight below needs only its square.
         residual = np.subtract(grey32, predicted)
         np.abs(residual, out=residual)
-        scale = np.maximum(_MAD_TO_SIGMA * median(residual, weights > 0), floor)
+        scale = np.maximum(MAD_TO_SIGMA * median(residual, weights > 0), floor)
         inverse = np.divide(1.0, TUKEY_C * scale, out=np.zeros_like(scale), where=scale > 0)
         u = np.multiply(residual, inverse.astype(np.float32), out=residual)
         # Tukey's biweight (1 − u²)²₊ with u = residual / (c · scale), in place.
@@ -118,6 +120,29 @@ def irls_weights_stepwise(
         # An observation the current fit puts in attached shadow carries no information.
         weights = np.multiply(tukey, support & (predicted > shadow_level), out=tukey)
     return weights
+
+
+def reference_level(grey: np.ndarray, highlight_fraction: float) -> np.ndarray:
+    """Each pixel's brightest observation once the top ``highlight_fraction`` of its
+    lights are dropped (at least 3 kept): (n,) from (L, n)."""
+    n_lights = grey.shape[0]
+    dropped = max(0, min(int(highlight_fraction * n_lights), n_lights - 3))
+    return np.sort(grey, axis=0)[n_lights - 1 - dropped]
+
+
+def moment(lights: np.ndarray, weights: np.ndarray, grey: np.ndarray) -> np.ndarray:
+    """Σ_l w I s per pixel: (n, 3), lights (L, 3) or one vector per pixel (L, n, 3)."""
+    per_pixel = lights if lights.ndim == 3 else np.broadcast_to(
+        lights[:, None, :], (*grey.shape, 3)
+    )
+    return np.einsum("lni,ln->ni", per_pixel, weights * grey)
+
+
+def solve(a: np.ndarray, rhs: np.ndarray, solvable: np.ndarray) -> np.ndarray:
+    """x with a x = rhs where ``solvable``, 0 elsewhere: (n, 3)."""
+    x = np.zeros_like(rhs)
+    x[solvable] = np.linalg.solve(a[solvable], rhs[solvable][..., None])[..., 0]
+    return x
 
 
 def median(magnitude: np.ndarray, support: np.ndarray) -> np.ndarray:
