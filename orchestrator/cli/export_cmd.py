@@ -48,10 +48,10 @@ def _check_archive(archive: Path) -> None:
 @contextlib.contextmanager
 def _export_to(out: Path, archive: Path, *, overwrite: bool, folder: bool = True) -> Iterator[Path]:
     """A fresh hidden folder (or file path) that becomes ``out`` when the block succeeds."""
+    from rig.archive import overlaps_archive
     from rig.interchange import MANIFEST
 
-    resolved, source = out.resolve(), archive.resolve()
-    if resolved == source or source in resolved.parents or resolved in source.parents:
+    if overlaps_archive(out, archive):
         raise ConfigError(f"--out {out}: lies in or around the archive {archive}; give another")
     if out.exists():
         earlier = (out / MANIFEST).is_file() if out.is_dir() else out.suffix.lower() == ".glb"
@@ -98,8 +98,11 @@ def material(
     out: Annotated[Path, typer.Option("--out", help="material store to create (M.zarr)")],
 ) -> None:
     """The material (btf, ps, mdf, sample size, calibration provenance), no frames."""
+    from rig.archive import overlaps_archive
     from rig.material import export_material
 
+    if overlaps_archive(out, archive):
+        raise ConfigError(f"--out {out}: lies in or around the archive {archive}; give another")
     if not (archive / "zarr.json").is_file() or not (archive / "material").is_dir():
         raise ConfigError(f"{archive}: not a session archive (no zarr.json and material/ there)")
     if out.exists():

@@ -31,6 +31,7 @@ __all__ = [
     "fsync_dir",
     "group_document",
     "hidden_node_document",
+    "overlaps_archive",
     "read_document",
     "write_atomic",
 ]
@@ -72,6 +73,15 @@ def check_inside(root: Path, relative: str) -> Path:
             "in it was touched"
         )
     return path
+
+
+def overlaps_archive(path: str | os.PathLike, archive: str | os.PathLike) -> bool:
+    """Whether ``path`` is the archive, lies inside it or holds it (links resolved).
+
+    Writing there would change the archive (or delete it, when replacing ``path``).
+    """
+    resolved, source = Path(path).resolve(), Path(archive).resolve()
+    return resolved == source or source in resolved.parents or resolved in source.parents
 
 
 def chunk_name(position: int) -> str:
