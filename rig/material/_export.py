@@ -36,8 +36,8 @@ def export_material(archive_path: str | os.PathLike, out_path: str | os.PathLike
     Raises
     ------
     MaterialError
-        ``out_path`` exists or lies in or around the archive, ``archive_path`` is not an archive with a
-        readable material, or a group is malformed.
+        ``out_path`` exists or lies in or around the archive, ``archive_path``
+        is not an archive with a readable material, or a group is malformed.
     """
     import zarr
 
