@@ -6,11 +6,13 @@ from pathlib import Path
 
 import pytest
 import zmq.auth
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 from typer.testing import CliRunner
 
 from orchestrator.cli import app
 from orchestrator.daemon import DaemonSettings, daemon_thread
-from orchestrator.daemon.endpoints import ClientKeys
+from orchestrator.daemon.endpoints import ClientKeys, read_certificate
 from rig.config import default_rig_config
 from rig.errors import ConfigError
 
@@ -136,3 +138,34 @@ def test_one_bad_client_certificate_is_refused_at_start_naming_it(certificates, 
     assert result.exit_code == 2, result.output
     said = " ".join(result.output.split())
     assert f"client certificate {wrong}" in said
+
+
+_Z85 = "0123456789abcdefghijklmnopqrstuvwxyzABCDEFGHIJKLMNOPQRSTUVWXYZ.-:+=^!/*?&<>()[]{}@%$#"
+_z85 = st.text(_Z85, min_size=38, max_size=42)
+_lines = st.one_of(
+    st.builds(lambda k, v: f'    {k} = "{v}"', st.sampled_from(["public-key", "secret-key"]), _z85),
+    st.sampled_from(["metadata", "curve", "#   comment", "public-key", "secret-key =", ""]),
+    st.text(max_size=60),
+)
+
+
+@settings(
+    max_examples=300, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
+@given(
+    body=st.lists(_lines, max_size=8).map(lambda lines: "\n".join(lines).encode())
+    | st.binary(max_size=300)
+)
+def test_any_key_file_is_read_or_refused_by_name(tmp_path, body):
+    # Certificates cut short, garbled, with keys of the wrong length, random bytes.
+    path = tmp_path / "fuzz.key"
+    path.write_bytes(body)
+    try:
+        public, secret = read_certificate(path, "a key")
+    except ConfigError as err:
+        refused = str(err)
+    else:
+        refused = None
+        assert len(public) == 40 and (secret is None or len(secret) == 40)
+        assert public in body
+    assert refused is None or f"a key {path}: not a CURVE certificate" in refused
