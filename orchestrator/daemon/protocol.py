@@ -176,9 +176,9 @@ def decode_json(body: bytes, *, limit: int, what: str) -> dict:
         "too_deep", f"{what} nests arrays or objects deeper than the limit of {MAX_JSON_DEPTH}"
     )
     try:
-        data = json.loads(
-            body, parse_int=_integer(what), parse_float=_finite(what), parse_constant=_finite(what)
-        )
+        data = json.loads(body, parse_int=_integer, parse_float=_finite, parse_constant=_finite)
+    except _BadNumber as err:
+        raise MessageError("malformed", f"{what} {err}") from None
     except ValueError as err:  # JSONDecodeError and UnicodeDecodeError are ValueErrors
         raise MessageError("malformed", f"{what} is not valid UTF-8 JSON: {err}") from None
     except RecursionError:  # the parser gave up first: far deeper than the limit
@@ -190,29 +190,22 @@ def decode_json(body: bytes, *, limit: int, what: str) -> dict:
     return data
 
 
-def _integer(what: str):
-    def parse(text: str) -> int:
-        digits = len(text.lstrip("-"))
-        if digits > MAX_INT_DIGITS:
-            raise MessageError(
-                "malformed",
-                f"{what} holds an integer of {digits} digits; the limit is {MAX_INT_DIGITS}",
-            )
-        return int(text)
-
-    return parse
+class _BadNumber(ValueError):
+    """A number in a message that Python cannot hold, or that is not finite."""
 
 
-def _finite(what: str):
-    def parse(text: str) -> float:
-        value = float(text)
-        if not math.isfinite(value):
-            raise MessageError(
-                "malformed", f"{what} holds the number {text[:32]!r}, which is not finite"
-            )
-        return value
+def _integer(text: str) -> int:
+    digits = len(text.lstrip("-"))
+    if digits > MAX_INT_DIGITS:
+        raise _BadNumber(f"holds an integer of {digits} digits; the limit is {MAX_INT_DIGITS}")
+    return int(text)
 
-    return parse
+
+def _finite(text: str) -> float:
+    value = float(text)
+    if not math.isfinite(value):
+        raise _BadNumber(f"holds the number {text[:32]!r}, which is not finite")
+    return value
 
 
 def _depth_exceeds(data, limit: int) -> bool:
