@@ -132,7 +132,7 @@ class SimCamera:
             raise ProtocolError(self.device, "capture", f"reply header of {len(raw)} bytes")
         try:
             header = json.loads(raw)
-        except ValueError as err:  # not UTF-8, not JSON, an integer of over 4300 digits
+        except (UnicodeDecodeError, json.JSONDecodeError) as err:
             raise ProtocolError(self.device, "capture", f"reply header is not JSON: {err}") from err
         if not isinstance(header, dict):
             raise ProtocolError(self.device, "capture", "reply header is not a JSON object")

@@ -187,7 +187,7 @@ class CameraServer:
             raise RequestError(None, f"request of {len(raw)} bytes exceeds {MAX_REQUEST_BYTES}")
         try:
             request = json.loads(raw)
-        except ValueError as err:  # not UTF-8, not JSON, an integer of over 4300 digits
+        except (UnicodeDecodeError, json.JSONDecodeError) as err:
             raise RequestError(None, f"request is not JSON: {err}") from err
         if not isinstance(request, dict):
             raise RequestError(None, "request must be a JSON object")
