@@ -137,6 +137,12 @@ def read_layout(path: Path) -> Layout:
     """Check the metadata of the archive at ``path``; ArchiveError naming what is wrong."""
     for relative in _OWN:
         check_inside(path, relative)
+    quarantine = path / "quarantine"
+    if quarantine.exists() and not quarantine.is_dir():
+        raise ArchiveDamaged(
+            f"{quarantine}: not a folder; an archive's quarantine/ is the folder where recovery "
+            "sets aside what it does not trust: move that file away"
+        )
     root = read_document(path / "zarr.json", node_type="group")
     attributes = root.get("attributes")
     if not isinstance(attributes, dict):

@@ -121,3 +121,12 @@ def test_repair_sets_a_stray_folder_aside(good):
     assert (good / report.quarantine / "frames" / "cam1" / "c.999.0.0.0").is_dir()
     assert _tree(good / "frames") == before
     assert not repair_archive(good).changed
+
+
+def test_a_file_where_the_quarantine_belongs_is_named(good):
+    # Found by the containment property: recovery could not set anything aside.
+    (good / "quarantine").write_bytes(b"planted")
+    _drop_last_step(good)
+    with pytest.raises(ArchiveDamaged, match=r"good\.zarr/quarantine: not a folder"):
+        repair_archive(good)
+    assert (good / "quarantine").read_bytes() == b"planted"
