@@ -39,6 +39,8 @@ __all__ = [
 ]
 
 TERMINAL_STATES = ("done", "aborted", "failed")
+#: Seconds without an event after which ``follow`` asks whether the daemon is still there.
+SILENCE_S = 3.0
 
 
 class DaemonUnreachable(RigError):
@@ -248,8 +250,11 @@ def follow(
 
     Starts with a ``status`` reply so a late joiner knows where things stand;
     stops after an event for which ``until(event)`` is true, or after
-    ``timeout_s`` without any event (``DaemonUnreachable``). A gap in ``seq``
-    (slow subscriber) is reported as an event with topic ``gap``.
+    ``timeout_s`` without any event (``DaemonUnreachable``). Without
+    ``timeout_s``, a silence of ``SILENCE_S`` (the daemon publishes its status
+    every second) is answered by asking for the status, which is yielded; a
+    daemon that does not answer either is gone: ``DaemonUnreachable``. A gap
+    in ``seq`` (slow subscriber) is reported as an event with topic ``gap``.
     """
     endpoints = Endpoints.from_base(connect) if isinstance(connect, str) else connect
     ctx = context or zmq.Context()
@@ -260,27 +265,45 @@ def follow(
         endpoints.secure(sub)
         sub.connect(endpoints.events)
         with DaemonClient(endpoints, context=ctx) as client:
-            first = {"topic": "status", "seq": None, **client.request("status")}
-        yield first
-        if until is not None and until(first):
-            return
-        last_seq = None
-        while True:
-            wait = None if timeout_s is None else int(timeout_s * 1000)
-            if not sub.poll(wait):
-                raise DaemonUnreachable(f"no event from {endpoints.events} for {timeout_s} s")
-            _topic, body = sub.recv_multipart()
-            event = json.loads(body)
-            if last_seq is not None and event["seq"] != last_seq + 1:
-                yield {"topic": "gap", "seq": event["seq"], "missed": event["seq"] - last_seq - 1}
-            last_seq = event["seq"]
-            yield event
-            if until is not None and until(event):
-                return
+            yield from _events(sub, client, until, timeout_s)
     finally:
         sub.close(linger=0)
         if context is None:
             ctx.term()
+
+
+def _events(sub, client: DaemonClient, until, timeout_s: float | None) -> Iterator[dict]:
+    last_seq = None
+    event = {"topic": "status", "seq": None, **client.request("status")}
+    while True:
+        seq = event.get("seq")
+        if isinstance(seq, int):  # a status asked for has none
+            if last_seq is not None and seq != last_seq + 1:
+                yield {"topic": "gap", "seq": seq, "missed": seq - last_seq - 1}
+            last_seq = seq
+        yield event
+        if until is not None and until(event):
+            return
+        wait = SILENCE_S if timeout_s is None else timeout_s
+        if sub.poll(int(wait * 1000)):
+            _topic, body = sub.recv_multipart()
+            event = decode_json(body, limit=MAX_CONTROL_BYTES, what="an event")
+            continue
+        if timeout_s is not None:
+            raise DaemonUnreachable(f"no event from {client.endpoints.events} for {timeout_s} s")
+        try:
+            event = {"topic": "status", "seq": None, **client.request("status")}
+        except DaemonUnreachable as err:
+            raise DaemonUnreachable(
+                f"the daemon is unreachable: no event for {SILENCE_S:g} s, and {err}"
+            ) from err
+
+
+def session_paused(event: dict) -> bool:
+    """For ``follow(until=...)``: the session paused (a fault, or ``rig pause``)."""
+    if event.get("topic") == "state":
+        return event.get("to") == "paused"
+    return event.get("topic") == "status" and event.get("state") == "paused"
 
 
 def session_ended(event: dict) -> bool:

@@ -224,6 +224,8 @@ class Output(_Closed):
     @field_validator("archive")
     @classmethod
     def _only_sample_placeholder(cls, value: str) -> str:
+        if "\x00" in value:
+            raise ValueError("holds a NUL byte, which no path can hold")
         try:
             value.format(sample="sample")
         except KeyError as err:

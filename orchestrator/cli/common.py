@@ -196,9 +196,14 @@ def _hms(seconds) -> str:
 
 
 class SessionProgress:
-    """Draws a session's events: a bar for progress, lines for the rest."""
+    """Draws a session's events: a bar for progress, lines for the rest.
+
+    Where the output is no terminal (a pipe, a log file) there is no bar, which
+    would hold every line back until it stops: each event is one line, at once.
+    """
 
     def __init__(self) -> None:
+        self.lines = not console.is_terminal
         self.progress = Progress(
             TextColumn("[bold]{task.description}"),
             BarColumn(),
@@ -209,13 +214,16 @@ class SessionProgress:
             console=console,
         )
         self.task = None
+        self.state: str | None = None
 
     def __enter__(self) -> SessionProgress:
-        self.progress.start()
+        if not self.lines:
+            self.progress.start()
         return self
 
     def __exit__(self, *exc) -> None:
-        self.progress.stop()
+        if not self.lines:
+            self.progress.stop()
 
     def __call__(self, event: dict) -> None:
         topic = event.get("topic")
@@ -224,11 +232,21 @@ class SessionProgress:
                 "eta": _hms(event.get("eta_s")),
                 "fps": f"{event.get('frames_per_s', 0.0):.1f}",
             }
+            if self.lines:
+                console.print(
+                    f"step {event.get('step')}/{event.get('steps')}, ETA {fields['eta']}, "
+                    f"{fields['fps']} frames/s"
+                )
+                return
             if self.task is None:
                 self.task = self.progress.add_task("session", total=event["steps"], **fields)
             self.progress.update(self.task, completed=event["step"], **fields)
         elif topic == "state":
+            self.state = event.get("to")
             self.progress.console.print(f"state: {event.get('from')} → [bold]{event.get('to')}[/]")
+        elif topic == "status" and event.get("state") != self.state:  # a first look, or news
+            self.state = event.get("state")
+            self.progress.console.print(escape(f"daemon: {self.state}"))
         elif topic == "log":
             detail = {k: v for k, v in event.items() if k not in ("topic", "seq", "time", "kind")}
             self.progress.console.print(escape(f"{event.get('kind')}: {detail}"))

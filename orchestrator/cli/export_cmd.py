@@ -4,7 +4,8 @@ material in the formats other tools read (``docs/interchange.md``).
 Every export opens the archive read-only, writes into a hidden folder next to
 ``--out`` and renames it into place when complete, so a failed export leaves
 nothing half-written; an existing ``--out`` is replaced only with
-``--overwrite``, and only when it is an earlier export (it has a manifest).
+``--overwrite``, and only when it is an earlier export of this project (its
+manifest, or a ``.glb``'s generator, says so).
 """
 
 from __future__ import annotations
@@ -32,7 +33,7 @@ app = typer.Typer(
 _Archive = Annotated[Path, typer.Argument(help="session archive", show_default=False)]
 _Out = Annotated[Path, typer.Option("--out", help="output folder to create")]
 _Overwrite = Annotated[
-    bool, typer.Option("--overwrite", help="replace --out if it holds an earlier export")
+    bool, typer.Option("--overwrite", help="replace --out if it is an earlier btfrig export")
 ]
 _View = Annotated[
     str | None,
@@ -49,18 +50,18 @@ def _check_archive(archive: Path) -> None:
 def _export_to(out: Path, archive: Path, *, overwrite: bool, folder: bool = True) -> Iterator[Path]:
     """A fresh hidden folder (or file path) that becomes ``out`` when the block succeeds;
     a failed write (a full disk) is an InterchangeWriteError naming ``out``."""
-    from rig.interchange import MANIFEST, InterchangeWriteError
+    from rig.archive import overlaps_archive
+    from rig.interchange import EXPORTED_BY, MANIFEST, InterchangeWriteError, is_export
 
-    resolved, source = out.resolve(), archive.resolve()
-    if resolved == source or source in resolved.parents or resolved in source.parents:
+    if overlaps_archive(out, archive):
         raise ConfigError(f"--out {out}: lies in or around the archive {archive}; give another")
-    if out.exists():
-        earlier = (out / MANIFEST).is_file() if out.is_dir() else out.suffix.lower() == ".glb"
+    if out.exists() or out.is_symlink():
         if not overwrite:
             raise ConfigError(f"--out {out}: already exists; give a new path or --overwrite")
-        if not earlier:
+        if not is_export(out):
             raise ConfigError(
-                f"--out {out}: exists and is not an earlier export (no {MANIFEST}); "
+                f"--out {out}: exists and is not an earlier btfrig export (no {MANIFEST} "
+                f'marked "exported_by": "{EXPORTED_BY}", nor a .glb btfrig generated); '
                 "not replacing it"
             )
     if not out.parent.is_dir():
@@ -104,8 +105,11 @@ def material(
     out: Annotated[Path, typer.Option("--out", help="material store to create (M.zarr)")],
 ) -> None:
     """The material (btf, ps, mdf, sample size, calibration provenance), no frames."""
+    from rig.archive import overlaps_archive
     from rig.material import export_material
 
+    if overlaps_archive(out, archive):
+        raise ConfigError(f"--out {out}: lies in or around the archive {archive}; give another")
     if not (archive / "zarr.json").is_file() or not (archive / "material").is_dir():
         raise ConfigError(f"{archive}: not a session archive (no zarr.json and material/ there)")
     if out.exists():

@@ -20,8 +20,9 @@ def register(app: typer.Typer) -> None:
 
         Keeps every whole journal record and rebuilds lost steps from the
         records their chunk files carry; what it does not trust (the old
-        journal, chunk files of incomplete steps) is moved to the archive's
-        quarantine/ folder, never deleted. An archive that opens is left alone.
+        journal, chunk files of incomplete steps, a folder or link under a chunk's
+        name) is moved to the archive's quarantine/ folder, never deleted. An
+        archive that opens cleanly is left alone.
         """
         from rig.archive import repair_archive
 
@@ -30,6 +31,13 @@ def register(app: typer.Typer) -> None:
             console.print(
                 f"{escape(str(archive))}: opens cleanly with {report.committed_steps} "
                 "committed steps; nothing to repair"
+            )
+            return
+        if not report.journal_rebuilt:
+            console.print(
+                f"{escape(str(archive))}: {report.committed_steps} committed steps; set aside "
+                f"in {escape(str(report.quarantine))} what is not a chunk file under a chunk's "
+                f"name: {escape(', '.join(report.set_aside))}"
             )
             return
         console.print(

@@ -39,6 +39,16 @@ def _daemon_at(connect: str, server_key: Path | None, secret_key: Path | None):
     return Endpoints.from_base(connect, keys=keys)
 
 
+#: `rig status --follow`'s exit status when the session paused.
+EXIT_PAUSED = 3
+
+
+def _stops_following(event: dict) -> bool:
+    from orchestrator.client import session_ended, session_paused
+
+    return session_ended(event) or session_paused(event)
+
+
 def _print_status(state: dict) -> None:
     session = state.get("session") or {}
     console.print(f"daemon: [bold]{state.get('state')}[/bold]")
@@ -158,7 +168,13 @@ def register(app: typer.Typer) -> None:
         server_key: Annotated[Path | None, SERVER_KEY] = None,
         secret_key: Annotated[Path | None, SECRET_KEY] = None,
     ) -> None:
-        """Show the daemon's session state; --follow draws progress until it ends."""
+        """Show the daemon's session state; --follow draws progress until it ends or pauses.
+
+        With --follow the exit status says how it stopped: 0 the session is done,
+        3 it paused (`rig resume` or `rig abort` it), 1 it failed or was aborted,
+        or the daemon became unreachable (it stopped answering: killed, or gone).
+        Piped, each event is printed as one line as it comes.
+        """
         from orchestrator import client
 
         daemon = _daemon_at(connect, server_key, secret_key)
@@ -167,9 +183,14 @@ def register(app: typer.Typer) -> None:
             return
         with SessionProgress() as view:
             hints = FaultHints(view, connect)
-            for event in client.follow(daemon, until=client.session_ended):
+            for event in client.follow(daemon, until=_stops_following):
                 hints(event)
-        _print_status(client.status(connect=daemon))
+        final = client.status(connect=daemon)
+        _print_status(final)
+        if final.get("state") == "paused":
+            raise typer.Exit(EXIT_PAUSED)
+        if final.get("state") != "done":
+            raise typer.Exit(1)
 
     for name, doc in (
         ("pause", "Pause the running session after the current step."),

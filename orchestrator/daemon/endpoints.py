@@ -8,6 +8,9 @@ holds their URLs; ``DaemonSettings`` is the daemon's own (closed) settings.
 from __future__ import annotations
 
 import ipaddress
+import os
+import re
+import stat
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
@@ -17,22 +20,70 @@ from pydantic import BaseModel, ConfigDict, Field
 
 from rig.errors import ConfigError
 
-__all__ = ["DEFAULT_PORT", "ClientKeys", "DaemonSettings", "Endpoints", "is_loopback"]
+__all__ = [
+    "DEFAULT_PORT",
+    "ClientKeys",
+    "DaemonSettings",
+    "Endpoints",
+    "is_loopback",
+    "read_certificate",
+]
 
 DEFAULT_PORT = 5570
 _ROLES = ("control", "events", "frames", "results")
 
 
-def _certificate(path: Path, option: str, *, secret: bool) -> tuple[bytes, bytes | None]:
-    import zmq.auth
+#: Largest certificate file read (zmq.auth writes about 300 bytes).
+_MAX_CERTIFICATE_BYTES = 64 * 1024
+_Z85_KEY = re.compile(rb"[0-9a-zA-Z.\-:+=^!/*?&<>()\[\]{}@%$#]{40}")
+_HOW = "make a pair with zmq.auth.create_certificates"
 
+
+def read_certificate(path: Path, what: str) -> tuple[bytes, bytes | None]:
+    """The (public, secret or None) z85 CURVE keys of the certificate file ``path``.
+
+    Only a regular file of at most 64 KiB is read (never a device such as
+    /dev/zero, nor a FIFO that would block); a ``ConfigError`` names ``what``
+    and the file otherwise, as it does a file that holds no valid public key.
+    """
     try:
-        public, secret_key = zmq.auth.load_certificate(str(path))
-    except (OSError, ValueError) as err:
+        fd = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    except OSError as err:
+        raise ConfigError(f"{what} {path}: cannot be read ({err.strerror})") from None
+    try:
+        info = os.fstat(fd)
+        if not stat.S_ISREG(info.st_mode):
+            raise ConfigError(
+                f"{what} {path}: not a regular file (a device, a FIFO or a folder); "
+                f"a CURVE certificate is a small text file; {_HOW}"
+            )
+        if info.st_size > _MAX_CERTIFICATE_BYTES:
+            raise ConfigError(
+                f"{what} {path}: {info.st_size} bytes, more than a CURVE certificate "
+                f"holds (at most {_MAX_CERTIFICATE_BYTES}); {_HOW}"
+            )
+        text = os.read(fd, _MAX_CERTIFICATE_BYTES)
+    finally:
+        os.close(fd)
+    keys: dict[bytes, bytes] = {}
+    for line in text.splitlines():  # the format zmq.auth.load_certificate reads
+        name, sep, value = line.strip().partition(b"=")
+        if sep and name.strip() in (b"public-key", b"secret-key"):
+            keys.setdefault(name.strip(), value.strip(b" \t'\""))
+    public, secret = keys.get(b"public-key"), keys.get(b"secret-key")
+    for key in (public, secret):
+        if key is not None and not _Z85_KEY.fullmatch(key):
+            public = None
+    if public is None:
         raise ConfigError(
-            f"{option} {str(path)!r}: not a readable CURVE certificate ({err}); "
-            "make one with zmq.auth.create_certificates"
-        ) from err
+            f"{what} {path}: not a CURVE certificate (no public-key line with 40 "
+            f"Z85 characters); {_HOW}"
+        )
+    return public, secret
+
+
+def _certificate(path: Path, option: str, *, secret: bool) -> tuple[bytes, bytes | None]:
+    public, secret_key = read_certificate(path, option)
     if secret and secret_key is None:
         raise ConfigError(
             f"{option} {str(path)!r} holds only a public key; give the secret certificate "
@@ -170,22 +221,14 @@ class DaemonSettings(BaseModel):
         """The server's (public, secret) CURVE keys from ``curve_secret_key``; None without
         one. A file that is not a secret certificate, or no folder of clients'
         certificates, is a ``ConfigError`` naming it."""
-        import zmq.auth
-
         path = self.curve_secret_key
         if path is None:
             return None
-        how = "make a pair with zmq.auth.create_certificates and give its .key_secret file"
-        try:
-            public, secret = zmq.auth.load_certificate(str(path))
-        except (OSError, ValueError) as err:
-            raise ConfigError(
-                f"daemon curve_secret_key {path}: not a CURVE certificate ({err}); {how}"
-            ) from None
+        public, secret = read_certificate(path, "daemon curve_secret_key")
         if secret is None:
             raise ConfigError(
                 f"daemon curve_secret_key {path}: holds only a public key; the daemon needs "
-                f"its secret certificate; {how}"
+                f"its secret certificate; {_HOW} and give its .key_secret file"
             )
         clients = self.curve_clients_dir
         if clients is None or not clients.is_dir():
@@ -194,4 +237,9 @@ class DaemonSettings(BaseModel):
                 f"daemon curve_clients_dir {given}: with a CURVE key the daemon admits only "
                 "the clients whose public certificates are in that folder"
             )
+        # The authenticator reads every *.key there (as glob does, not hidden ones); one bad
+        # file would make it refuse every client, so each is checked before it starts.
+        for client in sorted(clients.glob("*.key")):
+            if not client.name.startswith("."):
+                read_certificate(client, "daemon curve_clients_dir: client certificate")
         return public, secret

@@ -20,7 +20,7 @@ from collections.abc import Sequence
 from typing import Annotated, Any, Literal
 
 import numpy as np
-from pydantic import BaseModel, ConfigDict, Field, ValidationError
+from pydantic import AfterValidator, BaseModel, ConfigDict, Field, ValidationError
 
 from rig.errors import RigError
 
@@ -30,6 +30,7 @@ __all__ = [
     "MAX_CONTROL_BYTES",
     "MAX_FRAME_BYTES",
     "MAX_HEADER_BYTES",
+    "MAX_INT_DIGITS",
     "MAX_JSON_DEPTH",
     "MAX_PLAN_PAIRS",
     "ArraySpec",
@@ -56,6 +57,8 @@ __all__ = [
 MAX_CONTROL_BYTES = 2 * 1024 * 1024
 #: Deepest nesting of arrays and objects in a JSON message (a request needs 3).
 MAX_JSON_DEPTH = 32
+#: Digits an integer in a message may have (2**128 has 39); Python refuses past 4300.
+MAX_INT_DIGITS = 40
 #: Most (view, light) pairs in one plan: three times a full H1 × H1 BTF (6,561 pairs).
 MAX_PLAN_PAIRS = 20_000
 #: Largest JSON header of a frame or result.
@@ -87,6 +90,16 @@ class _Closed(BaseModel):
 Ident = Annotated[str, Field(min_length=1, max_length=128)]
 
 
+def _no_nul(path: str) -> str:
+    if "\x00" in path:
+        raise ValueError("holds a NUL byte, which no path can hold")
+    return path
+
+
+#: A path the daemon opens: checked here, so that the OS never sees a NUL byte.
+PathText = Annotated[str, Field(max_length=4096), AfterValidator(_no_nul)]
+
+
 class NoArgs(_Closed):
     pass
 
@@ -94,12 +107,12 @@ class NoArgs(_Closed):
 class SubmitArgs(_Closed):
     plan_toml: str = Field(min_length=1, max_length=_MAX_PLAN_CHARS)
     source: str = Field("<plan>", max_length=4096, description="where the plan came from")
-    archive: str | None = Field(None, max_length=4096, description="overrides output.archive")
+    archive: PathText | None = Field(None, description="overrides output.archive")
 
 
 class ResumeArgs(_Closed):
-    archive: str | None = Field(
-        None, max_length=4096, description="continue a crashed session from its archive"
+    archive: PathText | None = Field(
+        None, description="continue a crashed session from its archive"
     )
     config_toml: str | None = Field(
         None,
@@ -163,8 +176,10 @@ def decode_json(body: bytes, *, limit: int, what: str) -> dict:
         "too_deep", f"{what} nests arrays or objects deeper than the limit of {MAX_JSON_DEPTH}"
     )
     try:
-        data = json.loads(body)
-    except (UnicodeDecodeError, json.JSONDecodeError) as err:
+        data = json.loads(body, parse_int=_integer, parse_float=_finite, parse_constant=_finite)
+    except _BadNumber as err:
+        raise MessageError("malformed", f"{what} {err}") from None
+    except ValueError as err:  # JSONDecodeError and UnicodeDecodeError are ValueErrors
         raise MessageError("malformed", f"{what} is not valid UTF-8 JSON: {err}") from None
     except RecursionError:  # the parser gave up first: far deeper than the limit
         raise too_deep from None
@@ -173,6 +188,24 @@ def decode_json(body: bytes, *, limit: int, what: str) -> dict:
     if _depth_exceeds(data, MAX_JSON_DEPTH):
         raise too_deep
     return data
+
+
+class _BadNumber(ValueError):
+    """A number in a message that Python cannot hold, or that is not finite."""
+
+
+def _integer(text: str) -> int:
+    digits = len(text.lstrip("-"))
+    if digits > MAX_INT_DIGITS:
+        raise _BadNumber(f"holds an integer of {digits} digits; the limit is {MAX_INT_DIGITS}")
+    return int(text)
+
+
+def _finite(text: str) -> float:
+    value = float(text)
+    if not math.isfinite(value):
+        raise _BadNumber(f"holds the number {text[:32]!r}, which is not finite")
+    return value
 
 
 def _depth_exceeds(data, limit: int) -> bool:
@@ -268,7 +301,7 @@ class FrameHeader(_Closed):
     timestamp: float
     array: ArraySpec
     #: the session's archive, for live stages that read config, plan and steps from it
-    archive: Annotated[str, Field(max_length=4096)] | None = None
+    archive: PathText | None = None
 
 
 class NamedArray(ArraySpec):

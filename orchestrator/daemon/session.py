@@ -228,6 +228,11 @@ class Session:
             self._log("session", action="failed", session=self.id, reason=reason)
         try:
             self._close(devices)
+        except ArchiveFull as err:  # after the last commit: nothing is lost, it ends as it was
+            log.warning("session %s: closing: %s", self.id, err)
+            fault = {"device": "archive", "operation": "close", "detail": str(err)}
+            self._progress.set_fault(fault)
+            self.outbox.publish("log", {"kind": "fault", **fault})
         except Exception as err:  # closing failed: the session fails, the daemon goes on
             log.exception("session %s: closing failed", self.id)
             reason = reason or f"closing: {type(err).__name__}: {err}"

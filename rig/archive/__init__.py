@@ -14,6 +14,7 @@ from rig.archive._records import (
     StepRecord,
 )
 from rig.archive._repair import RepairReport, repair_archive
+from rig.archive._store import overlaps_archive
 from rig.archive._versions import software_versions
 from rig.archive.archive import FORMAT_VERSION, Archive
 
@@ -32,6 +33,7 @@ __all__ = [
     "RepairReport",
     "StepAlreadyCommitted",
     "StepRecord",
+    "overlaps_archive",
     "repair_archive",
     "software_versions",
 ]

@@ -112,16 +112,29 @@ class StepChunks:
             capacity = max(length, 2 * self._capacity[camera], _MIN_CAPACITY)
             self._write_shape(camera, capacity)
 
-    def _write_shape(self, camera: str, length: int) -> None:
+    def _write_shape(self, camera: str, length: int, *, then: str = "resume") -> None:
         doc = array_document(self._cameras[camera], length=length, zstd_level=self._zstd_level)
-        write_atomic(self._arrays[camera].directory / "zarr.json", doc, fsync=self._fsync)
+        path = self._arrays[camera].directory / "zarr.json"
+        try:
+            write_atomic(path, doc, fsync=self._fsync)
+        except OSError as err:
+            doing = f"camera {camera!r}'s array shape ({length} frames)"
+            raise os_failure(err, path, doing=doing, needed_bytes=len(doc), then=then) from err
         self._capacity[camera] = length
 
     def trim(self, committed: Mapping[str, int]) -> None:
-        """Shrink each camera array's declared shape to its ``committed`` frames."""
+        """Shrink each camera array's declared shape to its ``committed`` frames.
+
+        Raises ArchiveFull naming the file and the space when the disk is full;
+        the frames are all committed, and the next writable open trims again.
+        """
         for camera, length in committed.items():
             if self._capacity[camera] != length:
-                self._write_shape(camera, length)
+                self._write_shape(
+                    camera,
+                    length,
+                    then="open it for writing again (`rig process` does) to finish its close",
+                )
 
     def close(self) -> None:
         """Stop the thread pool (after the writes in progress)."""

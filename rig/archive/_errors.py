@@ -35,14 +35,22 @@ class ArchiveFull(ArchiveError):
     when unknown) and ``free_bytes`` what the filesystem had free afterwards.
     """
 
-    def __init__(self, path: Path, *, doing: str, needed_bytes: int | None, free_bytes: int):
+    def __init__(
+        self,
+        path: Path,
+        *,
+        doing: str,
+        needed_bytes: int | None,
+        free_bytes: int,
+        then: str = "resume",
+    ):
         self.path = path
         self.needed_bytes = needed_bytes
         self.free_bytes = free_bytes
         needs = "" if needed_bytes is None else f"it needs about {_mb(needed_bytes)} MB, "
         super().__init__(
             f"{path}: disk full while writing {doing}: {needs}the filesystem has "
-            f"{_mb(free_bytes)} MB free; free space, then resume (nothing committed was lost)"
+            f"{_mb(free_bytes)} MB free; free space, then {then} (nothing committed was lost)"
         )
 
 
@@ -64,13 +72,19 @@ def _mb(nbytes: int) -> str:
 
 
 def os_failure(
-    err: OSError, path: Path, *, doing: str, needed_bytes: int | None = None
+    err: OSError,
+    path: Path,
+    *,
+    doing: str,
+    needed_bytes: int | None = None,
+    then: str = "resume",
 ) -> ArchiveError:
-    """The archive error for a failed write: ArchiveFull when the disk (or quota) is full."""
+    """The archive error for a failed write: ArchiveFull when the disk (or quota) is full;
+    ``then`` says what to do once space is free."""
     if err.errno in (errno.ENOSPC, errno.EDQUOT):
         try:
             free = shutil.disk_usage(path.parent).free
         except OSError:
             free = 0
-        return ArchiveFull(path, doing=doing, needed_bytes=needed_bytes, free_bytes=free)
+        return ArchiveFull(path, doing=doing, needed_bytes=needed_bytes, free_bytes=free, then=then)
     return ArchiveError(f"{path}: writing {doing} failed: {err.strerror or err}")

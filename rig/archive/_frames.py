@@ -25,7 +25,7 @@ import re
 import struct
 import zlib
 from pathlib import Path
-from typing import Any
+from typing import Any, NamedTuple
 
 import numpy as np
 from numcodecs import Zstd
@@ -34,7 +34,7 @@ from rig.archive._errors import ArchiveError
 from rig.archive._records import FrameFormat
 from rig.archive._store import chunk_name
 
-__all__ = ["FrameArray", "chunk_record"]
+__all__ = ["ChunkScan", "FrameArray", "chunk_record"]
 
 _CHUNK_RE = re.compile(r"c\.(\d+)\.0\.0\.0")
 #: A zstd skippable frame (magic 0x184D2A50–5F, then the length of its content).
@@ -50,6 +50,15 @@ def chunk_record(record: dict[str, Any]) -> bytes:
     body = json.dumps(record, sort_keys=True, separators=(",", ":"), allow_nan=False).encode()
     content = body + _TAIL.pack(zlib.crc32(body), len(body), _TAG)
     return _SKIPPABLE.pack(_SKIPPABLE_MAGIC, len(content)) + content
+
+
+class ChunkScan(NamedTuple):
+    """What ``FrameArray.scan_chunks`` found, by frame position."""
+
+    #: Size in bytes of each chunk file (a regular file).
+    sizes: dict[int, int]
+    #: What sits under a chunk's name but is not a regular file ("a directory", …).
+    strays: dict[int, str]
 
 
 class FrameArray:
@@ -85,7 +94,7 @@ class FrameArray:
         """Compress ``image`` (already checked) into chunk ``position``, followed by
         its ``record`` (from :func:`chunk_record`); bytes written."""
         path = self.path(position)
-        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o644)
+        fd = os.open(path, os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_NOFOLLOW, 0o644)
         try:
             for part in (self._codec.encode(image), record):
                 data = memoryview(part)
@@ -128,15 +137,28 @@ class FrameArray:
         image = np.frombuffer(raw, dtype=self._dtype).reshape(self.format.shape)
         return image.astype(self.format.dtype, copy=False)
 
-    def chunk_sizes(self) -> dict[int, int]:
-        """Size in bytes of every chunk file present, by frame position."""
-        sizes = {}
+    def scan_chunks(self) -> ChunkScan:
+        """The chunk files present, and what else sits under a chunk's name.
+
+        Only regular files are chunks; links are never followed (a link could
+        lead into another archive).
+        """
+        scan = ChunkScan({}, {})
         with os.scandir(self.directory) as entries:
             for entry in entries:
                 match = _CHUNK_RE.fullmatch(entry.name)
-                if match:
-                    sizes[int(match.group(1))] = entry.stat().st_size
-        return sizes
+                if match is None:
+                    continue
+                position = int(match.group(1))
+                if entry.is_file(follow_symlinks=False):
+                    scan.sizes[position] = entry.stat(follow_symlinks=False).st_size
+                elif entry.is_symlink():
+                    scan.strays[position] = "a symbolic link"
+                elif entry.is_dir(follow_symlinks=False):
+                    scan.strays[position] = "a directory"
+                else:
+                    scan.strays[position] = "a special file"
+        return scan
 
     def read_record(self, position: int) -> dict[str, Any] | None:
         """The record at the end of chunk ``position``; None when there is none whole.

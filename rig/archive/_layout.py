@@ -2,11 +2,14 @@
 
 Every name read from an archive that becomes a path (a camera name in the root
 attributes) is checked against a safe pattern first: a name is data, never a
-path component that could lead outside the archive.
+path component that could lead outside the archive. Every folder and file the
+archive reads or writes is checked to be its own, not reached through a
+symbolic link (``check_inside``), before anything is read.
 """
 
 from __future__ import annotations
 
+import errno
 import fcntl
 import os
 from collections.abc import Mapping
@@ -20,6 +23,7 @@ from rig.archive._records import FrameFormat, json_safe
 from rig.archive._store import (
     array_document,
     check_array_document,
+    check_inside,
     check_name,
     group_document,
     hidden_node_document,
@@ -46,6 +50,22 @@ _LOCK = "log/writer.lock"
 _LOG_DESCRIPTION = (
     "no data: the archive's append-only event log is the JSON-lines file "
     "log/journal.jsonl (see btfrig docs/archive.md)"
+)
+#: What an archive holds besides its camera folders, each checked to be its own.
+_OWN = (
+    "zarr.json",
+    "frames",
+    "frames/zarr.json",
+    "calibration",
+    "calibration/zarr.json",
+    "material",
+    "material/zarr.json",
+    "log",
+    "log/zarr.json",
+    JOURNAL,
+    _LOCK,
+    "quarantine",
+    "quarantine/zarr.json",
 )
 _ATTRIBUTES = ("btfrig_archive", "cameras", "zstd_level", "plan", "rig_config", "software")
 
@@ -115,6 +135,14 @@ def write_layout(
 
 def read_layout(path: Path) -> Layout:
     """Check the metadata of the archive at ``path``; ArchiveError naming what is wrong."""
+    for relative in _OWN:
+        check_inside(path, relative)
+    quarantine = path / "quarantine"
+    if quarantine.exists() and not quarantine.is_dir():
+        raise ArchiveDamaged(
+            f"{quarantine}: not a folder; an archive's quarantine/ is the folder where recovery "
+            "sets aside what it does not trust: move that file away"
+        )
     root = read_document(path / "zarr.json", node_type="group")
     attributes = root.get("attributes")
     if not isinstance(attributes, dict):
@@ -138,7 +166,8 @@ def read_layout(path: Path) -> Layout:
     cameras = _read_cameras(path, attributes["cameras"])
     arrays, capacity = {}, {}
     for name, fmt in cameras.items():
-        directory = path / "frames" / name
+        directory = check_inside(path, f"frames/{name}")
+        check_inside(path, f"frames/{name}/zarr.json")
         document = read_document(directory / "zarr.json", node_type="array")
         capacity[name], level = check_array_document(directory / "zarr.json", document, fmt)
         arrays[name] = FrameArray(directory, name, fmt, level)
@@ -165,12 +194,20 @@ def _read_cameras(path: Path, attribute: Any) -> dict[str, FrameFormat]:
 
 def lock_writer(path: Path) -> int:
     """Take the archive's writer lock; the descriptor to close to release it."""
+    check_inside(path, "log")
     try:
-        fd = os.open(path / _LOCK, os.O_RDWR | os.O_CREAT, 0o644)
+        fd = os.open(path / _LOCK, os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW, 0o644)
     except FileNotFoundError as err:
         raise ArchiveError(
             f"{path}: missing folder log/ (journal and writer lock); "
             "not a btfrig archive, or a damaged one"
+        ) from err
+    except OSError as err:
+        if err.errno != errno.ELOOP:
+            raise
+        raise ArchiveDamaged(
+            f"{path / _LOCK}: a symbolic link; an archive's files are its own, never links: "
+            "the archive is damaged or was crafted, and nothing in it was touched"
         ) from err
     try:
         fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)

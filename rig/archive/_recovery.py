@@ -34,19 +34,27 @@ log = logging.getLogger(__name__)
 
 def check_chunks(
     path: Path, arrays: Mapping[str, FrameArray], index: SessionIndex, *, journal_events: int
-) -> dict[str, list[int]]:
-    """Check every committed chunk is present and whole; the leftovers per camera.
+) -> tuple[dict[str, list[int]], dict[str, list[int]]]:
+    """Check every committed chunk is present and whole; the leftovers and strays per camera.
 
-    Leftovers are chunk files past a camera's committed frames. Raises
-    ArchiveDamaged for a missing or resized committed chunk, and for
-    leftovers a crash cannot explain (the journal lost records).
+    Leftovers are chunk files past a camera's committed frames; strays are
+    what sits there under a chunk's name but is not a file (a folder, a link).
+    Raises ArchiveDamaged for a missing or resized committed chunk, for a
+    stray where a committed one belongs, and for leftovers a crash cannot
+    explain (the journal lost records).
     """
     leftovers: dict[str, list[int]] = {}
+    strays: dict[str, list[int]] = {}
     for name, array in arrays.items():
-        sizes = array.chunk_sizes()
+        sizes, stray = array.scan_chunks()
         for info, nbytes in index.committed_chunks(name):
             where = f"step {info.step}, camera {name!r}, sub {info.sub}"
             size = sizes.get(info.position)
+            if info.position in stray:
+                raise ArchiveDamaged(
+                    f"{where}: {array.path(info.position)} is {stray[info.position]}, not the "
+                    "committed chunk file: the frame is not there"
+                )
             if size is None:
                 raise ArchiveDamaged(f"{where}: chunk file {array.path(info.position)} is missing")
             if size != nbytes:
@@ -57,9 +65,11 @@ def check_chunks(
         extra = sorted(p for p in sizes if p >= index.next_position[name])
         if extra:
             leftovers[name] = extra
+        if stray:
+            strays[name] = sorted(stray)
     if leftovers:
         _check_leftovers(path, arrays, index, leftovers, journal_events=journal_events)
-    return leftovers
+    return leftovers, strays
 
 
 def _check_leftovers(path, arrays, index, leftovers, *, journal_events: int) -> None:
@@ -110,20 +120,23 @@ def recover(
     path: Path,
     arrays: Mapping[str, FrameArray],
     leftovers: Mapping[str, list[int]],
+    strays: Mapping[str, list[int]],
     contents: JournalContents,
     quarantine: Quarantine,
 ) -> dict[str, Any]:
     """Set aside what a crash left half done; what was done, for the ``opened`` event.
 
-    Moves the uncommitted chunk files and the interrupted material
+    Moves the uncommitted chunk files, the strays under chunk names (a folder
+    or link is moved itself, never followed) and the interrupted material
     replacements into ``quarantine`` and keeps a copy of a torn journal tail
     there (the journal cuts it off when it opens).
     """
     recovered: dict[str, Any] = {}
-    for name, positions in leftovers.items():
-        for position in positions:
-            quarantine.move(arrays[name].path(position))
-        recovered[f"uncommitted_chunks/{name}"] = len(positions)
+    for kind, found in (("uncommitted_chunks", leftovers), ("not_chunk_files", strays)):
+        for name, positions in found.items():
+            for position in positions:
+                quarantine.move(arrays[name].path(position))
+            recovered[f"{kind}/{name}"] = len(positions)
     if contents.torn_bytes:
         journal = path / "log" / "journal.jsonl"
         with open(journal, "rb") as f:

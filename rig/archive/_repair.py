@@ -31,7 +31,7 @@ from rig.archive._journal import encode_event, salvage_journal
 from rig.archive._layout import JOURNAL, lock_writer, read_layout
 from rig.archive._quarantine import Quarantine
 from rig.archive._records import Event, StepRecord
-from rig.archive._store import read_document, write_atomic
+from rig.archive._store import chunk_name, read_document, write_atomic
 
 __all__ = ["RepairReport", "repair_archive"]
 
@@ -42,7 +42,9 @@ log = logging.getLogger(__name__)
 class RepairReport:
     """What ``repair_archive`` did.
 
-    ``changed`` is False when the archive opened cleanly and was left alone.
+    ``changed`` is False when the archive opened cleanly and was left alone;
+    ``journal_rebuilt`` is False when only strays (folders or links under chunk
+    names) were set aside.
     ``kept_records`` journal lines were kept; ``rebuilt_steps`` were rebuilt
     from chunk records; ``set_aside`` lists what went to ``quarantine`` (a
     folder relative to the archive, None when nothing did); ``lost`` says
@@ -57,6 +59,7 @@ class RepairReport:
     quarantine: str | None = None
     set_aside: tuple[str, ...] = ()
     lost: tuple[str, ...] = ()
+    journal_rebuilt: bool = True
 
     def to_json(self) -> dict[str, Any]:
         return {
@@ -97,7 +100,25 @@ def repair_archive(path: str | os.PathLike, *, fsync: bool = True) -> RepairRepo
     try:
         with Archive.open(path) as archive:
             events, steps = len(archive.events()), len(archive.committed_steps())
-        return RepairReport(path, changed=False, kept_records=events, committed_steps=steps)
+        strays = [
+            f"frames/{name}/{chunk_name(position)}"
+            for name, array in read_layout(path).arrays.items()
+            for position in sorted(array.scan_chunks().strays)
+        ]
+        if not strays:
+            return RepairReport(path, changed=False, kept_records=events, committed_steps=steps)
+        # Folders or links under chunk names past the commits: a writable open sets them aside.
+        with Archive.open(path, mode="a", fsync=fsync) as archive:
+            quarantine = archive.recovered.get("quarantine")
+        return RepairReport(
+            path,
+            changed=True,
+            kept_records=events,
+            committed_steps=steps,
+            quarantine=quarantine,
+            set_aside=tuple(strays),
+            journal_rebuilt=False,
+        )
     except ArchiveDamaged as err:
         log.info("%s: repairing: %s", path, err)
     lock = lock_writer(path)
@@ -119,7 +140,8 @@ def _rebuild(path: Path, *, fsync: bool) -> RepairReport:
         f"journal byte {offset}: {len(line)} bytes are not a whole record"
         for offset, line in bad_lines
     ]
-    sizes = {name: array.chunk_sizes() for name, array in layout.arrays.items()}
+    scans = {name: array.scan_chunks() for name, array in layout.arrays.items()}
+    sizes = {name: scan.sizes for name, scan in scans.items()}
     steps, others, calibration_version = _journal_steps(path, layout.arrays, sizes, events, lost)
     claimed = {(c, row[3]) for s in steps.values() for c, rows in s.rows.items() for row in rows}
     rebuilt = _steps_from_chunks(path, layout.arrays, sizes, claimed, set(steps), lost)
@@ -134,6 +156,8 @@ def _rebuild(path: Path, *, fsync: bool) -> RepairReport:
         quarantine.keep_bytes(JOURNAL, data)
     for name, array in layout.arrays.items():
         for position in sorted(p for p in sizes[name] if p >= next_position[name]):
+            quarantine.move(array.path(position))
+        for position in sorted(scans[name].strays):  # a folder or link, never followed
             quarantine.move(array.path(position))
     new_events = _merge(others, placed)
     mirror = _mirror_calibration(path, calibration_version, lost)

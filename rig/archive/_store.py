@@ -19,17 +19,19 @@ import re
 from pathlib import Path
 from typing import Any
 
-from rig.archive._errors import ArchiveError
+from rig.archive._errors import ArchiveDamaged, ArchiveError
 from rig.archive._records import FrameFormat
 
 __all__ = [
     "array_document",
     "check_array_document",
+    "check_inside",
     "check_name",
     "chunk_name",
     "fsync_dir",
     "group_document",
     "hidden_node_document",
+    "overlaps_archive",
     "read_document",
     "write_atomic",
 ]
@@ -55,6 +57,33 @@ def check_name(name: Any, *, what: str) -> str:
     return name
 
 
+def check_inside(root: Path, relative: str) -> Path:
+    """``root / relative``, or ArchiveDamaged when a symbolic link on the way leads elsewhere.
+
+    An archive's folders and files are its own, never links: a link could lead
+    into another archive, whose files recovery would then move or rewrite. A
+    path that does not exist yet passes (what is missing is named elsewhere).
+    """
+    path = root / relative
+    real = os.path.realpath(path)
+    if real != os.path.join(os.path.realpath(root), relative):
+        raise ArchiveDamaged(
+            f"{path}: a symbolic link (it leads to {real}); an archive's folders and files "
+            "are its own, never links: the archive is damaged or was crafted, and nothing "
+            "in it was touched"
+        )
+    return path
+
+
+def overlaps_archive(path: str | os.PathLike, archive: str | os.PathLike) -> bool:
+    """Whether ``path`` is the archive, lies inside it or holds it (links resolved).
+
+    Writing there would change the archive (or delete it, when replacing ``path``).
+    """
+    resolved, source = Path(path).resolve(), Path(archive).resolve()
+    return resolved == source or source in resolved.parents or resolved in source.parents
+
+
 def chunk_name(position: int) -> str:
     """File name of the chunk holding frame ``position`` of a camera array."""
     return f"c.{position}.0.0.0"
@@ -76,8 +105,9 @@ def write_atomic(path: Path, data: bytes, *, fsync: bool) -> None:
     it over ``path`` (atomic on POSIX) and ``fsync``-s the directory.
     """
     tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    tmp.unlink(missing_ok=True)  # left by a crash; "x" never follows a planted link
     try:
-        with open(tmp, "wb") as f:
+        with open(tmp, "xb") as f:
             f.write(data)
             if fsync:
                 f.flush()

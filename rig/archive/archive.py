@@ -157,7 +157,7 @@ class Archive:
         self._chunks = StepChunks(self.path, layout, fsync=self._fsync, workers=workers)
         contents = read_journal(self.path / JOURNAL)
         self._index = SessionIndex(self.path, self.cameras, contents.events)
-        leftovers = check_chunks(
+        leftovers, strays = check_chunks(
             self.path, self._arrays, self._index, journal_events=len(contents.events)
         )
         check_mirror(self.path, self._index)
@@ -167,7 +167,9 @@ class Archive:
         if self.mode == "a":
             quarantine = Quarantine(self.path, fsync=self._fsync)
             try:
-                self.recovered = recover(self.path, self._arrays, leftovers, contents, quarantine)
+                self.recovered = recover(
+                    self.path, self._arrays, leftovers, strays, contents, quarantine
+                )
                 self._journal = Journal(self.path / JOURNAL, contents, fsync=self._fsync)
                 self._mirror_calibration()
             except OSError as err:

@@ -9,7 +9,7 @@ frames, reconstructing a compressed BTF) is the caller's.
 from rig.interchange._directions import ENCODINGS, FolderFrame, FolderListing, list_folder
 from rig.interchange._errors import InterchangeError, InterchangeWriteError
 from rig.interchange._frames import FRAME_FORMATS, export_frames
-from rig.interchange._gltf import write_glb
+from rig.interchange._gltf import glb_generator, write_glb
 from rig.interchange._images import (
     IMAGE_SUFFIXES,
     read_image,
@@ -26,7 +26,7 @@ from rig.interchange._import import (
     import_folder,
     imported_normtextures,
 )
-from rig.interchange._manifest import MANIFEST, write_manifest
+from rig.interchange._manifest import EXPORTED_BY, MANIFEST, is_export, write_manifest
 from rig.interchange._maps import TextureMaps, decode_normal_map, texture_maps, write_maps
 from rig.interchange._ubo2003 import (
     UboFrame,
@@ -39,6 +39,7 @@ from rig.interchange._ubo2003 import (
 
 __all__ = [
     "ENCODINGS",
+    "EXPORTED_BY",
     "FRAME_FORMATS",
     "IMAGE_SUFFIXES",
     "MANIFEST",
@@ -55,9 +56,11 @@ __all__ = [
     "check_image_size",
     "decode_normal_map",
     "export_frames",
+    "glb_generator",
     "image_size",
     "import_folder",
     "imported_normtextures",
+    "is_export",
     "list_folder",
     "list_ubo2003",
     "read_image",

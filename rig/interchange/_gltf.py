@@ -9,6 +9,9 @@ own convention — at 8 bits (the image library trimesh writes through holds no
 
 from __future__ import annotations
 
+import json
+import os
+import struct
 from pathlib import Path
 
 import numpy as np
@@ -16,7 +19,13 @@ import numpy as np
 from rig.interchange._errors import InterchangeError
 from rig.interchange._maps import TextureMaps
 
-__all__ = ["write_glb"]
+__all__ = ["glb_generator", "write_glb"]
+
+#: The glb header (magic, version, length) and its first chunk's (length, type).
+_GLB_HEADER = struct.Struct("<4sII")
+_CHUNK_HEADER = struct.Struct("<I4s")
+#: Largest JSON chunk read to find the generator (this project's are a few kB).
+_JSON_LIMIT = 1 << 20
 
 
 def _sample_plane(sample_mm: float):
@@ -64,5 +73,38 @@ def write_glb(path, maps: TextureMaps, *, sample_mm: float, mesh=None) -> Path:
         roughnessFactor=1.0,
     )
     geometry.visual = trimesh.visual.TextureVisuals(uv=uvs, material=material)
-    path.write_bytes(trimesh.Scene(geometry).export(file_type="glb"))
+    from rig.interchange._manifest import EXPORTED_BY
+
+    def mark(tree: dict) -> None:
+        tree.setdefault("asset", {})["generator"] = EXPORTED_BY
+
+    scene = trimesh.Scene(geometry)
+    path.write_bytes(trimesh.exchange.gltf.export_glb(scene, tree_postprocessor=mark))
     return path
+
+
+def glb_generator(path: Path) -> str | None:
+    """The ``asset.generator`` of the binary glTF at ``path``; None when it is none.
+
+    Reads the header and at most 1 MiB of its JSON chunk, never following a link.
+    """
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK)
+    except OSError:
+        return None
+    try:
+        head = os.read(fd, _GLB_HEADER.size + _CHUNK_HEADER.size)
+        if len(head) != _GLB_HEADER.size + _CHUNK_HEADER.size:
+            return None
+        magic, _, _ = _GLB_HEADER.unpack_from(head)
+        length, kind = _CHUNK_HEADER.unpack_from(head, _GLB_HEADER.size)
+        if magic != b"glTF" or kind != b"JSON" or length > _JSON_LIMIT:
+            return None
+        tree = json.loads(os.read(fd, length))
+    except (OSError, ValueError):
+        return None
+    finally:
+        os.close(fd)
+    asset = tree.get("asset") if isinstance(tree, dict) else None
+    generator = asset.get("generator") if isinstance(asset, dict) else None
+    return generator if isinstance(generator, str) else None

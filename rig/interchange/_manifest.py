@@ -1,19 +1,56 @@
-"""The ``manifest.json`` every export writes next to its files."""
+"""The ``manifest.json`` every export writes next to its files, and how an export is known.
+
+Every manifest this project writes starts with its own marker,
+``"exported_by": "btfrig"``, and every ``.glb`` names btfrig as its glTF
+``asset.generator``: ``--overwrite`` replaces only what carries it, never a
+folder that merely holds some other ``manifest.json``.
+"""
 
 from __future__ import annotations
 
 import json
+import os
 from pathlib import Path
 from typing import Any
 
-__all__ = ["MANIFEST", "write_manifest"]
+__all__ = ["EXPORTED_BY", "MANIFEST", "is_export", "write_manifest"]
 
 #: the manifest's file name (the importer reads a UBO2003 folder's, too)
 MANIFEST = "manifest.json"
+#: the marker's value: the manifest's first key, and a .glb's asset generator
+EXPORTED_BY = "btfrig"
+_MARKER = b'{\n "exported_by": "btfrig",'
 
 
 def write_manifest(out: Path, manifest: dict[str, Any]) -> Path:
-    """Write ``manifest`` (plain JSON values, finite) as ``out/manifest.json``; its path."""
+    """Write ``manifest`` (plain JSON values, finite) as ``out/manifest.json``, marked; its path."""
     path = Path(out) / MANIFEST
-    path.write_text(json.dumps(manifest, indent=1, allow_nan=False) + "\n")
+    document = {"exported_by": EXPORTED_BY}
+    document.update((k, v) for k, v in manifest.items() if k != "exported_by")
+    path.write_text(json.dumps(document, indent=1, allow_nan=False) + "\n")
     return path
+
+
+def is_export(path: Path) -> bool:
+    """Whether ``path`` is an export this project wrote: a folder with a marked
+    manifest, or a ``.glb`` it generated. Links are not followed."""
+    from rig.interchange._gltf import glb_generator
+
+    if path.is_symlink():
+        return False
+    if path.is_dir():
+        return _starts_with(path / MANIFEST, _MARKER)
+    return path.suffix.lower() == ".glb" and glb_generator(path) == EXPORTED_BY
+
+
+def _starts_with(path: Path, prefix: bytes) -> bool:
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK)
+    except OSError:
+        return False
+    try:
+        return os.read(fd, len(prefix)) == prefix
+    except OSError:
+        return False  # a folder, say
+    finally:
+        os.close(fd)

@@ -12,7 +12,7 @@ import os
 import shutil
 from pathlib import Path
 
-from rig.archive import Archive, ArchiveError, software_versions
+from rig.archive import Archive, ArchiveError, overlaps_archive, software_versions
 from rig.material._errors import MaterialError
 from rig.material._material import (
     GROUPS,
@@ -36,12 +36,17 @@ def export_material(archive_path: str | os.PathLike, out_path: str | os.PathLike
     Raises
     ------
     MaterialError
-        ``out_path`` exists, ``archive_path`` is not an archive with a
-        readable material, or a group is malformed.
+        ``out_path`` exists or lies in or around the archive, ``archive_path``
+        is not an archive with a readable material, or a group is malformed.
     """
     import zarr
 
     source, out = Path(archive_path), Path(out_path)
+    if overlaps_archive(out, source):
+        raise MaterialError(
+            f"{out}: lies in or around the archive {source}; give a path outside it for the "
+            "material store"
+        )
     if out.exists() or out.is_symlink():
         raise MaterialError(f"{out}: already exists; give a new path for the material store")
     try:

@@ -1,8 +1,10 @@
 """One owner per device: a second open of a connection is refused, naming the holder."""
 
 import os
+import stat
 import subprocess
 import sys
+import tempfile
 
 import pytest
 
@@ -92,3 +94,48 @@ def test_a_second_daemon_cannot_open_the_light_arc():
             arc.home()  # the first owner still drives it
         finally:
             arc.close()
+
+
+@pytest.mark.parametrize("planted", ["symlink", "hard link"])
+def test_a_link_planted_in_the_lock_folder_is_refused_and_its_target_untouched(
+    lock_dir, tmp_path, planted
+):
+    # What another user can do in a shared folder: point the next lock file at a victim.
+    lock_dir.mkdir()
+    victim = tmp_path / "victim.txt"
+    victim.write_text("the victim's data")
+    lock_file = lock_dir / "modbus_tcp_127.0.0.1_15020_unit_1.lock"
+    (os.symlink if planted == "symlink" else os.link)(victim, lock_file)
+    with pytest.raises(
+        DeviceError, match=r"turntable: open failed: lock file .*unit_1\.lock is a link"
+    ):
+        _drive(15020)
+    assert victim.read_text() == "the victim's data"
+
+
+@pytest.fixture
+def default_lock_dir(tmp_path, monkeypatch):
+    """The default lock folder, under a private <tmp>."""
+    monkeypatch.delenv("BTFRIG_LOCK_DIR")
+    monkeypatch.setattr(tempfile, "tempdir", str(tmp_path))
+    return tmp_path / f"btfrig-locks-{os.geteuid()}"
+
+
+def test_the_default_lock_folder_is_private(default_lock_dir):
+    _drive(15020).close()
+    assert stat.S_IMODE(default_lock_dir.stat().st_mode) == 0o700
+
+
+@pytest.mark.parametrize(
+    ("setup", "named"),
+    [
+        (lambda d: (d.mkdir(), d.chmod(0o777)), "writable by others"),
+        (lambda d: (d.mkdir(), os.chown(d, 65534, 65534)), "owned by user id 65534"),
+        (lambda d: (d.with_name("x").mkdir(), d.symlink_to("x")), "a symbolic link"),
+    ],
+)
+def test_a_default_lock_folder_someone_else_prepared_is_refused(default_lock_dir, setup, named):
+    setup(default_lock_dir)
+    with pytest.raises(DeviceError, match=rf"lock folder .* is {named}"):
+        _drive(15020)
+    assert not any(default_lock_dir.iterdir())

@@ -6,6 +6,7 @@ on the Wang rig and on the Bonn lab (`rig sim --config-kind bonn`)."""
 from __future__ import annotations
 
 import contextlib
+import select
 import signal
 import socket
 import subprocess
@@ -137,3 +138,62 @@ def test_sim_serve_daemon_submit_kill_resume(tmp_path, kind):
     keys = [(int(r["step"]), str(r["camera"]), int(r["sub"])) for r in table]
     assert len(keys) == len(set(keys)) == final["session"]["frames"]  # nothing captured twice
     assert [s["committed"] for s in starts] == [0, len(before)]
+
+
+def _line(proc: subprocess.Popen, timeout_s: float = 60.0) -> str:
+    """The next line ``proc`` prints; fails when none comes in ``timeout_s``."""
+    ready, _, _ = select.select([proc.stdout], [], [], timeout_s)
+    assert ready, f"no line from {proc.args} in {timeout_s} s"
+    return proc.stdout.readline()
+
+
+def test_status_follow_ends_unreachable_when_the_daemon_is_killed():
+    connect = f"tcp://127.0.0.1:{_free_base_port()}"
+    daemon = _start("daemon", "--port", connect.rsplit(":", 1)[1])
+    follower = None
+    try:
+        _wait(lambda: _cli("status", "--connect", connect).returncode == 0, "the daemon")
+        follower = _start("status", "--follow", "--connect", connect)
+        assert _line(follower).strip() == "daemon: idle"  # piped: printed as it comes
+        daemon.send_signal(signal.SIGKILL)
+        daemon.wait(10)
+        out, _ = follower.communicate(timeout=120)  # it used to wait until killed
+        assert follower.returncode == 1, out
+        assert "the daemon is unreachable" in " ".join(out.split())
+        assert "Traceback" not in out
+    finally:
+        for proc in (follower, daemon):
+            if proc is not None:
+                _stop(proc)
+
+
+def test_status_follow_prints_line_by_line_and_returns_on_a_pause(tmp_path):
+    scene = tomllib.loads((ROOT / "examples/scenes/bumps.toml").read_text())
+    scene["render"]["scale"] = 0.2
+    (tmp_path / "scene.toml").write_text(tomli_w.dumps(scene))
+    (tmp_path / "plan.toml").write_text(PLAN)
+    config = tmp_path / "sim-rig.toml"
+    connect = f"tcp://127.0.0.1:{_free_base_port()}"
+    sim = _start("sim", str(tmp_path / "scene.toml"), "--config-out", str(config), "--speed", "1")
+    daemon = follower = None
+    try:
+        _wait(lambda: config.exists() or sim.poll() is not None, "the sim's rig config")
+        daemon = _start("daemon", "--config", str(config), "--port", connect.rsplit(":", 1)[1])
+        _wait(lambda: _cli("status", "--connect", connect).returncode == 0, "the daemon")
+        follower = _start("status", "--follow", "--connect", connect)
+        assert _line(follower).strip() == "daemon: idle"
+        submitted = _cli("submit", str(tmp_path / "plan.toml"), "--archive",
+                         str(tmp_path / "s.zarr"), "--connect", connect)  # fmt: skip
+        assert submitted.returncode == 0, submitted.stdout + submitted.stderr
+        while "→ running" not in (line := _line(follower)):
+            assert line, "the follower ended before the session ran"
+        assert follower.poll() is None  # the line came while the session runs
+        assert _cli("pause", "--connect", connect).returncode == 0
+        out, _ = follower.communicate(timeout=60)  # it used to follow until the session ended
+        assert follower.returncode == 3, out
+        assert "→ paused" in out and "daemon: paused" in out
+        assert _cli("abort", "--connect", connect).returncode == 0
+    finally:
+        for proc in (follower, daemon, sim):
+            if proc is not None:
+                _stop(proc)

@@ -45,3 +45,33 @@ def test_process_of_a_crafted_archive_touches_no_other_archive(tmp_path):
     assert result.exit_code == 1
     assert "camera name '../../good.zarr/frames/cam0'" in result.output
     assert chunk_files(good) == before
+
+
+def test_process_of_an_archive_with_a_linked_camera_folder_exits_1_naming_it(tmp_path):
+    good = build_session(tmp_path / "good.zarr", 3)
+    evil = tmp_path / "evil.zarr"
+    shutil.copytree(good, evil)
+    shutil.rmtree(evil / "frames" / "cam0")
+    (evil / "frames" / "cam0").symlink_to("../../good.zarr/frames/cam0")
+    journal = evil / "log" / "journal.jsonl"
+    journal.write_bytes(b"".join(journal.read_bytes().splitlines(keepends=True)[:-2]))
+    before = chunk_files(good)
+    result = runner.invoke(app, ["process", str(evil), "--stages", "ps"])
+    assert result.exit_code == 1, result.output
+    assert "evil.zarr/frames/cam0: a symbolic link" in " ".join(result.output.split())
+    assert chunk_files(good) == before
+    assert_frames(good, range(3))
+
+
+def test_a_folder_under_a_chunk_name_is_passed_over_and_repair_sets_it_aside(tmp_path):
+    path = build_session(tmp_path / "s.zarr", 3)
+    (path / "frames" / "cam1" / "c.999.0.0.0").mkdir()
+    out = tmp_path / "frames"
+    exported = runner.invoke(app, ["export", "exr", str(path), "--out", str(out)])
+    assert exported.exit_code == 0, exported.output  # it failed with "Is a directory"
+    result = runner.invoke(app, ["repair", str(path)])
+    assert result.exit_code == 0, result.output
+    said = " ".join(result.output.split())
+    assert "3 committed steps; set aside in quarantine/" in said
+    assert "frames/cam1/c.999.0.0.0" in said
+    assert not (path / "frames" / "cam1" / "c.999.0.0.0").exists()

@@ -7,7 +7,8 @@ import zarr
 from typer.testing import CliRunner
 
 from orchestrator.cli import app
-from rig.material import read_material
+from rig.archive import Archive
+from rig.material import MaterialError, export_material, read_material
 from tests.rig.material.conftest import make_archive, mdf, ps_view
 
 runner = CliRunner()
@@ -32,15 +33,29 @@ def test_export_material_writes_a_store(archive, tmp_path):
     ("source", "out", "named"),
     [
         ("nowhere.zarr", "m.zarr", "nowhere.zarr: not a session archive"),
-        ("s.zarr", "s.zarr", "s.zarr: already exists"),
+        ("s.zarr", "s.zarr", "s.zarr: lies in or around the archive"),
+        ("s.zarr", "s.zarr/material/x.zarr", "x.zarr: lies in or around the archive"),
+        ("s.zarr", "s.zarr/frames/cam0/c.999.0.0.0", "c.999.0.0.0: lies in or around"),
+        ("s.zarr/material", "s.zarr", "s.zarr: lies in or around the archive"),
+        ("s.zarr", "out.zarr", "out.zarr: already exists"),
     ],
 )
 def test_bad_paths_exit_2_naming_them(archive, tmp_path, source, out, named):
+    (tmp_path / "out.zarr").mkdir()
     args = ["export", "material", str(tmp_path / source), "--out", str(tmp_path / out)]
     result = runner.invoke(app, args)
     assert result.exit_code == 2
     assert named in " ".join(result.output.split())
     assert "Traceback" not in result.output
+    Archive.open(archive).close()  # nothing was written into it
+    assert not (archive / "material" / "x.zarr").exists()
+    assert not (archive / "frames" / "cam0" / "c.999.0.0.0").exists()
+
+
+def test_the_library_refuses_a_store_inside_the_archive(archive):
+    with pytest.raises(MaterialError, match=r"x\.zarr: lies in or around the archive"):
+        export_material(archive, archive / "material" / "x.zarr")
+    assert not (archive / "material" / "x.zarr").exists()
 
 
 def test_a_material_that_cannot_be_read_exits_1(archive, tmp_path):

@@ -84,9 +84,21 @@ def test_an_existing_output_needs_overwrite_and_must_be_an_export(imported, tmp_
     assert _run("export", "ubo2003", imported, "--out", out, "--overwrite").exit_code == 0
     (tmp_path / "mine").mkdir()
     other = _run("export", "ubo2003", imported, "--out", tmp_path / "mine", "--overwrite")
-    assert other.exit_code == 2 and "is not an earlier export" in _said(other)
+    assert other.exit_code == 2 and "is not an earlier btfrig export" in _said(other)
     inside = _run("export", "exr", imported, "--out", imported / "x")
     assert inside.exit_code == 2 and "lies in or around the archive" in _said(inside)
+
+
+def test_overwrite_replaces_only_a_folder_btfrig_wrote(imported, tmp_path):
+    # A web app's folder with its own manifest.json.
+    web_app = tmp_path / "webapp"
+    web_app.mkdir()
+    (web_app / "manifest.json").write_text('{"name": "my app"}')
+    (web_app / "index.js").write_text("console.log(1)")
+    refused = _run("export", "ubo2003", imported, "--out", web_app, "--overwrite")
+    assert refused.exit_code == 2 and "is not an earlier btfrig export" in _said(refused)
+    assert sorted(p.name for p in web_app.iterdir()) == ["index.js", "manifest.json"]
+    assert (web_app / "index.js").read_text() == "console.log(1)"
 
 
 def test_an_imported_set_is_processed_and_viewed(tmp_path):

@@ -87,6 +87,21 @@ def test_the_glb_opens_in_trimesh_with_its_maps(archive, tmp_path):
     np.testing.assert_allclose(mesh.face_normals, [[0, 1, 0]] * 2, atol=1e-12)
 
 
+def test_overwrite_replaces_only_a_glb_btfrig_wrote(archive, tmp_path):
+    ours, foreign = tmp_path / "ours.glb", tmp_path / "foreign.glb"
+    assert runner.invoke(app, ["export", "gltf", str(archive), "--out", str(ours)]).exit_code == 0
+    trimesh.Scene(trimesh.creation.box()).export(foreign)  # another tool's generator
+    data = foreign.read_bytes()
+    refused = runner.invoke(
+        app, ["export", "gltf", str(archive), "--out", str(foreign), "--overwrite"]
+    )
+    assert refused.exit_code == 2
+    assert "is not an earlier btfrig export" in " ".join(refused.output.split())
+    assert foreign.read_bytes() == data
+    again = runner.invoke(app, ["export", "gltf", str(archive), "--out", str(ours), "--overwrite"])
+    assert again.exit_code == 0, again.output
+
+
 def test_an_archive_without_maps_fails_naming_it(tmp_path):
     bare = make_archive(tmp_path / "b.zarr")
     result = runner.invoke(app, ["export", "maps", str(bare), "--out", str(tmp_path / "m")])

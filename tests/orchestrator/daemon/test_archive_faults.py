@@ -1,10 +1,12 @@
 """The archive's faults through the daemon: a full disk pauses the session (naming the
 path and the space needed) and resume goes on; a lost journal refuses the resume."""
 
+import errno
+
 import pytest
 
 from orchestrator.client import DaemonClient, DaemonRequestError, wait_for_state
-from rig.archive import Archive, ArchiveFull
+from rig.archive import Archive, ArchiveFull, _chunks
 from tests.orchestrator.daemon.conftest import LAMP_PLAN, running_daemon
 
 
@@ -59,3 +61,39 @@ def test_resume_of_an_archive_whose_journal_was_emptied_is_refused(config, rig, 
             client.request("resume", archive=str(path))
         assert sorted(path.glob("frames/*/c.*")) == chunks
         assert client.request("status")["state"] == "done"
+
+
+def test_a_disk_full_at_the_close_finishes_the_session_naming_path_and_space(
+    config, rig, tmp_path, monkeypatch
+):
+    # Every step is committed; only the close (array shapes, the closed record) needs space.
+    write_atomic = _chunks.write_atomic
+    closing = []
+
+    def no_space_at_the_close(path, data, *, fsync):
+        if closing:
+            raise OSError(errno.ENOSPC, "No space left on device", str(path))
+        return write_atomic(path, data, fsync=fsync)
+
+    def trim(chunks, committed):
+        closing.append(True)
+        return trim_shapes(chunks, committed)
+
+    trim_shapes = _chunks.StepChunks.trim
+    monkeypatch.setattr(_chunks, "write_atomic", no_space_at_the_close)
+    monkeypatch.setattr(_chunks.StepChunks, "trim", trim)
+    path = tmp_path / "full.zarr"
+    with running_daemon(config, rig) as endpoints, DaemonClient(endpoints) as client:
+        client.request("submit", plan_toml=LAMP_PLAN, source="test", archive=str(path))
+        ended = wait_for_state(endpoints, ("done", "failed", "paused"), settled=True)
+    assert ended["state"] == "done"
+    session = ended["session"]
+    assert session["committed"] == session["steps"] and session["reason"] is None
+    fault = session["fault"]
+    assert (fault["device"], fault["operation"]) == ("archive", "close")
+    assert f"{path}/frames/cam0/zarr.json: disk full while writing camera 'cam0'" in fault["detail"]
+    assert "it needs about 0.00" in fault["detail"] and "MB free" in fault["detail"]
+    assert "Errno" not in fault["detail"]
+    closing.clear()
+    with Archive.open(path) as archive:
+        assert archive.committed_steps() == tuple(range(session["steps"]))

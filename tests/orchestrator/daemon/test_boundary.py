@@ -2,6 +2,7 @@
 it, limits hold per message, and the daemon goes on to run a normal session."""
 
 import json
+import os
 import time
 
 import pytest
@@ -176,11 +177,41 @@ _args = st.dictionaries(
 _envelope = st.fixed_dictionaries(
     {"id": st.text(max_size=10) | _json, "command": _commands | _json, "args": _args | _json}
 ).map(lambda d: json.dumps(d).encode())
+#: Numbers Python cannot hold or JSON should not: integers of 41 to 6,000 digits (over
+#: 4,300 the parser itself raises), floats that overflow to infinity, NaN.
+_big_numbers = st.builds(
+    lambda command, number: (
+        b'{"id":"n","command":"' + command.encode() + b'","args":{"a":' + number + b"}}"
+    ),
+    _commands,
+    st.integers(41, 6000).map(lambda n: b"9" * n)
+    | st.integers(41, 6000).map(lambda n: b"-" + b"1" * n)
+    | st.sampled_from([b"1e999", b"-1e400", b"NaN", b"Infinity", b"-Infinity"]),
+)
+#: Paths the daemon might open: with a NUL byte, devices that never end, a FIFO (made by
+#: the test), a path under a file; each with a plan that compiles, so the path is reached.
+_SPECIAL_PATHS = ["/dev/zero", "/dev/zero/x.zarr", "/proc/self/mem", "fifo", "fifo/x.zarr"]
+_paths = st.sampled_from(_SPECIAL_PATHS) | st.text(max_size=8).map(lambda t: f"{t}\x00{t}.zarr")
+_path_requests = st.builds(
+    lambda command, path: json.dumps(
+        {
+            "id": "p",
+            "command": command,
+            "args": {"archive": path} | ({"plan_toml": LAMP_PLAN} if command == "submit" else {}),
+        }
+    ).encode(),
+    st.sampled_from(["submit", "resume"]),
+    _paths,
+)
 _messages = st.lists(
     st.binary(max_size=64)
     | _json.map(lambda v: json.dumps(v).encode())
     | _envelope
-    | st.integers(1, 3000).map(lambda n: b"[" * n + b"]" * (n % 7)),
+    | (st.integers(1, 3000) | st.integers(MAX_JSON_DEPTH + 1, 3000)).map(
+        lambda n: b"[" * n + b"]" * (n % 7)
+    )
+    | _big_numbers
+    | _path_requests,
     min_size=1,
     max_size=3,
 )
@@ -188,6 +219,7 @@ _messages = st.lists(
 
 def test_fuzzed_control_messages_then_a_normal_session(config, rig, tmp_path, monkeypatch):
     monkeypatch.chdir(tmp_path)  # anything a message could create lands here
+    os.mkfifo(tmp_path / "fifo")  # a relative path in _SPECIAL_PATHS: no reader, ever
     with running_daemon(config, rig) as endpoints:
         ctx = zmq.Context()
         dealer = ctx.socket(zmq.DEALER)
