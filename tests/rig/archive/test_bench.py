@@ -55,9 +55,8 @@ def test_run_bench_rows(tmp_path):
     rows = run_bench(tmp_path, n_steps=2, repeats=1, cameras=2, height=32, width=48, workers=2)
     assert {r["name"] for r in rows} >= {"raw write (baseline)", "archive, zstd-1, 2 threads"}
     for row in rows:
-        assert row["mb_s"] > 0
-        # both are rounded in the row: equal to within the last digit
-        assert abs(row["fraction_of_target"] - row["mb_s"] / TARGET_MB_S) <= 0.011
+        # a rate rounded to 0.1 MB/s: a tiny write on a loaded machine may round to 0
+        assert row["mb_s"] >= 0 and row["mb_s_min"] <= row["mb_s"] <= row["mb_s_max"]
         if row["name"] == "raw write (baseline)":
             assert row["vs_raw"] == 1.0
     compression = {r["content"]: r["compression"] for r in rows if r["name"].startswith("archive")}
