@@ -21,13 +21,12 @@ from typing import Any
 
 from drivers.errors import DeviceError
 from rig.clock import Clock
-from rig.devices import ARM_ROLE, DEVICE_ROLES
-from rig.kinds import RAIL_ROLE
+from rig.devices import ACTUATOR_ROLES, CAMERA_ROLE
 from rig.registry import KindRegistry
 
 __all__ = ["ROLES", "open_device", "register"]
 
-ROLES = (*DEVICE_ROLES, ARM_ROLE, RAIL_ROLE, "camera")
+ROLES = (*ACTUATOR_ROLES, CAMERA_ROLE)
 
 _REGISTRY = KindRegistry("drivers", ROLES)
 

@@ -21,10 +21,10 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_valida
 
 from rig.camera import PinholeCamera, look_at
 from rig.config_migration import CONFIG_VERSION, migrate_rig_config
-from rig.devices import ARM_ROLE, DEVICE_ROLES
+from rig.devices import ARM_ROLE, DEVICE_ROLES, RAIL_ROLE
 from rig.errors import ConfigError
 from rig.geometry import direction_vector
-from rig.kinds import RAIL_ROLE, RIG_KINDS, BonnLab, VirtexStage
+from rig.kinds import RIG_KINDS, BonnLab, VirtexStage
 from rig.parts import Axis, Lamp
 from rig.sections import (
     CameraArc,

@@ -20,8 +20,11 @@ from typing import Annotated, Literal
 from pydantic import BaseModel, ConfigDict, Field, model_validator
 
 __all__ = [
+    "ACTUATOR_ROLES",
     "ARM_ROLE",
+    "CAMERA_ROLE",
     "DEVICE_ROLES",
+    "RAIL_ROLE",
     "ArmDevice",
     "CameraConnection",
     "DriveRegisters",
@@ -42,10 +45,17 @@ __all__ = [
     "UrController",
 ]
 
-# The roles with one device each, in the order a rig opens them (cameras: one per camera).
+# Every device role, declared here once.
+# The Wang rig's roles with one device each, in the order a rig opens them.
 DEVICE_ROLES = ("turntable", "light_arc", "lamp_bank", "laser")
 # The robot arm holding the sample, on a rig kind that has one (seed 000's lab).
 ARM_ROLE = "arm"
+# The rail that carries the camera in seed 000's lab.
+RAIL_ROLE = "rail"
+# Every role with one device each, whatever the rig kind.
+ACTUATOR_ROLES = (*DEVICE_ROLES, ARM_ROLE, RAIL_ROLE)
+# The cameras: one device per camera.
+CAMERA_ROLE = "camera"
 
 
 class _Closed(BaseModel):

@@ -28,11 +28,9 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from rig.devices import ArmDevice, DynamixelServos, ModbusDrive, UrController
 from rig.parts import Axis, Lamp
 
-__all__ = ["RAIL_ROLE", "RIG_KINDS", "Arm", "BonnLab", "Rail", "RailDevice", "VirtexStage"]
+__all__ = ["RIG_KINDS", "Arm", "BonnLab", "Rail", "RailDevice", "VirtexStage"]
 
 RIG_KINDS = ("wang", "bonn", "virtex")
-# The Bonn lab's camera rail: a device role served by the axis families (Modbus, Dynamixel).
-RAIL_ROLE = "rail"
 
 LampKind = Literal["point", "spot", "directional"]
 

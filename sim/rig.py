@@ -20,9 +20,8 @@ from typing import Any, Literal
 
 from rig.clock import Clock, RealClock
 from rig.config import RigConfig
-from rig.devices import ARM_ROLE, DEVICE_ROLES, SimCameraConnection
+from rig.devices import ACTUATOR_ROLES, ARM_ROLE, RAIL_ROLE, SimCameraConnection
 from rig.errors import ConfigError
-from rig.kinds import RAIL_ROLE
 from sim.peers import CameraFaults, CameraServer, Peer, start_peer
 from sim.scene import Scene, load_scene
 from sim.simulator import Simulator
@@ -31,7 +30,7 @@ from sim.world import World
 __all__ = ["FAULT_PEERS", "SimulatedRig"]
 
 log = logging.getLogger(__name__)
-FAULT_PEERS = (*DEVICE_ROLES, ARM_ROLE, RAIL_ROLE, "cameras")
+FAULT_PEERS = (*ACTUATOR_ROLES, "cameras")
 
 
 class SimulatedRig:

@@ -10,22 +10,23 @@ from drivers.camera._sim import SimCamera
 from drivers.registry import register
 from rig.clock import Clock
 from rig.config import CameraSpec
+from rig.devices import CAMERA_ROLE
 
 __all__: list[str] = []  # importing this module registers the kinds
 
 
-@register("camera", "sim")
+@register(CAMERA_ROLE, "sim")
 def _open_sim(spec: CameraSpec, *, clock: Clock, context: zmq.Context | None = None) -> Camera:
     """``context`` lets several sim cameras share one ZeroMQ context."""
     return SimCamera(spec, clock=clock, context=context)
 
 
-@register("camera", "opencv")
+@register(CAMERA_ROLE, "opencv")
 def _open_opencv(spec: CameraSpec, *, clock: Clock) -> Camera:
     return OpenCvCamera(spec, clock=clock)
 
 
-@register("camera", "genicam")
+@register(CAMERA_ROLE, "genicam")
 def _open_genicam(spec: CameraSpec, *, clock: Clock) -> Camera:
     from drivers.camera._genicam import GenicamCamera  # optional extra: import on demand
 

@@ -17,7 +17,7 @@ from drivers.errors import DeviceError, DeviceFault, DeviceTimeout, MotionStalle
 from drivers.registry import register
 from rig.clock import Clock
 from rig.config import Axis, LightArc
-from rig.devices import DynamixelServos
+from rig.devices import RAIL_ROLE, DynamixelServos
 from rig.errors import KinematicsError
 
 __all__ = ["DynamixelArc", "X", "deg_to_ticks", "ticks_to_deg"]
@@ -297,7 +297,7 @@ class DynamixelArc:
 
 
 @register("light_arc", "dynamixel")
-@register("rail", "dynamixel")
+@register(RAIL_ROLE, "dynamixel")
 def open_light_arc(section: LightArc, *, clock: Clock) -> DynamixelArc:
     """The light arc of a rig config (or the Bonn lab's rail), on its Dynamixel servos."""
     return DynamixelArc(section.device, axis=section.axis, clock=clock)

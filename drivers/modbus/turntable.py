@@ -19,7 +19,7 @@ from drivers.modbus._link import ModbusLink
 from drivers.registry import register
 from rig.clock import Clock
 from rig.config import Axis, Turntable
-from rig.devices import DriveRegisters, ModbusDrive
+from rig.devices import RAIL_ROLE, DriveRegisters, ModbusDrive
 from rig.errors import KinematicsError
 
 __all__ = ["DriveStatus", "ModbusTurntable"]
@@ -225,7 +225,7 @@ class ModbusTurntable:
 
 
 @register("turntable", "modbus")
-@register("rail", "modbus")
+@register(RAIL_ROLE, "modbus")
 def open_turntable(section: Turntable, *, clock: Clock) -> ModbusTurntable:
     """The turntable of a rig config (or the Bonn lab's rail), on its Modbus drive."""
     return ModbusTurntable(section.device, axis=section.axis, clock=clock)

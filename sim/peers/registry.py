@@ -20,9 +20,8 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from typing import Any, Protocol
 
-from rig.devices import ARM_ROLE, DEVICE_ROLES
+from rig.devices import ACTUATOR_ROLES
 from rig.errors import ConfigError
-from rig.kinds import RAIL_ROLE
 from rig.registry import KindRegistry
 from sim.world import World
 
@@ -39,7 +38,7 @@ class Peer(Protocol):
         """Stop answering and release ports and threads; idempotent."""
 
 
-_REGISTRY = KindRegistry("sim.peers", (*DEVICE_ROLES, ARM_ROLE, RAIL_ROLE))
+_REGISTRY = KindRegistry("sim.peers", ACTUATOR_ROLES)
 
 
 def register_peer(role: str, kind: str) -> Callable[[Callable], Callable]:
@@ -59,7 +58,7 @@ def start_peer(
 
     Parameters
     ----------
-    role : one of ``rig.devices.DEVICE_ROLES`` or ``ARM_ROLE``
+    role : one of ``rig.devices.ACTUATOR_ROLES``
     section : the role's section of the rig config (``config.turntable`` …)
     world : the simulated rig the peer moves and lights
     faults : the peer's fault table (keys checked by the peer)

@@ -22,7 +22,7 @@ from collections.abc import Mapping
 from typing import Any
 
 from rig.config import LightArc
-from rig.devices import DynamixelServos
+from rig.devices import RAIL_ROLE, DynamixelServos
 from rig.errors import ConfigError
 from sim.peers._faults import ReplyFaults, check_fault_keys
 from sim.peers._pty import RawPty
@@ -257,7 +257,7 @@ def start_bus(
     return DynamixelBusPeer(world, servos=section.device, faults=faults).start()
 
 
-@register_peer("rail", "dynamixel")
+@register_peer(RAIL_ROLE, "dynamixel")
 def start_rail_bus(
     section, world: World, *, faults: Mapping[str, Any], serial: bool
 ) -> DynamixelBusPeer:
