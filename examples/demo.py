@@ -22,7 +22,7 @@ import numpy as np
 from orchestrator.cli.plan_cmd import print_estimate
 from orchestrator.cli.process_cmd import write_mdf_previews, write_ps_previews
 from orchestrator.cli.view_scene import auto_exposure_ev, mesh_centre, parse_camera, parse_light
-from orchestrator.daemon import replay_local, run_local
+from orchestrator.local import replay_local, run_local
 from processing.offline import BtfStage, MdfStage, PsStage, run_stages
 from render import Renderer
 from render.meshes import cloth

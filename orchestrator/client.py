@@ -20,8 +20,9 @@ from pathlib import Path
 
 import zmq
 
-from orchestrator.daemon.endpoints import Endpoints
-from orchestrator.daemon.protocol import MAX_CONTROL_BYTES, decode_json
+from orchestrator.wire.endpoints import Endpoints
+from orchestrator.wire.protocol import MAX_CONTROL_BYTES, decode_json
+from rig.archive import Archive
 from rig.errors import ConfigError, RigError
 
 __all__ = [
@@ -214,11 +215,8 @@ def resume(
         return _one(connect, "resume")
     path = Path(archive).resolve()
     if path.is_dir():  # the daemon checks again, for archives only it sees
-        from orchestrator.daemon.admission import check_not_finished
-        from rig.archive import Archive
-
         with Archive.open(path, mode="r") as recorded:
-            check_not_finished(recorded)
+            recorded.check_resumable()
     args = {"archive": str(path)}
     if config is not None:
         from rig.config import load_rig_config

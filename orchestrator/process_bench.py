@@ -33,7 +33,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from orchestrator.daemon import run_local
+from orchestrator.local import run_local
 from orchestrator.render_loop import SCENES, patient_cameras
 from processing.offline import PsStage, Stage, run_stages
 from rig.archive import Archive

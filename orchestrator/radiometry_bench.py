@@ -111,7 +111,7 @@ def _sample_scene(scale: float, effects):
 
 
 def _session(plan_text: str, scene, archive: Path, config_update: dict | None = None) -> Path:
-    from orchestrator.daemon import run_local
+    from orchestrator.local import run_local
     from rig.clock import VirtualClock
     from sim.rig import SimulatedRig
 

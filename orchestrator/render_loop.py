@@ -22,7 +22,7 @@ from pathlib import Path
 
 import numpy as np
 
-from orchestrator.daemon import run_local
+from orchestrator.local import run_local
 from processing.btf import CompressedBTF, interpolate, psnr_db, reconstruct, rmse
 from processing.offline import BtfStage, run_stages
 from render import DirectionalLight, Renderer

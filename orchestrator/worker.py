@@ -29,8 +29,8 @@ from collections.abc import Callable
 import numpy as np
 import zmq
 
-from orchestrator.daemon.endpoints import Endpoints
-from orchestrator.daemon.protocol import (
+from orchestrator.wire.endpoints import Endpoints
+from orchestrator.wire.protocol import (
     MAX_FRAME_BYTES,
     MessageError,
     NamedArray,

@@ -1,7 +1,7 @@
 """Live stages: what the daemon's workers compute while a session runs.
 
 Each stage is a function ``(image, header) → dict[name, ndarray]`` of one
-streamed frame and its header (``orchestrator.daemon.protocol.FrameHeader`` as a dict);
+streamed frame and its header (``orchestrator.wire.protocol.FrameHeader`` as a dict);
 it returns ``{}`` for frames that are not its kind. The session's archive (its
 path travels in the header; a worker on another machine needs it on a shared
 file system) supplies the rig config, the plan and the committed steps: the

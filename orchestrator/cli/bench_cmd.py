@@ -57,7 +57,7 @@ def _btf(module, quick: bool) -> list[dict]:
 # area → (module, how to call its run_bench); imported when its command runs
 AREAS: dict[str, tuple[str, Callable]] = {
     "archive": ("rig.archive.bench", _archive),
-    "daemon": ("orchestrator.daemon.bench", _plain),
+    "daemon": ("orchestrator.daemon_bench", _plain),
     "process": ("orchestrator.process_bench", _process),
     "sim": ("sim.bench", _plain),
     "ps": ("processing.photometric.bench", _ps),

@@ -111,7 +111,7 @@ def _plan(target: str, rig, archive: Path, *, poses: int, cameras) -> str:
 
 
 def _capture(target: str, rig, plan: str, archive: Path, *, sim: bool, scale: float) -> None:
-    from orchestrator.daemon import run_local
+    from orchestrator.local import run_local
 
     check_new_archive(archive, "--archive", otherwise=f"compute from it with --from {archive}")
     plan_path = archive.with_suffix(".plan.toml")

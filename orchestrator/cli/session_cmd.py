@@ -28,7 +28,7 @@ SECRET_KEY = typer.Option(
 
 def _daemon_at(connect: str, server_key: Path | None, secret_key: Path | None):
     """The daemon's endpoints, with this client's CURVE keys when given."""
-    from orchestrator.daemon.endpoints import ClientKeys, Endpoints
+    from orchestrator.wire.endpoints import ClientKeys, Endpoints
 
     if (server_key is None) != (secret_key is None):
         raise ConfigError(
@@ -113,7 +113,8 @@ def register(app: typer.Typer) -> None:
         import zmq
         from pydantic import ValidationError
 
-        from orchestrator.daemon import DaemonSettings, run_daemon
+        from orchestrator.local import run_daemon
+        from orchestrator.wire.endpoints import DaemonSettings
 
         options = {
             "host": host,
@@ -262,7 +263,7 @@ def register(app: typer.Typer) -> None:
         ] = None,
     ) -> None:
         """Daemon + workers + submit + follow in one process, for a local session."""
-        from orchestrator.daemon import run_local
+        from orchestrator.local import run_local
         from orchestrator.worker import worker_stages
         from rig.plan import load_plan
 
@@ -316,7 +317,7 @@ def register(app: typer.Typer) -> None:
         The plan, rig config and frames come from ARCHIVE; moves, lamps, cameras and
         exposures are checked against the recording, and a mismatch fails the replay.
         """
-        from orchestrator.daemon import replay_local
+        from orchestrator.local import replay_local
 
         target = out if out is not None else archive.with_suffix(".replay.zarr")
         check_new_archive(target, "--out", otherwise="remove that replay first")

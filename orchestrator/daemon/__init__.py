@@ -1,9 +1,9 @@
 """The orchestrator daemon: sessions over ZeroMQ, the state machine, devices, workers.
 
 ``Daemon`` (sockets and loop), ``Session`` (one plan against the devices and the
-archive), ``RigDevices`` (the device facade) and the message ``protocol``;
-``run_daemon`` and ``run_local`` are what ``rig daemon`` and ``rig run`` call.
-See ``docs/daemon.md``.
+archive), ``RigDevices`` (the device facade). The messages are ``orchestrator.wire``'s;
+``orchestrator.local`` runs the daemon for ``rig daemon`` and, with a client and workers,
+for ``rig run``. See ``docs/daemon.md``.
 """
 
 from orchestrator.daemon.devices import (
@@ -13,15 +13,6 @@ from orchestrator.daemon.devices import (
     ThreadedCamera,
     build_devices,
 )
-from orchestrator.daemon.endpoints import (
-    DEFAULT_PORT,
-    ClientKeys,
-    DaemonSettings,
-    Endpoints,
-    is_loopback,
-)
-from orchestrator.daemon.local import daemon_thread, replay_local, run_daemon, run_local
-from orchestrator.daemon.protocol import MessageError
 from orchestrator.daemon.replay import ReplayDevices, replay_factory
 from orchestrator.daemon.server import Daemon
 from orchestrator.daemon.session import Session, SessionError, frame_formats
@@ -35,16 +26,11 @@ from orchestrator.daemon.state import (
 )
 
 __all__ = [
-    "DEFAULT_PORT",
     "TRANSITIONS",
     "Captured",
-    "ClientKeys",
     "Daemon",
-    "DaemonSettings",
     "DeviceSet",
-    "Endpoints",
     "IllegalTransition",
-    "MessageError",
     "ReplayDevices",
     "RigDevices",
     "Session",
@@ -55,11 +41,6 @@ __all__ = [
     "ThreadedCamera",
     "allowed_events",
     "build_devices",
-    "daemon_thread",
     "frame_formats",
-    "is_loopback",
     "replay_factory",
-    "replay_local",
-    "run_daemon",
-    "run_local",
 ]

@@ -12,8 +12,8 @@ from pathlib import Path
 
 from pydantic import BaseModel, ValidationError
 
-from orchestrator.daemon.protocol import MAX_PLAN_PAIRS
-from rig.archive import Archive
+from orchestrator.wire.protocol import MAX_PLAN_PAIRS
+from rig.archive import Archive, SessionFinished
 from rig.config import RigConfig
 from rig.errors import PlanError, RigError
 from rig.plan import Plan
@@ -80,13 +80,10 @@ def check_archive_place(path: Path, field: str) -> None:
 
 def check_not_finished(archive: Archive) -> None:
     """Refuse to resume an archive whose session finished."""
-    if any(e.payload.get("action") == "finished" for e in archive.events("session")):
-        raise SessionError(
-            f"{archive.path}: its session finished ({len(archive.committed_steps())} step(s) "
-            "committed); nothing to resume. Process it with `rig process`, or submit the "
-            "plan again to a new archive",
-            field="args.archive",
-        )
+    try:
+        archive.check_resumable()
+    except SessionFinished as err:
+        raise SessionError(str(err), field="args.archive") from None
 
 
 def rig_config_from_toml(text: str, *, source: str) -> RigConfig:

@@ -20,9 +20,9 @@ from dataclasses import dataclass, field
 import zmq
 
 from orchestrator.daemon.admission import SessionError
-from orchestrator.daemon.protocol import MessageError
 from orchestrator.daemon.session import Session
 from orchestrator.daemon.state import IllegalTransition
+from orchestrator.wire.protocol import MessageError
 from rig.errors import PlanError, RigError
 
 __all__ = ["Preparation", "as_message_error", "split_envelope"]

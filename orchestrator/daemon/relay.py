@@ -20,11 +20,11 @@ from collections.abc import Callable
 
 import zmq
 
-from orchestrator.daemon.endpoints import DaemonSettings
 from orchestrator.daemon.live import LiveWriter
-from orchestrator.daemon.protocol import MessageError, decode_result
 from orchestrator.daemon.sockets import RECV_BATCH, DaemonSockets
 from orchestrator.daemon.stream import FrameLedger, InFlight, Outbox
+from orchestrator.wire.endpoints import DaemonSettings
+from orchestrator.wire.protocol import MessageError, decode_result
 
 __all__ = ["Relay"]
 

@@ -26,18 +26,6 @@ import zmq
 from orchestrator.daemon.admission import rig_config_from_toml
 from orchestrator.daemon.control import Preparation, as_message_error, split_envelope
 from orchestrator.daemon.devices import build_devices
-from orchestrator.daemon.endpoints import DaemonSettings, Endpoints
-from orchestrator.daemon.protocol import (
-    MAX_CONTROL_BYTES,
-    MessageError,
-    Request,
-    decode_request,
-    encode_error,
-    encode_event,
-    encode_reply,
-    request_id,
-    validate_request,
-)
 from orchestrator.daemon.relay import Relay
 from orchestrator.daemon.session import DeviceFactory, Session
 from orchestrator.daemon.sockets import RECV_BATCH, DaemonSockets
@@ -49,6 +37,18 @@ from orchestrator.daemon.state import (
     allowed_events,
 )
 from orchestrator.daemon.stream import Outbox
+from orchestrator.wire.endpoints import DaemonSettings, Endpoints
+from orchestrator.wire.protocol import (
+    MAX_CONTROL_BYTES,
+    MessageError,
+    Request,
+    decode_request,
+    encode_error,
+    encode_event,
+    encode_reply,
+    request_id,
+    validate_request,
+)
 from rig.clock import Clock, RealClock
 from rig.config import RigConfig
 

@@ -13,8 +13,8 @@ import logging
 
 import zmq
 
-from orchestrator.daemon.endpoints import DaemonSettings, Endpoints
-from orchestrator.daemon.protocol import MAX_CONTROL_BYTES, MAX_FRAME_BYTES
+from orchestrator.wire.endpoints import DaemonSettings, Endpoints
+from orchestrator.wire.protocol import MAX_CONTROL_BYTES, MAX_FRAME_BYTES
 
 __all__ = ["RECV_BATCH", "DaemonSockets"]
 

@@ -16,8 +16,8 @@ import itertools
 import numpy as np
 
 from orchestrator.daemon.devices import Captured, DeviceSet
-from orchestrator.daemon.protocol import ArraySpec, FrameHeader
 from orchestrator.daemon.stream import SessionOutbox
+from orchestrator.wire.protocol import ArraySpec, FrameHeader
 from rig.archive import Archive, FrameRecord, StepRecord
 from rig.bonn import forward as bonn_forward
 from rig.bonn import plate_rotation

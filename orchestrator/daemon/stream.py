@@ -21,7 +21,7 @@ from typing import Protocol
 
 import numpy as np
 
-from orchestrator.daemon.protocol import FrameHeader, encode_frame
+from orchestrator.wire.protocol import FrameHeader, encode_frame
 
 __all__ = ["FrameLedger", "InFlight", "Outbox", "SessionOutbox"]
 

@@ -3,7 +3,13 @@ event log of one measurement session in a Zarr v3 directory, appended step by
 step with crash-consistent commits (see ``docs/archive.md``).
 """
 
-from rig.archive._errors import ArchiveDamaged, ArchiveError, ArchiveFull, StepAlreadyCommitted
+from rig.archive._errors import (
+    ArchiveDamaged,
+    ArchiveError,
+    ArchiveFull,
+    SessionFinished,
+    StepAlreadyCommitted,
+)
 from rig.archive._index import FRAME_TABLE_DTYPE
 from rig.archive._records import (
     FRAME_DTYPES,
@@ -31,6 +37,7 @@ __all__ = [
     "FrameInfo",
     "FrameRecord",
     "RepairReport",
+    "SessionFinished",
     "StepAlreadyCommitted",
     "StepRecord",
     "overlaps_archive",

@@ -8,7 +8,14 @@ from pathlib import Path
 
 from rig.errors import RigError
 
-__all__ = ["ArchiveDamaged", "ArchiveError", "ArchiveFull", "StepAlreadyCommitted", "os_failure"]
+__all__ = [
+    "ArchiveDamaged",
+    "ArchiveError",
+    "ArchiveFull",
+    "SessionFinished",
+    "StepAlreadyCommitted",
+    "os_failure",
+]
 
 
 class ArchiveError(RigError):
@@ -52,6 +59,10 @@ class ArchiveFull(ArchiveError):
             f"{path}: disk full while writing {doing}: {needs}the filesystem has "
             f"{_mb(free_bytes)} MB free; free space, then {then} (nothing committed was lost)"
         )
+
+
+class SessionFinished(ArchiveError):
+    """The archive's session finished: there is nothing to resume in it."""
 
 
 class StepAlreadyCommitted(ArchiveError):

@@ -32,7 +32,7 @@ from typing import Any
 import numpy as np
 
 from rig.archive._chunks import StepChunks
-from rig.archive._errors import ArchiveError, os_failure
+from rig.archive._errors import ArchiveError, SessionFinished, os_failure
 from rig.archive._index import FRAME_TABLE_DTYPE, SessionIndex
 from rig.archive._journal import Journal, read_journal
 from rig.archive._layout import (
@@ -367,6 +367,15 @@ class Archive:
     def events(self, kind: str | None = None) -> list[Event]:
         """The event log (as of opening, plus this handle's appends), optionally one kind."""
         return [e for e in self._events if kind is None or e.kind == kind]
+
+    def check_resumable(self) -> None:
+        """Raise ``SessionFinished`` if the recorded session finished: nothing to resume."""
+        if any(e.payload.get("action") == "finished" for e in self.events("session")):
+            raise SessionFinished(
+                f"{self.path}: its session finished ({len(self.committed_steps())} step(s) "
+                "committed); nothing to resume. Process it with `rig process`, or submit the "
+                "plan again to a new archive"
+            )
 
 
 def _as_record(frame, i: int, step: StepRecord, now: float) -> FrameRecord:

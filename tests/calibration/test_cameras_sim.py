@@ -14,7 +14,7 @@ from typer.testing import CliRunner
 from calibration.plans import camera_plan
 from calibration.sessions import calibrate_cameras
 from orchestrator.cli import app
-from orchestrator.daemon import replay_local, run_local
+from orchestrator.local import replay_local, run_local
 from rig.archive import Archive, FrameFormat
 from rig.calfile import load_calibration
 from rig.clock import VirtualClock

@@ -12,7 +12,7 @@ import pytest
 from calibration.laser import LaserCalibrationError, band_offsets, laser_plane_angle, strip_pixels
 from calibration.plans import laser_plan
 from calibration.sessions import calibrate_laser
-from orchestrator.daemon import run_local
+from orchestrator.local import run_local
 from processing.mdf import profile_axis_for
 from rig.archive import Archive
 from rig.clock import VirtualClock

@@ -13,7 +13,7 @@ import pytest
 from calibration.plans import response_plan
 from calibration.response import ResponseError, calibrate_response, merge_bracket
 from calibration.sessions import calibrate_responses
-from orchestrator.daemon import run_local
+from orchestrator.local import run_local
 from rig.clock import VirtualClock
 from rig.config import default_rig_config
 from sim.calibration import target_scene

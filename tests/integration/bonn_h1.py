@@ -23,7 +23,7 @@ from pathlib import Path
 
 import numpy as np
 
-from orchestrator.daemon import run_local
+from orchestrator.local import run_local
 from processing.registration import Reason, register_frame
 from rig import bonn
 from rig.archive import Archive

@@ -8,8 +8,8 @@ from pathlib import Path
 import pytest
 
 from orchestrator import client
-from orchestrator.daemon import DaemonSettings, daemon_thread
-from orchestrator.daemon.local import worker_threads
+from orchestrator.local import daemon_thread, worker_threads
+from orchestrator.wire.endpoints import DaemonSettings
 from sim.scene import scene_from_dict
 
 PLAN = """

@@ -17,7 +17,7 @@ from pathlib import Path
 
 import numpy as np
 
-from orchestrator.daemon import run_local
+from orchestrator.local import run_local
 from processing.offline import MdfStage, run_stages
 from rig.archive import Archive
 from rig.clock import VirtualClock

@@ -16,7 +16,7 @@ from pathlib import Path
 
 import numpy as np
 
-from orchestrator.daemon import run_local
+from orchestrator.local import run_local
 from processing.offline import PsStage, run_stages
 from rig.clock import VirtualClock
 from rig.material import read_material

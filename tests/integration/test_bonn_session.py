@@ -11,7 +11,7 @@ from typer.testing import CliRunner
 
 from orchestrator import client
 from orchestrator.cli import app
-from orchestrator.daemon import run_local
+from orchestrator.local import run_local
 from processing.offline import BtfStage, run_stages
 from processing.registration import marker_corners_mm, register_frame
 from rig import bonn

@@ -12,8 +12,8 @@ import pytest
 import tomli_w
 
 from orchestrator import client
-from orchestrator.daemon import DaemonSettings, daemon_thread
-from orchestrator.daemon.local import worker_threads
+from orchestrator.local import daemon_thread, worker_threads
+from orchestrator.wire.endpoints import DaemonSettings
 from rig.archive import Archive
 from rig.clock import VirtualClock
 from rig.config import write_rig_config

@@ -10,7 +10,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from orchestrator.daemon import run_local
+from orchestrator.local import run_local
 from processing.live import LIVE_SIZE
 from processing.registration import register_frame
 from rig.archive import Archive
@@ -108,7 +108,7 @@ def test_live_ps_view_matches_the_ray_cast_truth(session):
 
 
 def test_a_failing_stage_is_reported_and_the_frame_still_acknowledged():
-    from orchestrator.daemon.protocol import ArraySpec, FrameHeader, decode_result, encode_frame
+    from orchestrator.wire.protocol import ArraySpec, FrameHeader, decode_result, encode_frame
     from orchestrator.worker import STAGES, _process
 
     def broken(image, header):

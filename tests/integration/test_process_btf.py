@@ -13,7 +13,7 @@ import pytest
 from typer.testing import CliRunner
 
 from orchestrator.cli import app
-from orchestrator.daemon import run_local
+from orchestrator.local import run_local
 from processing.btf import reconstruct, view_slots
 from processing.offline import BtfStage, run_stages
 from processing.registration import register_capture

@@ -9,7 +9,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from orchestrator.daemon import run_local
+from orchestrator.local import run_local
 from processing.mdf import Reason
 from processing.offline import MdfStage, run_stages
 from rig.archive import Archive

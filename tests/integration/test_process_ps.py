@@ -20,7 +20,7 @@ import pytest
 from typer.testing import CliRunner
 
 from orchestrator.cli import app
-from orchestrator.daemon import run_local
+from orchestrator.local import run_local
 from processing.offline import PsStage, run_stages
 from rig.clock import VirtualClock
 from rig.material import read_material

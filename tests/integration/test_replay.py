@@ -7,7 +7,8 @@ import pytest
 
 from drivers.errors import DeviceError
 from orchestrator import client
-from orchestrator.daemon import ReplayDevices, replay_local
+from orchestrator.daemon import ReplayDevices
+from orchestrator.local import replay_local
 from rig.archive import Archive
 from rig.clock import VirtualClock
 from sim.rig import SimulatedRig

@@ -244,7 +244,8 @@ def test_a_damaged_archive_is_named(tmp_path):
 
 
 def test_a_second_daemon_on_a_taken_port_says_so():
-    from orchestrator.daemon import DaemonSettings, daemon_thread
+    from orchestrator.local import daemon_thread
+    from orchestrator.wire.endpoints import DaemonSettings
     from rig.config import default_rig_config
 
     with daemon_thread(default_rig_config(), settings=DaemonSettings(port=0)) as first:
@@ -270,7 +271,7 @@ scan_step_deg = 4.0
 
 def _record(tmp: Path, radiometry: dict) -> Path:
     """A finished session of the bumps scene, with ``radiometry`` replaced."""
-    from orchestrator.daemon import run_local
+    from orchestrator.local import run_local
     from rig.clock import VirtualClock
     from sim.rig import SimulatedRig
     from sim.scene import scene_from_dict

@@ -107,7 +107,8 @@ def test_sim_config_out_under_a_file_exits_2_before_the_peers_start(tmp_path):
 
 
 def test_a_plan_the_rig_cannot_do_exits_2_from_run_and_submit(tmp_path):
-    from orchestrator.daemon import DaemonSettings, daemon_thread
+    from orchestrator.local import daemon_thread
+    from orchestrator.wire.endpoints import DaemonSettings
     from rig.config import load_rig_config
 
     plan = EXAMPLES / "plans" / "demo.toml"
@@ -155,7 +156,7 @@ def test_an_unforeseen_worker_error_names_the_stage_and_the_item(
 
 
 def test_a_corrupt_chunk_under_replay_fails_the_session_without_a_traceback(tmp_path, caplog):
-    from orchestrator.daemon import run_local
+    from orchestrator.local import run_local
     from rig.clock import VirtualClock
     from sim.rig import SimulatedRig
     from sim.scene import scene_from_dict

@@ -7,7 +7,8 @@ from contextlib import contextmanager
 
 import pytest
 
-from orchestrator.daemon import Daemon, DaemonSettings
+from orchestrator.daemon import Daemon
+from orchestrator.wire.endpoints import DaemonSettings
 from orchestrator.worker import run_worker
 from rig.clock import VirtualClock
 from rig.config import default_rig_config

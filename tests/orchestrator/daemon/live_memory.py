@@ -14,7 +14,7 @@ import time
 import tracemalloc
 from pathlib import Path
 
-from orchestrator.daemon.local import run_local
+from orchestrator.local import run_local
 from rig.clock import VirtualClock
 from rig.config import default_rig_config
 from tests.orchestrator.daemon.soft import SoftRig, soft_devices

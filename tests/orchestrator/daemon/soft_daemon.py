@@ -11,7 +11,8 @@ import argparse
 import dataclasses
 import json
 
-from orchestrator.daemon import Daemon, DaemonSettings
+from orchestrator.daemon import Daemon
+from orchestrator.wire.endpoints import DaemonSettings
 from rig.clock import VirtualClock
 from rig.config import default_rig_config
 from tests.orchestrator.daemon.soft import SoftRig, soft_devices

@@ -7,7 +7,7 @@ import time
 
 import pytest
 import zmq
-from hypothesis import HealthCheck, given
+from hypothesis import HealthCheck, example, given
 from hypothesis import strategies as st
 
 from orchestrator.client import (
@@ -18,7 +18,7 @@ from orchestrator.client import (
 )
 from orchestrator.client import abort as client_abort
 from orchestrator.daemon import Session
-from orchestrator.daemon.protocol import MAX_CONTROL_BYTES, MAX_JSON_DEPTH, MAX_PLAN_PAIRS
+from orchestrator.wire.protocol import MAX_CONTROL_BYTES, MAX_JSON_DEPTH, MAX_PLAN_PAIRS
 from rig.archive import Archive
 from tests.budgets import fuzz
 from tests.orchestrator.daemon.conftest import LAMP_PLAN, running_daemon
@@ -232,6 +232,10 @@ def test_fuzzed_control_messages_then_a_normal_session(config, rig, tmp_path, mo
             suppress_health_check=[HealthCheck.too_slow, HealthCheck.data_too_large],
         )
         @given(_messages)
+        # One of each refusal the test counts on, whatever the profile's budget.
+        @example([b"not json"])
+        @example([json.dumps({"id": "x", "command": "x", "args": {}}).encode()])
+        @example([b'{"a":' + b"[" * MAX_JSON_DEPTH + b"]" * MAX_JSON_DEPTH + b"}"])
         def one_message(parts):
             dealer.send_multipart([b"", *parts])
             assert dealer.poll(10_000), f"no reply to {parts!r:.200}"

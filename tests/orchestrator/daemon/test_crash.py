@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from orchestrator.client import DaemonClient, follow, wait_for_state
-from orchestrator.daemon import Endpoints
+from orchestrator.wire.endpoints import Endpoints
 from rig.archive import Archive
 from rig.plan import parse_plan
 from rig.schedule import compile_plan

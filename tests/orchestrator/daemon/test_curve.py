@@ -11,7 +11,7 @@ from typer.testing import CliRunner
 
 from orchestrator.cli import app
 from orchestrator.client import DaemonClient, DaemonUnreachable, wait_for_state
-from orchestrator.daemon.endpoints import ClientKeys, Endpoints
+from orchestrator.wire.endpoints import ClientKeys, Endpoints
 from rig.errors import ConfigError
 from tests.orchestrator.daemon.conftest import LAMP_PLAN, running_daemon, running_workers
 

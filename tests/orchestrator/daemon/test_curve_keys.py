@@ -11,8 +11,8 @@ from hypothesis import strategies as st
 from typer.testing import CliRunner
 
 from orchestrator.cli import app
-from orchestrator.daemon import DaemonSettings, daemon_thread
-from orchestrator.daemon.endpoints import ClientKeys, read_certificate
+from orchestrator.local import daemon_thread
+from orchestrator.wire.endpoints import ClientKeys, DaemonSettings, read_certificate
 from rig.config import default_rig_config
 from rig.errors import ConfigError
 

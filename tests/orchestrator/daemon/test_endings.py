@@ -12,8 +12,8 @@ import zmq
 from orchestrator import client
 from orchestrator.cli.session_cmd import FaultHints
 from orchestrator.client import DaemonClient, DaemonRequestError, wait_for_state
-from orchestrator.daemon import run_local
-from orchestrator.daemon.protocol import ResultHeader, encode_result
+from orchestrator.local import run_local
+from orchestrator.wire.protocol import ResultHeader, encode_result
 from rig.archive import Archive
 from tests.orchestrator.daemon.conftest import LAMP_PLAN, running_daemon
 from tests.orchestrator.daemon.soft import soft_devices

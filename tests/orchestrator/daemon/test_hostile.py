@@ -8,7 +8,7 @@ import pytest
 import zmq
 
 from orchestrator.client import DaemonClient, DaemonRequestError, wait_for_state
-from orchestrator.daemon.protocol import MAX_INT_DIGITS
+from orchestrator.wire.protocol import MAX_INT_DIGITS
 from tests.orchestrator.daemon.conftest import LAMP_PLAN, running_daemon
 
 BIG = b"9" * 5000

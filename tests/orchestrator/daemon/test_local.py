@@ -2,8 +2,8 @@
 
 import pytest
 
-from orchestrator.daemon.bench import run_bench
-from orchestrator.daemon.local import run_local
+from orchestrator.daemon_bench import run_bench
+from orchestrator.local import run_local
 from rig.archive import Archive
 from tests.orchestrator.daemon.conftest import TINY_PLAN
 from tests.orchestrator.daemon.soft import soft_devices

@@ -8,11 +8,12 @@ import pytest
 import zmq
 
 from orchestrator.client import DaemonClient, DaemonRequestError, wait_for_state
-from orchestrator.daemon import DaemonSettings, Endpoints, MessageError
-from orchestrator.daemon.protocol import (
+from orchestrator.wire.endpoints import DaemonSettings, Endpoints
+from orchestrator.wire.protocol import (
     MAX_CONTROL_BYTES,
     ArraySpec,
     FrameHeader,
+    MessageError,
     decode_frame,
     decode_result,
     encode_frame,

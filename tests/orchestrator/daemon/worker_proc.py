@@ -10,7 +10,7 @@ import json
 import os
 import signal
 
-from orchestrator.daemon import Endpoints
+from orchestrator.wire.endpoints import Endpoints
 from orchestrator.worker import STAGES, frame_stats, run_worker
 
 

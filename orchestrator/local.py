@@ -9,10 +9,15 @@ from collections.abc import Callable
 from contextlib import contextmanager
 from pathlib import Path
 
+from orchestrator import client
+from orchestrator.client import PREPARE_TIMEOUT_S, DaemonClient
 from orchestrator.daemon.devices import build_devices
-from orchestrator.daemon.endpoints import DaemonSettings, Endpoints
+from orchestrator.daemon.replay import replay_factory
 from orchestrator.daemon.server import Daemon
 from orchestrator.daemon.session import DeviceFactory, SessionError
+from orchestrator.wire.endpoints import DaemonSettings, Endpoints
+from orchestrator.worker import run_worker, worker_stages
+from rig.archive import Archive
 from rig.clock import Clock
 from rig.config import RigConfig, default_rig_config, load_rig_config
 
@@ -77,7 +82,6 @@ def daemon_thread(
 def worker_threads(endpoints: Endpoints, stage: str, n: int):
     """``n`` workers of ``stage`` on threads of this process; ``ConfigError`` for an
     unknown stage before any starts (a worker thread's error would reach no one)."""
-    from orchestrator.worker import run_worker, worker_stages
 
     worker_stages(stage)
     stop = threading.Event()
@@ -118,8 +122,6 @@ def run_local(
     ``on_fault``: ``"pause"`` (a person resumes the session) or ``"fail"`` (the run ends
     with the fault, for unattended runs).
     """
-    from orchestrator import client
-
     def submit(endpoints: Endpoints) -> None:
         client.submit(plan_path, archive=archive, connect=endpoints)
 
@@ -143,9 +145,6 @@ def replay_local(
     The plan and rig config come from the recording; the frames too (``ReplayDevices``).
     A mismatch between plan and recording fails the replay, naming the step.
     """
-    from orchestrator.client import PREPARE_TIMEOUT_S, DaemonClient
-    from orchestrator.daemon.replay import replay_factory
-    from rig.archive import Archive
 
     with Archive.open(source, mode="r") as recording:
         plan_toml = recording.plan_toml
@@ -166,8 +165,6 @@ def replay_local(
 
 
 def _in_process(config, submit, settings, devices, clock, workers, stages, on_event) -> dict:
-    from orchestrator import client
-
     daemon = daemon_thread(config, settings=settings, devices=devices, clock=clock)
     with daemon as endpoints, worker_threads(endpoints, stages, workers):
         if on_event is not None:  # where to send resume or abort while this run waits

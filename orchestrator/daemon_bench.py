@@ -18,10 +18,11 @@ from pathlib import Path
 
 import numpy as np
 
+from orchestrator import client
 from orchestrator.daemon.devices import Captured
-from orchestrator.daemon.endpoints import DaemonSettings
-from orchestrator.daemon.local import daemon_thread, worker_threads
 from orchestrator.daemon.session import frame_formats
+from orchestrator.local import daemon_thread, worker_threads
+from orchestrator.wire.endpoints import DaemonSettings
 from rig.archive import FrameFormat
 from rig.clock import VirtualClock
 from rig.config import RigConfig, default_rig_config
@@ -97,8 +98,6 @@ def _session(plan_text: str, *, workers: int, root: Path) -> dict:
 
     def devices(config, *, clock, scale, laser):
         return _ModelledRig(config, clock=clock, scale=scale, laser=laser)
-
-    from orchestrator import client
 
     settings = DaemonSettings(port=0, status_interval_s=0.5, drain_timeout_s=60.0)
     daemon = daemon_thread(config, settings=settings, devices=devices, clock=clock)
