@@ -105,7 +105,10 @@ def register(app: typer.Typer) -> None:
         previous output as it was. Stages: ps (photometric stereo: normals, albedo,
         height on the sample's texel grid, with preview PNGs); btf (registered
         normtextures of every view slot, compressed by per-view PCA, --components);
-        mdf (the mesostructure distance function of the laser scans, with previews).
+        mdf (the mesostructure distance function of the laser scans, with previews);
+        pbr (the BTF fitted per texel by a glTF PBR material — base colour, roughness,
+        specular, sheen, anisotropy, normal, height — with its fit error; needs btf,
+        which may run first in the same command; the fit keeps the BTF's texel grid).
         A stage that can use none of its frames (all flagged: saturated, black…) is
         skipped with the reason, the others still run, and the exit code is 1.
         When the archive's calibration has them, ps and btf frames are linearised
@@ -124,8 +127,11 @@ def register(app: typer.Typer) -> None:
         writers = {"ps": write_ps_previews, "mdf": write_mdf_previews}
         if previews is not None and any(n in writers for n in names):
             prepare_folder(previews, f"--previews {previews}")
-        options = {"btf": {"components": components, "raw": raw}, "ps": {"raw": raw}}
-        chosen = [STAGES[n](size=size, **options.get(n, {})) for n in names]
+        options = {
+            "btf": {"size": size, "components": components, "raw": raw},
+            "ps": {"size": size, "raw": raw}, "mdf": {"size": size}, "pbr": {},
+        }  # fmt: skip
+        chosen = [STAGES[n](**options[n]) for n in names]
         columns = (
             TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
             TimeElapsedColumn(),

@@ -33,7 +33,7 @@ from rig.config import RigConfig
 from rig.interchange import imported_normtextures
 from rig.material import Radiometry, write_btf
 
-__all__ = ["BtfSlot", "BtfStage", "slot_normtextures"]
+__all__ = ["BtfSlot", "BtfStage", "resample_texels", "slot_normtextures"]
 
 
 @dataclass(frozen=True)
@@ -133,7 +133,7 @@ def slot_normtextures(
     if imported_normtextures(archive.plan):
         for step, camera in item.captures:
             frame = archive.read_frame(step, camera, 0)
-            textures.append(_resampled(frame, size) / records[step].exposures_s[0])
+            textures.append(resample_texels(frame, size) / records[step].exposures_s[0])
         return textures, flagged
     config = RigConfig.model_validate(archive.rig_config)
     for light, (step, camera) in enumerate(item.captures):
@@ -176,7 +176,7 @@ def _units(archive: Archive, radiometry: Radiometry) -> str:
     return f"{values} per second of exposure{flat}"
 
 
-def _resampled(frame: np.ndarray, size: int) -> np.ndarray:
+def resample_texels(frame: np.ndarray, size: int) -> np.ndarray:
     """A normtexture frame on the size × size texel grid: area average when it shrinks,
     linear interpolation when it grows."""
     import cv2

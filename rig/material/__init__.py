@@ -2,7 +2,8 @@
 
 Every group of a material carries ``format``/``version`` attributes and has one
 writer and one reader here: ``btf`` (compressed BTF), ``ps`` (photometric-stereo
-maps per view), ``mdf`` (mesostructure distance function), ``live`` (the
+maps per view), ``mdf`` (mesostructure distance function), ``pbr`` (the BTF fitted by a glTF PBR
+material), ``live`` (the
 workers' per-frame results) and the lamps' flat fields. A material lives in a
 session archive's ``material/`` group or in a standalone store
 (:func:`export_material`); :func:`read_material` reads either.
@@ -23,6 +24,7 @@ from rig.material._flatfield import (
 from rig.material._live import LiveAppender, LiveResults, live_rows, read_live
 from rig.material._material import Material, read_material
 from rig.material._mdf import UNSEEN, Mdf, read_mdf, write_mdf
+from rig.material._pbr import PbrFlag, PbrMaps, read_pbr, write_pbr
 from rig.material._ps import PsView, read_ps, write_ps
 from rig.material._radiometry import NOT_RECORDED, Radiometry
 
@@ -38,6 +40,8 @@ __all__ = [
     "Material",
     "MaterialError",
     "Mdf",
+    "PbrFlag",
+    "PbrMaps",
     "PsView",
     "Radiometry",
     "archive_flat_field_path",
@@ -52,9 +56,11 @@ __all__ = [
     "read_live",
     "read_material",
     "read_mdf",
+    "read_pbr",
     "read_ps",
     "write_btf",
     "write_flat_field",
     "write_mdf",
+    "write_pbr",
     "write_ps",
 ]
