@@ -202,18 +202,33 @@ def gltf(
     ] = None,
     overwrite: _Overwrite = False,
 ) -> None:
-    """A binary glTF (.glb) of the sample with its PS maps as a PBR material.
+    """A binary glTF (.glb) of the sample with its measured material.
 
-    A plane of the sample's size in metres (or --mesh, a mesh file with UVs);
-    base colour = the albedo, normal texture = the normal map (8-bit, glTF's
-    OpenGL convention), metallic 0, roughness 1.
+    A plane of the sample's size in metres (or --mesh, a mesh file with UVs). With
+    the material's PBR fit (`rig process --stages pbr`) and no --view: its maps —
+    base colour, roughness (metallic 0), normal, KHR_materials_specular,
+    KHR_materials_sheen and KHR_materials_anisotropy — and the fit's error in
+    asset.extras.btfrig. Otherwise the PS maps of --view (default the most frontal):
+    base colour = the albedo, normal texture (8-bit, glTF's OpenGL convention),
+    metallic 0, roughness 1.
     """
-    from orchestrator.cli.export_sources import ps_maps
-    from rig.interchange import write_glb
+    from orchestrator.cli.export_sources import pbr_maps, ps_maps
+    from rig.interchange import pbr_textures, write_glb, write_pbr_glb
+    from rig.material import read_material
 
     _check_archive(archive)
     if out.suffix.lower() != ".glb":
         raise ConfigError(f"--out {out}: a binary glTF needs the suffix .glb")
+    if view is None and read_material(archive).pbr is not None:
+        fitted, sample_mm, manifest = pbr_maps(archive)
+        with _export_to(out, archive, overwrite=overwrite, folder=False) as tmp:
+            write_pbr_glb(tmp.with_suffix(".glb"), pbr_textures(fitted), sample_mm=sample_mm,
+                          mesh=mesh, manifest=manifest)  # fmt: skip
+            tmp.with_suffix(".glb").rename(tmp)
+        fit = manifest["fit"]
+        console.print(escape(f"wrote {out} (PBR fit, {fit['psnr_db']:.1f} dB against the BTF, "
+                             f"{sample_mm:g} mm plane)"))  # fmt: skip
+        return
     maps_, sample_mm, manifest = ps_maps(archive, view)
     with _export_to(out, archive, overwrite=overwrite, folder=False) as tmp:
         write_glb(tmp.with_suffix(".glb"), maps_, sample_mm=sample_mm, mesh=mesh)

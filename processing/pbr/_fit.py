@@ -108,7 +108,7 @@ def fit_texels(
             better = cost < best_cost
             best[better], best_cost[better] = theta[better], cost[better]
     best[dark] = start[dark]
-    best[dark, layout.base] = 0.0
+    best[np.ix_(dark, np.r_[layout.base, layout.specular, layout.sheen])] = 0.0
     params = layout.params(best)
     fitted = evaluate(params, light, view)
     used = np.maximum(weight.sum((1, 2)), 1.0)
@@ -168,6 +168,7 @@ class _Layout:
         with np.errstate(all="ignore"):
             diffuse = np.nanpercentile(ratio, 40, axis=1)
         theta[:, self.base] = np.clip(np.nan_to_num(diffuse, nan=0.0), 0.0, 1.0)
+        theta[:, self.roughness] = options.roughness_prior
         theta[:, self.specular] = 0.5
         theta[:, self.specular_colour] = 1.0
         theta[:, self.sheen] = 0.02

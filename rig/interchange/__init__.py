@@ -10,6 +10,8 @@ from rig.interchange._directions import ENCODINGS, FolderFrame, FolderListing, l
 from rig.interchange._errors import InterchangeError
 from rig.interchange._frames import FRAME_FORMATS, export_frames
 from rig.interchange._gltf import write_glb
+from rig.interchange._gltf_pbr import EXTENSIONS as GLTF_EXTENSIONS
+from rig.interchange._gltf_pbr import write_pbr_glb
 from rig.interchange._images import (
     IMAGE_SUFFIXES,
     read_image,
@@ -27,6 +29,7 @@ from rig.interchange._import import (
 )
 from rig.interchange._manifest import MANIFEST, write_manifest
 from rig.interchange._maps import TextureMaps, decode_normal_map, texture_maps, write_maps
+from rig.interchange._pbr_textures import PbrTextures, pbr_textures
 from rig.interchange._ubo2003 import (
     UboFrame,
     UboListing,
@@ -39,6 +42,7 @@ from rig.interchange._ubo2003 import (
 __all__ = [
     "ENCODINGS",
     "FRAME_FORMATS",
+    "GLTF_EXTENSIONS",
     "IMAGE_SUFFIXES",
     "MANIFEST",
     "NORMTEXTURE_CAMERA",
@@ -46,6 +50,7 @@ __all__ = [
     "FolderListing",
     "ImportReport",
     "InterchangeError",
+    "PbrTextures",
     "TextureMaps",
     "UboFrame",
     "UboListing",
@@ -55,6 +60,7 @@ __all__ = [
     "imported_normtextures",
     "list_folder",
     "list_ubo2003",
+    "pbr_textures",
     "read_image",
     "srgb_decode",
     "srgb_encode",
@@ -67,5 +73,6 @@ __all__ = [
     "write_image",
     "write_manifest",
     "write_maps",
+    "write_pbr_glb",
     "write_ubo2003",
 ]
