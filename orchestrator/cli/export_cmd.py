@@ -234,3 +234,23 @@ def gltf(
         write_glb(tmp.with_suffix(".glb"), maps_, sample_mm=sample_mm, mesh=mesh)
         tmp.with_suffix(".glb").rename(tmp)
     console.print(escape(f"wrote {out} (view {manifest['view']}, {sample_mm:g} mm plane)"))
+
+
+@app.command()
+def materialx(archive: _Archive, out: _Out, overwrite: _Overwrite = False) -> None:
+    """The PBR fit (`rig process --stages pbr`) as a MaterialX standard_surface.
+
+    material.mtlx and its PNG textures (colour maps sRGB, the others raw), with a
+    manifest of the fit's error against the BTF; needs the materialx package
+    (pip install 'btfrig[export]').
+    """
+    from orchestrator.cli.export_sources import pbr_maps
+    from rig.interchange import write_manifest, write_materialx
+
+    _check_archive(archive)
+    fitted, _, manifest = pbr_maps(archive)
+    with _export_to(out, archive, overwrite=overwrite) as tmp:
+        document = write_materialx(tmp, fitted)
+        write_manifest(tmp, {**manifest, "document": document.name})
+    fit = manifest["fit"]
+    console.print(escape(f"wrote {out} ({document.name}, {fit['psnr_db']:.1f} dB against the BTF)"))

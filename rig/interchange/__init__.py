@@ -29,6 +29,7 @@ from rig.interchange._import import (
 )
 from rig.interchange._manifest import MANIFEST, write_manifest
 from rig.interchange._maps import TextureMaps, decode_normal_map, texture_maps, write_maps
+from rig.interchange._materialx import write_materialx
 from rig.interchange._pbr_textures import PbrTextures, pbr_textures
 from rig.interchange._ubo2003 import (
     UboFrame,
@@ -73,6 +74,7 @@ __all__ = [
     "write_image",
     "write_manifest",
     "write_maps",
+    "write_materialx",
     "write_pbr_glb",
     "write_ubo2003",
 ]

@@ -51,11 +51,11 @@ def sheen_e(mu, r, order=40):
 def radiance(m: dict, light, view, *, e_table=None) -> np.ndarray:
     """π f(l, v) N·L for one texel's parameters ``m`` (names as PbrParams) and one pair."""
     n = np.asarray(m["normal"], float)
-    l, v = np.asarray(light, float), np.asarray(view, float)
-    n_l, n_v = n @ l, n @ v
+    to_light, v = np.asarray(light, float), np.asarray(view, float)
+    n_l, n_v = n @ to_light, n @ v
     if n_l <= 0 or n_v <= 0:
         return np.zeros(len(m["base_colour"]))
-    h = (l + v) / np.linalg.norm(l + v)
+    h = (to_light + v) / np.linalg.norm(to_light + v)
     # anisotropicT = TBN (cos, sin, 0) with the mesh's frame; anisotropicB = N_geometric × T
     tbn = np.eye(3)  # the flat sample: tangent +x, bitangent +y, geometric normal +z
     phi = np.deg2rad(m["anisotropy_deg"])
@@ -65,8 +65,9 @@ def radiance(m: dict, light, view, *, e_table=None) -> np.ndarray:
     at = alpha + (1 - alpha) * m["anisotropy"] ** 2
     ab = alpha
     d = 1 / (np.pi * at * ab * ((t @ h / at) ** 2 + (b @ h / ab) ** 2 + (n @ h) ** 2) ** 2)
-    vis = 0.5 / (n_l * np.linalg.norm([at * (t @ v), ab * (b @ v), n_v])
-                 + n_v * np.linalg.norm([at * (t @ l), ab * (b @ l), n_l]))  # fmt: skip
+    lambda_v = n_l * np.linalg.norm([at * (t @ v), ab * (b @ v), n_v])
+    lambda_l = n_v * np.linalg.norm([at * (t @ to_light), ab * (b @ to_light), n_l])
+    vis = 0.5 / (lambda_v + lambda_l)
     f0 = min(0.04 * m["specular_colour"], 1.0) * m["specular"]
     fresnel = f0 + (m["specular"] - f0) * (1 - v @ h) ** 5
     base = (1 - fresnel) * np.asarray(m["base_colour"]) / np.pi + fresnel * d * vis

@@ -40,9 +40,11 @@ def _pairs(views, lights):
 def _texels(rng, count, **fixed):
     normal = np.c_[rng.normal(0, 0.15, (count, 2)), np.ones(count)]
     texels = {
-        "base_colour": rng.uniform(0.1, 0.8, (count, 3)), "roughness": rng.uniform(0.25, 0.7, count),
+        "base_colour": rng.uniform(0.1, 0.8, (count, 3)),
+        "roughness": rng.uniform(0.25, 0.7, count),
         "specular": rng.uniform(0.5, 1, count), "specular_colour": rng.uniform(1, 4, count),
-        "sheen_colour": rng.uniform(0, 0.3, (count, 3)), "sheen_roughness": rng.uniform(0.3, 0.8, count),
+        "sheen_colour": rng.uniform(0, 0.3, (count, 3)),
+        "sheen_roughness": rng.uniform(0.3, 0.8, count),
         "anisotropy": rng.uniform(0, 0.7, count), "anisotropy_deg": rng.uniform(0, 180, count),
         "normal": normal / np.linalg.norm(normal, axis=1, keepdims=True),
     }  # fmt: skip

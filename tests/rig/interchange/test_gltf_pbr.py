@@ -53,14 +53,18 @@ def test_the_glb_holds_the_maps_and_the_extensions(tmp_path):
     anisotropy = _image(document, blob, "anisotropy") / 255.0 * 2 - 1
     phi = np.deg2rad(maps.anisotropy_deg)
     np.testing.assert_allclose(anisotropy[..., 0], np.cos(phi), atol=0.01)
-    position = document["accessors"][document["meshes"][0]["primitives"][0]["attributes"]["POSITION"]]
+    position = document["accessors"][
+        document["meshes"][0]["primitives"][0]["attributes"]["POSITION"]
+    ]
     assert position["max"][0] == pytest.approx(0.02)
 
 
 def test_the_khronos_validator_finds_no_error(tmp_path):
     node = shutil.which("node")
     if node is None or not VALIDATOR.is_dir():
-        pytest.skip("the glTF validator is not installed: `make tools` (needs Debian's nodejs, npm)")
+        pytest.skip(
+            "the glTF validator is not installed: `make tools` (needs Debian's nodejs, npm)"
+        )
     path = write_pbr_glb(tmp_path / "s.glb", pbr_textures(pbr_maps(n=16)), sample_mm=40.0)
     run = subprocess.run([node, str(SCRIPT), str(VALIDATOR), str(path)],
                          capture_output=True, text=True, timeout=120, check=False)  # fmt: skip

@@ -15,6 +15,7 @@ from rig.material import (
     PsView,
     write_btf,
     write_mdf,
+    write_pbr,
     write_ps,
 )
 
@@ -89,6 +90,7 @@ def make_archive(path, **groups):
         "btf": lambda g, m: write_btf(g, m, units="relative radiance", slot_valid=None),
         "ps": lambda g, views: write_ps(g, views, attrs={"method": "irls"}),
         "mdf": write_mdf,
+        "pbr": write_pbr,
     }
     with Archive.create(
         path, plan={}, rig_config=RIG, cameras={"cam0": FrameFormat(4, 4, 1, "uint8")},

@@ -21,7 +21,9 @@ def test_round_trip_keeps_every_map(tmp_path):
     back = read_pbr(group)
     for field in dataclasses.fields(PbrMaps):
         if field.name != "attrs":
-            np.testing.assert_allclose(getattr(back, field.name), getattr(maps, field.name), rtol=1e-6)
+            np.testing.assert_allclose(
+                getattr(back, field.name), getattr(maps, field.name), rtol=1e-6
+            )
     assert back.attrs == {"psnr_db": 31.5}
     assert group.attrs["flag_bits"]["NO_SPECULAR"] == 4
     assert group.attrs["version"] == 1
