@@ -254,3 +254,33 @@ def materialx(archive: _Archive, out: _Out, overwrite: _Overwrite = False) -> No
         write_manifest(tmp, {**manifest, "document": document.name})
     fit = manifest["fit"]
     console.print(escape(f"wrote {out} ({document.name}, {fit['psnr_db']:.1f} dB against the BTF)"))
+
+
+@app.command()
+def web(
+    materials: Annotated[
+        list[Path], typer.Argument(help="session archives or material stores", show_default=False)
+    ],
+    out: Annotated[Path, typer.Option("--out", help="the site's folder to create")],
+    max_texels: Annotated[
+        int, typer.Option(min=8, max=1024, help="texels per side each page loads at most")
+    ] = 256,
+    overwrite: _Overwrite = False,
+) -> None:
+    """A static web site of the materials: their BTF and PBR fit in the browser.
+
+    One page per material draws its measured BTF (per-view PCA, the renderer's
+    nearest-four blends) or its PBR fit on the built-in meshes in WebGL2: drag to
+    orbit, shift-drag to move the light, exposure slider, BTF/PBR toggle. index.html
+    lists them with a thumbnail, size, sampling, capture date and fit error. Works
+    offline, from a file or any static server; needs `rig process --stages btf,pbr`.
+    """
+    from orchestrator.web_site import write_site
+
+    for material in materials:
+        if not (material / "zarr.json").is_file():
+            raise ConfigError(f"{material}: not a session archive or material store (no zarr.json)")
+    with _export_to(out, materials[0], overwrite=overwrite) as tmp:
+        manifest = write_site(materials, tmp, max_texels=max_texels)
+    size = sum(e["page_bytes"] for e in manifest["materials"]) / 1e6
+    console.print(escape(f"wrote {out} ({len(materials)} material(s), {size:.1f} MB of pages)"))
