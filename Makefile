@@ -4,12 +4,13 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-# Tools the tests drive outside Python (npm packages under Debian's nodejs), in a
-# git-ignored folder; a test that needs one skips, saying why, when it is missing.
+# Tools the tests drive outside Python: the Khronos glTF validator (npm, under Debian's
+# nodejs) in a git-ignored folder, and Debian's chromium with its driver for the web
+# viewer's browser tests (apt, as root). A test whose tool is missing skips, saying why.
 TOOLS  := .tools
 GLTF_VALIDATOR := $(TOOLS)/node_modules/gltf-validator/package.json
 
-.PHONY: demo test lint clean tools
+.PHONY: demo test lint clean tools chromium
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -28,7 +29,12 @@ $(GLTF_VALIDATOR):
 	npm install --prefix $(TOOLS) --no-save --no-audit --no-fund gltf-validator@2.0.0-dev.3.10 \
 	  || echo "gltf-validator not installed (no npm or no registry): its tests will skip"
 
-tools: $(GLTF_VALIDATOR)
+chromium:
+	command -v chromium >/dev/null && command -v chromedriver >/dev/null \
+	  || apt-get install -y --no-install-recommends chromium chromium-driver \
+	  || echo "chromium not installed (needs root and Debian's apt): the browser tests will skip"
+
+tools: $(GLTF_VALIDATOR) chromium
 
 test: lint tools
 	$(BIN)/pytest

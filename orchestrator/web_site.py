@@ -68,7 +68,9 @@ def _cameras() -> dict:
     cameras = {}
     for name in MESHES:
         camera = spec.camera(mesh_by_name(name), CANVAS, FOV_DEG)
-        cameras[name] = {"eye": camera.eye.tolist(), "target": camera.target.tolist(), "fov": FOV_DEG}
+        cameras[name] = {
+            "eye": camera.eye.tolist(), "target": camera.target.tolist(), "fov": FOV_DEG
+        }  # fmt: skip
     return cameras
 
 
@@ -111,7 +113,8 @@ def _material_data(material: Material, *, max_texels: int) -> dict:
         "slot_valid": [1.0 if v else 0.0 for v in (np.ones(len(btf.view_dirs_deg), bool)
                                                     if valid is None else valid)],
         "btf": _b64(images), "weights": _b64(padded),
-        "pbr": _b64(_grid(layers, size).astype(np.float16)), "white": float(fit.attrs.get("white", 1)),
+        "pbr": _b64(_grid(layers, size).astype(np.float16)),
+        "white": float(fit.attrs.get("white", 1.0)),
         "sheen_lut": {"values": _b64(lut), "cos": len(cos), "roughness": len(rough)},
     }  # fmt: skip
 
@@ -223,9 +226,10 @@ def _index(entries: list[dict]) -> str:
     rows = []
     for e in entries:
         name = html.escape(e["name"])
+        link = f'<a href="{e["page"]}">'
         rows.append(
-            f'<tr><td><a href="{e["page"]}"><img src="{name}/thumbnail.png" width="160" alt="{name}">'
-            f'</a></td><td><a href="{e["page"]}">{name}</a></td><td>{e["sample_mm"]:g} mm, '
+            f'<tr><td>{link}<img src="{name}/thumbnail.png" width="160" alt="{name}"></a></td>'
+            f'<td>{link}{name}</a></td><td>{e["sample_mm"]:g} mm, '
             f'{e["texels"]}² texels</td><td>{e["views"]} views × {e["lights"]} lights, '
             f'{e["components"]} components</td><td>{html.escape(e["captured"])}</td>'
             f'<td>{e["fit_psnr_db"]:.1f} dB</td><td>{e["page_bytes"] / 1e6:.1f} MB</td></tr>'
