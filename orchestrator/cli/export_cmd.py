@@ -97,7 +97,7 @@ def material(
     archive: _Archive,
     out: Annotated[Path, typer.Option("--out", help="material store to create (M.zarr)")],
 ) -> None:
-    """The material (btf, ps, mdf, sample size, calibration provenance), no frames."""
+    """The material (btf, ps, mdf, pbr, sample size, calibration provenance), no frames."""
     from rig.material import export_material
 
     if not (archive / "zarr.json").is_file() or not (archive / "material").is_dir():

@@ -285,8 +285,10 @@ function start() {
 
   const home = m.cameras;
   const state = { mesh: m.mesh, mode: 0, exposure: m.exposure_ev, light: m.light_deg.slice(), orbit: null };
+  const meshSelect = document.getElementById("mesh");
   function setMesh(name) {
     state.mesh = name;
+    meshSelect.value = name;
     useMesh(name);
     const cam = home[name];
     const offset = cam.eye.map((x, i) => x - cam.target[i]);
@@ -331,7 +333,6 @@ function start() {
   exposure.addEventListener("input", () => { state.exposure = Number(exposure.value); draw(); });
   const mode = document.getElementById("mode");
   mode.addEventListener("click", () => { state.mode = 1 - state.mode; mode.textContent = state.mode ? "PBR fit" : "measured BTF"; draw(); });
-  const meshSelect = document.getElementById("mesh");
   for (const name of Object.keys(meshes)) meshSelect.add(new Option(name, name, false, name === m.mesh));
   meshSelect.addEventListener("change", () => { setMesh(meshSelect.value); draw(); });
   setMesh(state.mesh);

@@ -128,3 +128,25 @@ def test_the_catalogue_links_open_the_pages(browser, site):
     assert browser.current_url.endswith("weave/index.html")
     assert manifest["materials"][0]["page"] == "weave/index.html"
     assert _errors(browser) == []
+
+
+def test_pictures_of_an_exported_site(browser):
+    """With BTFRIG_WEB_SITE=SITE (a `rig export web` folder) and BTFRIG_WEB_PICTURES=STEM:
+    the first page of SITE on the cloth as the README shows it (STEM.png) and its BTF, PBR
+    fit and 4 × their difference side by side (STEM_fit.png), for docs/interchange.md."""
+    import os
+
+    site, stem = os.environ.get("BTFRIG_WEB_SITE"), os.environ.get("BTFRIG_WEB_PICTURES")
+    if not site or not stem:
+        pytest.skip("set BTFRIG_WEB_SITE and BTFRIG_WEB_PICTURES to take the docs' pictures")
+    first = json.loads((Path(site) / "manifest.json").read_text())["materials"][0]["page"]
+    _open(browser, Path(site).resolve() / first)
+    browser.execute_script("window.btfrigViewer.setMesh('cloth'); window.btfrigViewer.draw()")
+    browser.save_screenshot(f"{stem}.png")
+    btf = _canvas(browser).astype(np.int16)
+    browser.find_element("id", "mode").click()
+    fit = _canvas(browser).astype(np.int16)
+    difference = np.clip(4 * np.abs(btf - fit), 0, 255)
+    strip = np.concatenate([btf, fit, difference], axis=1).astype(np.uint8)
+    Image.fromarray(strip).resize((strip.shape[1] // 2, strip.shape[0] // 2)).save(f"{stem}_fit.png")
+    assert _errors(browser) == []
