@@ -148,5 +148,6 @@ def test_pictures_of_an_exported_site(browser):
     fit = _canvas(browser).astype(np.int16)
     difference = np.clip(4 * np.abs(btf - fit), 0, 255)
     strip = np.concatenate([btf, fit, difference], axis=1).astype(np.uint8)
-    Image.fromarray(strip).resize((strip.shape[1] // 2, strip.shape[0] // 2)).save(f"{stem}_fit.png")
+    half = (strip.shape[1] // 2, strip.shape[0] // 2)
+    Image.fromarray(strip).resize(half).save(f"{stem}_fit.png")
     assert _errors(browser) == []
