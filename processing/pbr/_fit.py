@@ -74,6 +74,7 @@ def fit_texels(
     light, view = np.asarray(light, np.float64), np.asarray(view, np.float64)
     use = np.ones(n_pairs, bool) if sample_valid is None else np.asarray(sample_valid, bool)
     weight = np.broadcast_to(use[None, :, None], data.shape).astype(np.float64)
+    weight[~np.isfinite(data)] = 0.0  # a NaN or inf sample is left out, never fitted
     data = np.where(np.isfinite(data), data, 0.0)
     flags = np.zeros(n_texels, np.uint8)
     if options.saturation is not None:

@@ -6,6 +6,9 @@ import functools
 
 import numpy as np
 import pytest
+from hypothesis import given, settings
+from hypothesis import strategies as st
+from hypothesis.extra.numpy import arrays
 from numpy.testing import assert_allclose
 
 from processing.pbr import FitOptions, PbrFlag, fit_texels
@@ -144,3 +147,21 @@ def test_poor_light_sets_stay_finite_and_flagged(lights, expected):
         assert np.all(np.isfinite(getattr(fit.params, name)))
     if expected & PbrFlag.NORMAL_UNFIT:
         assert_allclose(fit.params.normal, start, atol=1e-6)
+
+
+@settings(max_examples=10, deadline=None)
+@given(
+    values=arrays(np.float64, (3, 6, 3), elements=st.one_of(
+        st.floats(0, 1e4), st.just(0.0), st.just(np.inf), st.just(np.nan))),
+    thetas=st.lists(st.floats(0, 89), min_size=1, max_size=6),
+)  # fmt: skip
+def test_any_samples_give_finite_flagged_maps(values, thetas):
+    lights = [(theta, 60.0 * i) for i, theta in enumerate(thetas)]
+    light, view = _pairs([(0, 0)], lights)
+    samples = np.resize(values, (3, len(light), 3))
+    fit = fit_texels(samples, light, view, options=FitOptions(iterations=4))
+    for name in NAMES:
+        assert np.all(np.isfinite(getattr(fit.params, name)))
+    assert np.all(np.isfinite(fit.error_rmse))
+    assert np.all(fit.flags < 64)
+    assert np.all((fit.params.roughness >= 0.03) & (fit.params.roughness <= 1))
