@@ -10,6 +10,7 @@ at a bound), and two starts (smooth and glossy) of which each texel keeps the be
 
 from __future__ import annotations
 
+import warnings
 from dataclasses import dataclass, replace
 
 import numpy as np
@@ -166,7 +167,8 @@ class _Layout:
         ratio = np.where(
             (cos > 0.2)[..., None] & (weight > 0), data / np.maximum(cos, 0.2)[..., None], np.nan
         )
-        with np.errstate(all="ignore"):
+        with warnings.catch_warnings():  # a texel without a usable sample: NaN, then 0
+            warnings.simplefilter("ignore", RuntimeWarning)
             diffuse = np.nanpercentile(ratio, 40, axis=1)
         theta[:, self.base] = np.clip(np.nan_to_num(diffuse, nan=0.0), 0.0, 1.0)
         theta[:, self.roughness] = options.roughness_prior
@@ -279,7 +281,8 @@ def _cauchy(residual, weight, scale):
     (at least 2 % of its mean radiance, so an exact fit does not reject everything)."""
     used = weight.reshape(len(residual), -1) > 0
     magnitude = np.where(used, np.abs(residual), np.nan)
-    with np.errstate(all="ignore"):
+    with warnings.catch_warnings():  # a texel without a usable sample: NaN, then 0
+        warnings.simplefilter("ignore", RuntimeWarning)
         mad = np.nan_to_num(np.nanmedian(magnitude, axis=1), nan=0.0)
     sigma = np.maximum(3.0 * 1.4826 * mad, 0.02 * scale)
     return 1.0 / (1.0 + (residual / sigma[:, None]) ** 2)
