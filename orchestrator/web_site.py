@@ -25,9 +25,8 @@ import numpy as np
 
 from orchestrator.cli.view_scene import auto_exposure_ev, parse_camera, parse_light
 from processing.offline.btf import resample_texels
-from processing.pbr import sheen_albedo
 from rig.errors import ConfigError
-from rig.material import CompressedBTF, Material, read_material
+from rig.material import CompressedBTF, Material, pbr_layers, read_material, sheen_albedo
 
 __all__ = ["CAMERA", "CANVAS", "LIGHT", "MESHES", "write_site"]
 
@@ -92,17 +91,7 @@ def _material_data(material: Material, *, max_texels: int) -> dict:
     images = _grid(images, size).astype(np.float16)  # (V, c + 1, n, n, 3)
     padded = np.zeros((*btf.weights.shape[:2], 4 * -(-c // 4)), np.float32)
     padded[..., :c] = btf.weights
-    phi = np.deg2rad(fit.anisotropy_deg)
-
-    def rgb(v):
-        return np.repeat(v, 3, axis=-1) if v.shape[-1] == 1 else v
-
-    layers = np.stack([
-        np.dstack([rgb(fit.base_colour), fit.roughness]),
-        np.dstack([rgb(fit.sheen_colour), fit.sheen_roughness]),
-        np.dstack([fit.normal, fit.specular]),
-        np.dstack([np.cos(phi), np.sin(phi), fit.anisotropy, fit.specular_colour]),
-    ])  # fmt: skip
+    layers = pbr_layers(fit)
     cos = np.linspace(0.0, 1.0, 33)
     rough = np.linspace(0.07, 1.0, 25)
     lut = sheen_albedo(cos[:, None], rough[None, :]).astype(np.float32)  # rows: cos
@@ -155,7 +144,11 @@ def write_site(sources: list[Path], out: Path, *, max_texels: int = 256) -> dict
     Returns the manifest (also written as ``out/manifest.json``). ConfigError when a
     material has no BTF (per-view PCA) or no PBR fit.
     """
+    from render import shader_source
+
     shutil.copy(_WEB / "viewer.js", out / "viewer.js")
+    pbr_glsl = json.dumps(shader_source("pbr.glsl"))
+    (out / "shaders.js").write_text(f"window.BTFRIG_PBR_GLSL = {pbr_glsl};\n")
     (out / "meshes.js").write_text("window.BTFRIG_MESHES = " + json.dumps(_meshes()) + ";\n")
     cameras = _cameras()
     entries, taken = [], set()
@@ -218,6 +211,7 @@ a{{color:#9cf}} .bar>*{{margin-right:1em}}</style></head>
 <span id="status">loading…</span></p>
 <p>Drag to orbit; shift-drag to move the light.</p>
 <script src="data.js"></script><script src="../meshes.js"></script>
+<script src="../shaders.js"></script>
 <script src="../viewer.js"></script></body></html>
 """
 

@@ -1,6 +1,7 @@
 // btfrig web viewer: the measured BTF (per-view PCA, the renderer's neighbour and blend
 // rules) or its glTF PBR fit on a mesh, in plain WebGL2. Data: window.BTFRIG (this
-// material, data.js) and window.BTFRIG_MESHES (meshes.js), written by `rig export web`.
+// material, data.js), window.BTFRIG_MESHES (meshes.js) and window.BTFRIG_PBR_GLSL
+// (shaders.js: the renderer's render/shaders/pbr.glsl), written by `rig export web`.
 // Drag: orbit; shift-drag: move the light; the controls: mesh, BTF/PBR, exposure.
 "use strict";
 
@@ -29,7 +30,6 @@ precision highp float; precision highp int; precision highp sampler2DArray;
 #define N_VIEWS ${m.views.length}
 #define N_TABLE_LIGHTS ${m.lights.length}
 #define COMPONENTS ${m.components}
-#define PI 3.14159265358979
 in vec3 v_position; in vec3 v_normal; in vec4 v_tangent; in vec2 v_uv;
 out vec4 frag;
 uniform vec3 eye; uniform vec3 to_light; uniform float uv_scale; uniform float exposure;
@@ -38,9 +38,7 @@ uniform vec3 view_dirs[N_VIEWS]; uniform float slot_valid[N_VIEWS];
 uniform vec3 light_dirs[N_TABLE_LIGHTS];
 uniform sampler2DArray btf;      // layer slot·(c + 1) + k, k = c the mean
 uniform highp sampler2D weights; // row slot·n_lights + light, ⌈c/4⌉ RGBA
-uniform sampler2DArray pbr;      // 4 layers, see rig export web
-uniform highp sampler2D sheen_lut;
-uniform float white;
+precision highp sampler2D;
 
 vec3 safe_normalize(vec3 v, vec3 fallback) {
   float len2 = dot(v, v);
@@ -108,59 +106,7 @@ vec3 shade_btf(vec2 st, vec3 view_local, vec3 light_local) {
   return total;
 }
 
-// processing.pbr.evaluate: glTF metallic-roughness (metallic 0), KHR_materials_specular,
-// _sheen (Charlie, albedo scaling), _anisotropy; π f N·L in BTF units (× white).
-float sheen_e(float mu, float r) {
-  vec2 size = vec2(textureSize(sheen_lut, 0));  // x: roughness cells, y: cos cells
-  float x = clamp(mu, 0.0, 1.0) * (size.y - 1.0);
-  float y = (clamp(r, 0.07, 1.0) - 0.07) / 0.93 * (size.x - 1.0);
-  int x0 = min(int(floor(x)), int(size.y) - 2), y0 = min(int(floor(y)), int(size.x) - 2);
-  float fx = x - float(x0), fy = y - float(y0);
-  float top = mix(texelFetch(sheen_lut, ivec2(y0, x0), 0).r, texelFetch(sheen_lut, ivec2(y0 + 1, x0), 0).r, fy);
-  float bottom = mix(texelFetch(sheen_lut, ivec2(y0, x0 + 1), 0).r, texelFetch(sheen_lut, ivec2(y0 + 1, x0 + 1), 0).r, fy);
-  return clamp(mix(top, bottom, fx), 0.0, 1.0);
-}
-float ell(float x, float r) {
-  float t = (1.0 - r) * (1.0 - r);
-  float a = mix(21.5473, 25.3245, t), b = mix(3.82987, 3.32435, t), c = mix(0.19823, 0.16801, t);
-  float d = mix(-1.97760, -1.27393, t), e = mix(-4.32054, -4.85967, t);
-  return a / (1.0 + b * pow(max(x, 0.0), c)) + d * x + e;
-}
-float lambda_sheen(float c, float r) {
-  c = abs(c);
-  return c < 0.5 ? exp(ell(c, r)) : exp(2.0 * ell(0.5, r) - ell(1.0 - c, r));
-}
-vec3 shade_pbr(vec2 st, vec3 v, vec3 l) {
-  vec4 p0 = texture(pbr, vec3(st, 0.0)), p1 = texture(pbr, vec3(st, 1.0));
-  vec4 p2 = texture(pbr, vec3(st, 2.0)), p3 = texture(pbr, vec3(st, 3.0));
-  vec3 base = p0.rgb, sheen = p1.rgb;
-  float roughness = p0.a, sheen_r = clamp(p1.a, 0.07, 1.0), specular = p2.a, spec_colour = p3.a;
-  vec3 n = safe_normalize(p2.xyz, vec3(0.0, 0.0, 1.0));
-  float strength = p3.z;
-  vec3 t = vec3(p3.x, p3.y, 0.0); t = safe_normalize(t, vec3(1.0, 0.0, 0.0));
-  vec3 b = vec3(-t.y, t.x, 0.0);
-  float nl = dot(n, l), nv = dot(n, v);
-  if (nl <= 0.0 || nv <= 0.0) return vec3(0.0);
-  nl = clamp(nl, 1e-7, 1.0); nv = clamp(nv, 1e-7, 1.0);
-  vec3 h = safe_normalize(l + v, n);
-  float nh = clamp(dot(n, h), 0.0, 1.0), vh = clamp(dot(v, h), 0.0, 1.0);
-  float alpha = max(roughness * roughness, 1e-4);
-  float at = mix(alpha, 1.0, strength * strength), ab = alpha, a2 = at * ab;
-  vec3 f = vec3(ab * dot(t, h), at * dot(b, h), a2 * nh);
-  float w2 = a2 / max(dot(f, f), 1e-30);
-  float D = a2 * w2 * w2 / PI;
-  float V = 0.5 / max(nl * length(vec3(at * dot(t, v), ab * dot(b, v), nv))
-                      + nv * length(vec3(at * dot(t, l), ab * dot(b, l), nl)), 1e-7);
-  float f0 = min(0.04 * spec_colour, 1.0) * specular;
-  float F = f0 + (specular - f0) * pow(1.0 - vh, 5.0);
-  float peak = max(sheen.r, max(sheen.g, sheen.b));
-  float scaling = min(1.0 - peak * sheen_e(nv, sheen_r), 1.0 - peak * sheen_e(nl, sheen_r));
-  float sin2 = max(1.0 - nh * nh, 0.0);
-  float charlie = (2.0 + 1.0 / sheen_r) * pow(sin2, 0.5 / sheen_r) / (2.0 * PI)
-                  / max((1.0 + lambda_sheen(nv, sheen_r) + lambda_sheen(nl, sheen_r)) * 4.0 * nv * nl, 1e-7);
-  vec3 radiance = scaling * (1.0 - F) * nl * base + PI * scaling * F * D * V * nl + PI * charlie * nl * sheen;
-  return white * radiance;
-}
+${window.BTFRIG_PBR_GLSL}
 
 vec3 srgb(vec3 c) {
   c = clamp(c, 0.0, 1.0);
@@ -258,11 +204,11 @@ function start() {
   // the BTF is sampled bilinearly, without a mipmap chain.
   textureArray(gl, decode(m.btf, Uint16Array), n, m.views.length * (c + 1), gl.RGB16F, gl.RGB, 0, false);
   dataTexture(gl, decode(m.weights, Float32Array), Math.ceil(c / 4), m.views.length * m.lights.length, gl.RGBA32F, gl.RGBA, 1);
-  textureArray(gl, decode(m.pbr, Uint16Array), n, 4, gl.RGBA16F, gl.RGBA, 2, mipmaps);
+  textureArray(gl, decode(m.pbr, Uint16Array), n, 4, gl.RGBA16F, gl.RGBA, 2, mipmaps);  // rig.material.pbr_layers
   dataTexture(gl, decode(m.sheen_lut.values, Float32Array), m.sheen_lut.roughness, m.sheen_lut.cos, gl.R32F, gl.RED, 3);
-  gl.uniform1i(u("btf"), 0); gl.uniform1i(u("weights"), 1); gl.uniform1i(u("pbr"), 2); gl.uniform1i(u("sheen_lut"), 3);
+  gl.uniform1i(u("btf"), 0); gl.uniform1i(u("weights"), 1); gl.uniform1i(u("pbr_maps"), 2); gl.uniform1i(u("sheen_lut"), 3);
   gl.uniform3fv(u("view_dirs"), m.views.flat()); gl.uniform1fv(u("slot_valid"), m.slot_valid);
-  gl.uniform3fv(u("light_dirs"), m.lights.flat()); gl.uniform1f(u("white"), m.white);
+  gl.uniform3fv(u("light_dirs"), m.lights.flat()); gl.uniform1f(u("pbr_white"), m.white);
   gl.enable(gl.DEPTH_TEST);
 
   const buffers = {};

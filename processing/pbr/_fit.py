@@ -15,8 +15,8 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
-from processing.pbr._brdf import PbrParams, evaluate, evaluate_terms
-from rig.material import PbrFlag
+from rig.material import PbrFlag, PbrParams, evaluate_terms
+from rig.material import evaluate_pbr as evaluate
 
 __all__ = ["FitOptions", "PbrFitResult", "fit_texels"]
 

@@ -25,7 +25,7 @@ from rig.material._groups import (
     write_arrays,
 )
 
-__all__ = ["PbrFlag", "PbrMaps", "read_pbr", "write_pbr"]
+__all__ = ["PbrFlag", "PbrMaps", "pbr_layers", "read_pbr", "write_pbr"]
 
 VERSION = 1
 #: the model, as the glTF extensions name it (stored with the group)
@@ -86,6 +86,24 @@ class PbrMaps:
 
 _ARRAYS = tuple(f.name for f in fields(PbrMaps) if f.name != "attrs")
 _UNIT = ("roughness", "specular", "sheen_roughness", "anisotropy", "base_colour", "sheen_colour")
+
+
+def pbr_layers(maps: PbrMaps) -> np.ndarray:
+    """The four RGBA layers the shaders read (``render/shaders/pbr.glsl``), (4, N, N, 4)
+    float32, texel row 0 at +y: base colour + roughness; sheen colour + sheen roughness;
+    normal + specular; (cos φ, sin φ) of the anisotropy direction, strength, specular colour.
+    A grey material's colours repeat in R, G and B."""
+
+    def rgb(v):
+        return np.repeat(v, 3, axis=-1) if v.shape[-1] == 1 else v
+
+    phi = np.deg2rad(maps.anisotropy_deg.astype(np.float64))
+    return np.stack([
+        np.dstack([rgb(maps.base_colour), maps.roughness]),
+        np.dstack([rgb(maps.sheen_colour), maps.sheen_roughness]),
+        np.dstack([maps.normal, maps.specular]),
+        np.dstack([np.cos(phi), np.sin(phi), maps.anisotropy, maps.specular_colour]),
+    ]).astype(np.float32)  # fmt: skip
 
 
 def write_pbr(group, maps: PbrMaps) -> None:

@@ -1,7 +1,8 @@
-"""The glTF PBR model on the CPU: metallic-roughness core (metallic 0), KHR_materials_specular,
-KHR_materials_sheen and KHR_materials_anisotropy.
+"""The glTF PBR model of the ``pbr`` group, on the CPU: metallic-roughness core (metallic
+0), KHR_materials_specular, KHR_materials_sheen and KHR_materials_anisotropy.
 
-One evaluation for the fit, the exporters' previews and the renderer's checks. The
+One evaluation for the fit (``processing.pbr``), the renderer's ``pbr`` layer and the
+web viewer (whose shaders port it line by line), and the tests. The
 formulas are the glTF 2.0 specification's Appendix B and the extensions' own:
 
 - specular lobe (anisotropy): α = roughness², α_t = mix(α, 1, s²), α_b = α;
