@@ -9,6 +9,7 @@ of texel rows of a compressed BTF. The maps are stored through
 ``rig.material.write_pbr`` (``docs/interchange.md`` shows the fit's error).
 """
 
+from processing.pbr._errors import PbrError
 from processing.pbr._fit import FitOptions, PbrFitResult, fit_texels
 from processing.pbr._samples import btf_samples
 from rig.material import (
@@ -24,6 +25,7 @@ from rig.material import evaluate_pbr as evaluate
 __all__ = [
     "SHEEN_ROUGHNESS_MIN",
     "FitOptions",
+    "PbrError",
     "PbrFitResult",
     "PbrFlag",
     "PbrParams",

@@ -15,6 +15,7 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from processing.pbr._errors import PbrError
 from rig.material import PbrFlag, PbrParams, evaluate_terms
 from rig.material import evaluate_pbr as evaluate
 
@@ -71,9 +72,20 @@ def fit_texels(
         Finite everywhere. A texel with no usable sample keeps the priors and is flagged.
     """
     data = np.asarray(samples, np.float64)
-    n_texels, n_pairs, channels = data.shape
     light, view = np.asarray(light, np.float64), np.asarray(view, np.float64)
+    if data.ndim != 3 or data.shape[2] not in (1, 3):
+        raise PbrError(f"samples: shape {data.shape}; expected (texels, pairs, 1 or 3 channels)")
+    n_texels, n_pairs, channels = data.shape
+    for name, table in (("light", light), ("view", view)):
+        if table.shape != (n_pairs, 3) or not np.all(np.isfinite(table)):
+            raise PbrError(
+                f"{name}: shape {table.shape}; expected ({n_pairs}, 3) finite unit vectors"
+            )
     use = np.ones(n_pairs, bool) if sample_valid is None else np.asarray(sample_valid, bool)
+    if use.shape != (n_pairs,):
+        raise PbrError(f"sample_valid: shape {use.shape}; expected ({n_pairs},) bool")
+    if normal_init is not None and np.shape(normal_init) != (n_texels, 3):
+        raise PbrError(f"normal_init: shape {np.shape(normal_init)}; expected ({n_texels}, 3)")
     weight = np.broadcast_to(use[None, :, None], data.shape).astype(np.float64)
     weight[~np.isfinite(data)] = 0.0  # a NaN or inf sample is left out, never fitted
     data = np.where(np.isfinite(data), data, 0.0)

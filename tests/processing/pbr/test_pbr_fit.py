@@ -11,7 +11,7 @@ from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 from numpy.testing import assert_allclose
 
-from processing.pbr import FitOptions, PbrFlag, fit_texels
+from processing.pbr import FitOptions, PbrError, PbrFlag, fit_texels
 from rig.geometry import direction_vector
 from tests.processing.pbr.gltf_reference import radiance, sheen_e
 
@@ -165,3 +165,12 @@ def test_any_samples_give_finite_flagged_maps(values, thetas):
     assert np.all(np.isfinite(fit.error_rmse))
     assert np.all(fit.flags < 64)
     assert np.all((fit.params.roughness >= 0.03) & (fit.params.roughness <= 1))
+
+
+def test_arrays_that_do_not_fit_together_are_named():
+    light, view = _pairs(VIEWS, LIGHTS)
+    samples = np.zeros((2, len(light), 3))
+    with pytest.raises(PbrError, match=r"view: shape \(3, 3\); expected \(189, 3\)"):
+        fit_texels(samples, light, view[:3])
+    with pytest.raises(PbrError, match=r"normal_init: shape \(1, 3\); expected \(2, 3\)"):
+        fit_texels(samples, light, view, normal_init=np.zeros((1, 3)))
