@@ -16,6 +16,7 @@ from tests.rig.interchange.test_gltf_pbr import SCRIPT, VALIDATOR, _chunks
 from tests.rig.material.conftest import make_archive, pbr_maps, pca_model, ps_view
 
 runner = CliRunner()
+NO_VALIDATOR = "the glTF validator is not installed: `make tools` (needs Debian's nodejs, npm)"
 
 
 def _words(result) -> str:
@@ -94,3 +95,33 @@ def test_exports_without_a_fit_say_how_to_make_one(tmp_path):
 def test_a_material_with_only_a_fit_reads(tmp_path):
     path = make_archive(tmp_path / "f.zarr", pbr=pbr_maps(n=4))
     assert read_material(path).size == 4
+
+
+def test_gltf_on_a_mesh_file_keeps_its_uvs(fitted, tmp_path):
+    obj = tmp_path / "quad.obj"
+    obj.write_text("v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
+                   "f 1/1 2/2 3/3\nf 1/1 3/3 4/4\n")  # fmt: skip
+    out = tmp_path / "quad.glb"
+    args = ["export", "gltf", str(fitted), "--out", str(out), "--mesh", str(obj)]
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0, result.output
+    document, blob = _chunks(out)
+    primitive = document["meshes"][0]["primitives"][0]
+
+    def attribute(name, width):
+        accessor = document["accessors"][primitive["attributes"][name]]
+        start = document["bufferViews"][accessor["bufferView"]]["byteOffset"]
+        return np.frombuffer(blob, np.float32, accessor["count"] * width, start).reshape(-1, width)
+
+    uvs, positions = attribute("TEXCOORD_0", 2), attribute("POSITION", 3)
+    # glTF's v runs down the image: the OBJ's corner at v = 0 has glTF's v = 1
+    pairs = {tuple(p[:2].round(6)): tuple(uv.round(6))
+             for p, uv in zip(positions, uvs, strict=True)}  # fmt: skip
+    assert pairs == {(0, 0): (0, 1), (1, 0): (1, 1), (1, 1): (1, 0), (0, 1): (0, 0)}
+    assert "TANGENT" not in primitive["attributes"]
+    node = shutil.which("node")
+    if node is None or not VALIDATOR.is_dir():
+        pytest.skip(NO_VALIDATOR)
+    run = subprocess.run([node, str(SCRIPT), str(VALIDATOR), str(out)],
+                         capture_output=True, text=True, timeout=120, check=False)  # fmt: skip
+    assert json.loads(run.stdout)["issues"]["numErrors"] == 0
