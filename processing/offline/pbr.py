@@ -78,7 +78,7 @@ class PbrStage:
         maps["flags"] = result.flags.reshape(shape)
         peak = float(np.max(samples[:, valid], initial=0.0))
         return {"rows": rows, "maps": maps, "peak": peak, "options": options, "white": white,
-                "saturation": _saturation_of(archive_path)}  # fmt: skip
+                "saturation": saturation}  # fmt: skip
 
     def write(self, group, archive: Archive, results) -> dict:
         parts = [r for r in results if r is not None and r["maps"] is not None]
