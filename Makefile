@@ -4,7 +4,13 @@ VENV   ?= .venv
 BIN    := $(VENV)/bin
 STAMP  := $(VENV)/.installed
 
-.PHONY: demo test quick lint clean
+# Tools the tests drive outside Python: the Khronos glTF validator (npm, under Debian's
+# nodejs) in a git-ignored folder, and Debian's chromium with its driver for the web
+# viewer's browser tests (apt, as root). A test whose tool is missing skips, saying why.
+TOOLS  := .tools
+GLTF_VALIDATOR := $(TOOLS)/node_modules/gltf-validator/package.json
+
+.PHONY: demo test quick lint clean tools debian-tools
 
 $(STAMP): pyproject.toml
 	$(PYTHON) -m venv $(VENV)
@@ -19,9 +25,22 @@ lint: $(STAMP)
 	$(BIN)/ruff check .
 	$(BIN)/lint-imports
 
-# Everything, as CI runs it: the ci hypothesis profile (1,000-example fuzzing), benches and
-# subprocess sessions included.
-test: lint
+$(GLTF_VALIDATOR): | debian-tools
+	npm install --prefix $(TOOLS) --no-save --no-audit --no-fund gltf-validator@2.0.0-dev.3.10 \
+	  || echo "gltf-validator not installed (no npm or no registry): its tests will skip"
+
+DEBIAN_TOOLS := chromium chromium-driver nodejs npm
+debian-tools:
+	command -v chromium >/dev/null && command -v chromedriver >/dev/null && command -v npm >/dev/null \
+	  || apt-get install -y --no-install-recommends $(DEBIAN_TOOLS) \
+	  || (apt-get update -qq && apt-get install -y --no-install-recommends $(DEBIAN_TOOLS)) \
+	  || echo "$(DEBIAN_TOOLS) not installed (needs root and Debian's apt): their tests will skip"
+
+tools: $(GLTF_VALIDATOR) debian-tools
+
+# Everything, as CI runs it: the ci hypothesis profile (1,000-example fuzzing), benches,
+# subprocess sessions and the browser tests included.
+test: lint tools
 	HYPOTHESIS_PROFILE=ci $(BIN)/pytest
 
 # The fast tier: no test marked slow (subprocess sessions, benches, long simulations) and
@@ -30,4 +49,4 @@ quick: lint
 	HYPOTHESIS_PROFILE=quick $(BIN)/pytest -m "not slow"
 
 clean:
-	rm -rf $(VENV) out .pytest_cache .ruff_cache .hypothesis .benchmarks
+	rm -rf $(VENV) $(TOOLS) out .pytest_cache .ruff_cache .hypothesis .benchmarks

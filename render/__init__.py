@@ -9,6 +9,7 @@ GPU). See ``docs/render.md``.
 """
 
 from render._errors import RenderError
+from render._gl import shader_source
 from render.camera import Camera
 from render.env_renderer import EnvironmentRenderer
 from render.environment import EnvironmentMap, read_environment, synthetic_environment
@@ -28,5 +29,6 @@ __all__ = [
     "RenderError",
     "Renderer",
     "read_environment",
+    "shader_source",
     "synthetic_environment",
 ]

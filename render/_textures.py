@@ -15,14 +15,16 @@ import numpy as np
 
 from render._errors import RenderError
 from render._lookup import DirectionLookup
-from rig.material import GlobalSVD
+from rig.material import GlobalSVD, PbrMaps, pbr_layers, sheen_albedo
 
 __all__ = [
     "BtfTextures",
+    "PbrTextures",
     "PsTextures",
     "lookup_texture",
     "material_sampling",
     "upload_btf",
+    "upload_pbr",
     "upload_ps",
 ]
 
@@ -173,3 +175,28 @@ def lookup_texture(ctx: moderngl.Context, lookup: DirectionLookup) -> moderngl.T
     texture = ctx.texture_array((r, r, layers), 4, texels, dtype="f4")
     texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
     return texture
+
+
+@dataclass
+class PbrTextures:
+    """A material's PBR fit: its four map layers (``rig.material.pbr_layers``) and the
+    sheen's directional-albedo table (``render/shaders/pbr.glsl``)."""
+
+    maps: moderngl.TextureArray
+    sheen: moderngl.Texture
+
+    def release(self) -> None:
+        self.maps.release()
+        self.sheen.release()
+
+
+def upload_pbr(ctx: moderngl.Context, maps: PbrMaps) -> PbrTextures:
+    """Textures of the fitted PBR maps, sampled as the BTF is (repeating, trilinear)."""
+    layers = np.ascontiguousarray(pbr_layers(maps)[:, ::-1])
+    n = layers.shape[1]
+    texture = material_sampling(ctx.texture_array((n, n, 4), 4, layers, dtype="f4"), 4)
+    cos, rough = np.linspace(0.0, 1.0, 33), np.linspace(0.07, 1.0, 25)
+    table = sheen_albedo(cos[:, None], rough[None, :]).astype(np.float32)  # rows: cos θ
+    sheen = ctx.texture((len(rough), len(cos)), 1, np.ascontiguousarray(table), dtype="f4")
+    sheen.filter = (moderngl.NEAREST, moderngl.NEAREST)
+    return PbrTextures(texture, sheen)

@@ -22,7 +22,7 @@ from render._gl import gl_context, image_framebuffer, mesh_buffers, shader_sourc
 from render._lookup import build_lookup
 from render._mdf_shading import mdf_shading
 from render._shadows import ShadowMaps
-from render._textures import lookup_texture, upload_btf, upload_ps
+from render._textures import lookup_texture, upload_btf, upload_pbr, upload_ps
 from render.camera import Camera
 from render.lights import MAX_LIGHTS, DirectionalLight, PointLight
 from render.peel import mdf_silhouettes
@@ -31,7 +31,7 @@ from rig.material import CompressedBTF, Material
 __all__ = ["MAX_LIGHTS", "Renderer"]
 
 _METHODS = ("nearest", "nearest4", "barycentric")
-_LAYERS = ("btf", "ps")
+_LAYERS = ("btf", "ps", "pbr")
 
 
 class Renderer:
@@ -47,12 +47,14 @@ class Renderer:
         mm of surface one repeat of the sample covers (texture coordinate =
         uv / tile_mm); the sample's own side ``material.sample_mm`` by default
         (true scale).
-    layers : tuple of {"btf", "ps"}, optional
-        What shades the surface; everything the material holds by default.
+    layers : tuple of {"btf", "ps", "pbr"}, optional
+        What shades the surface; by default the BTF and PS maps the material
+        holds (its PBR fit when it holds nothing else).
         ``"ps"`` alone: Lambert on the bump-mapped normals, times the albedo,
         plus the specular lobe. With ``"btf"``: the BTF (whose normtextures
         already hold the diffuse shading of the mesostructure) plus only the
-        specular lobe of the bump-mapped normals.
+        specular lobe of the bump-mapped normals. ``"pbr"`` (alone): the
+        material's glTF PBR fit (``render/shaders/pbr.glsl``), without the MDF.
     light_method, view_method : {"nearest4", "barycentric", "nearest"}
         How measured lights and view slots are blended (``processing.btf.interpolate``).
     specular, shininess : float
@@ -119,7 +121,8 @@ class Renderer:
         if not (np.isfinite(ambient) and 0 <= ambient <= 1):
             raise RenderError(f"ambient = {ambient}: valid is a fraction 0 … 1 of each light")
         asked_mdf = mdf is not None
-        mdf = material.mdf is not None if mdf is None else bool(mdf)
+        # the MDF's ambient term integrates the BTF: the PBR fit draws without it
+        mdf = material.mdf is not None and "pbr" not in self.layers if mdf is None else bool(mdf)
         self.ctx = gl_context()
         self.mesh = mesh
         self._owned: list = []
@@ -131,6 +134,7 @@ class Renderer:
         self._defines = {
             "BTF_KIND": 0 if btf is None else (1 if isinstance(btf, CompressedBTF) else 2),
             "PS": int("ps" in self.layers),
+            "PBR": int("pbr" in self.layers),
             "SHADOWS": int(bool(shadows)),
             "MDF_SHADOWS": int(mdf and shadows),
             "AMBIENT": 0,
@@ -147,6 +151,7 @@ class Renderer:
         self._units: list = []
         self.btf_textures = None
         self.ps_textures = None
+        self.pbr_textures = None
         self.uv_scale = 1.0 / float(tile)
         self._set("uv_scale", self.uv_scale)
         if btf is not None:
@@ -157,6 +162,11 @@ class Renderer:
             self._bind("ps_normals", self.ps_textures.normals)
             self._set("specular", float(specular))
             self._set("shininess", float(shininess))
+        if "pbr" in self.layers:
+            self.pbr_textures = upload_pbr(self.ctx, material.pbr)
+            self._bind("pbr_maps", self.pbr_textures.maps)
+            self._bind("sheen_lut", self.pbr_textures.sheen)
+            self._set("pbr_white", float(material.pbr.attrs.get("white", 1.0)))
         self.mdf = None
         if mdf:
             self.mdf = mdf_shading(self.ctx, material, btf, view_method=view_method,
@@ -182,14 +192,19 @@ class Renderer:
 
     @staticmethod
     def _check_layers(material, layers) -> tuple[str, ...]:
-        held = tuple(
-            name for name, part in (("btf", material.btf), ("ps", material.frontal_ps()))
-            if part is not None
-        )  # fmt: skip
-        wanted = held if layers is None else tuple(layers)
+        parts = (("btf", material.btf), ("ps", material.frontal_ps()), ("pbr", material.pbr))
+        held = tuple(name for name, part in parts if part is not None)
+        # by default the measurement itself; the PBR fit when it is all there is
+        measured = tuple(name for name in held if name != "pbr")
+        wanted = (measured or held) if layers is None else tuple(layers)
         unknown = [name for name in wanted if name not in _LAYERS]
         if unknown:
             raise RenderError(f"layers {unknown}: valid are {_LAYERS}")
+        if "pbr" in wanted and len(wanted) > 1:
+            raise RenderError(
+                f"layers {list(wanted)}: the PBR fit stands for the BTF and the PS maps; "
+                "render it alone (layers=('pbr',))"
+            )
         missing = [name for name in wanted if name not in held]
         if missing or not wanted:
             raise RenderError(
@@ -217,6 +232,8 @@ class Renderer:
             defines = {**self._defines, "N_LIGHTS": n_lights}
             header = "#version 330\n" + "".join(f"#define {k} {v}\n" for k, v in defines.items())
             header += shader_source("directions.glsl")
+            if "pbr" in self.layers:
+                header += shader_source("pbr.glsl")
             if self.mdf is not None:
                 header += shader_source("mdf.glsl") + shader_source("mdf_shadow.glsl")
             try:
@@ -379,11 +396,12 @@ class Renderer:
                 attachment.release()
             fbo.release()
         self._framebuffers.clear()
-        for part in (self.shadows, self.btf_textures, self.ps_textures, self.silhouettes,
-                     self.mdf):  # fmt: skip
+        for part in (self.shadows, self.btf_textures, self.ps_textures, self.pbr_textures,
+                     self.silhouettes, self.mdf):  # fmt: skip
             if part is not None:
                 part.release()
-        self.shadows = self.btf_textures = self.ps_textures = self.silhouettes = self.mdf = None
+        self.shadows = self.btf_textures = self.ps_textures = self.pbr_textures = None
+        self.silhouettes = self.mdf = None
         for program, vao in self._programs.values():
             vao.release()
             program.release()

@@ -104,7 +104,7 @@ def material(
     archive: _Archive,
     out: Annotated[Path, typer.Option("--out", help="material store to create (M.zarr)")],
 ) -> None:
-    """The material (btf, ps, mdf, sample size, calibration provenance), no frames."""
+    """The material (btf, ps, mdf, pbr, sample size, calibration provenance), no frames."""
     from rig.archive import overlaps_archive
     from rig.material import export_material
 
@@ -212,18 +212,33 @@ def gltf(
     ] = None,
     overwrite: _Overwrite = False,
 ) -> None:
-    """A binary glTF (.glb) of the sample with its PS maps as a PBR material.
+    """A binary glTF (.glb) of the sample with its measured material.
 
-    A plane of the sample's size in metres (or --mesh, a mesh file with UVs);
-    base colour = the albedo, normal texture = the normal map (8-bit, glTF's
-    OpenGL convention), metallic 0, roughness 1.
+    A plane of the sample's size in metres (or --mesh, a mesh file with UVs). With
+    the material's PBR fit (`rig process --stages pbr`) and no --view: its maps —
+    base colour, roughness (metallic 0), normal, KHR_materials_specular,
+    KHR_materials_sheen and KHR_materials_anisotropy — and the fit's error in
+    asset.extras.btfrig. Otherwise the PS maps of --view (default the most frontal):
+    base colour = the albedo, normal texture (8-bit, glTF's OpenGL convention),
+    metallic 0, roughness 1.
     """
-    from orchestrator.cli.export_sources import ps_maps
-    from rig.interchange import write_glb
+    from orchestrator.cli.export_sources import pbr_maps, ps_maps
+    from rig.interchange import pbr_textures, write_glb, write_pbr_glb
+    from rig.material import read_material
 
     _check_archive(archive)
     if out.suffix.lower() != ".glb":
         raise ConfigError(f"--out {out}: a binary glTF needs the suffix .glb")
+    if view is None and read_material(archive).pbr is not None:
+        fitted, sample_mm, manifest = pbr_maps(archive)
+        with _export_to(out, archive, overwrite=overwrite, folder=False) as tmp:
+            write_pbr_glb(tmp.with_suffix(".glb"), pbr_textures(fitted), sample_mm=sample_mm,
+                          mesh=mesh, manifest=manifest)  # fmt: skip
+            tmp.with_suffix(".glb").rename(tmp)
+        fit = manifest["fit"]
+        console.print(escape(f"wrote {out} (PBR fit, {fit['psnr_db']:.1f} dB against the BTF, "
+                             f"{sample_mm:g} mm plane)"))  # fmt: skip
+        return
     maps_, sample_mm, manifest = ps_maps(archive, view)
     with _export_to(out, archive, overwrite=overwrite, folder=False) as tmp:
         glb = tmp.with_suffix(".glb")  # write_glb wants the suffix
@@ -233,3 +248,53 @@ def gltf(
         finally:
             glb.unlink(missing_ok=True)
     console.print(escape(f"wrote {out} (view {manifest['view']}, {sample_mm:g} mm plane)"))
+
+
+@app.command()
+def materialx(archive: _Archive, out: _Out, overwrite: _Overwrite = False) -> None:
+    """The PBR fit (`rig process --stages pbr`) as a MaterialX standard_surface.
+
+    material.mtlx and its PNG textures (colour maps sRGB, the others raw), with a
+    manifest of the fit's error against the BTF; needs the materialx package
+    (pip install 'btfrig[export]').
+    """
+    from orchestrator.cli.export_sources import pbr_maps
+    from rig.interchange import write_manifest, write_materialx
+
+    _check_archive(archive)
+    fitted, _, manifest = pbr_maps(archive)
+    with _export_to(out, archive, overwrite=overwrite) as tmp:
+        document = write_materialx(tmp, fitted)
+        write_manifest(tmp, {**manifest, "document": document.name})
+    fit = manifest["fit"]
+    console.print(escape(f"wrote {out} ({document.name}, {fit['psnr_db']:.1f} dB against the BTF)"))
+
+
+@app.command()
+def web(
+    materials: Annotated[
+        list[Path], typer.Argument(help="session archives or material stores", show_default=False)
+    ],
+    out: Annotated[Path, typer.Option("--out", help="the site's folder to create")],
+    max_texels: Annotated[
+        int, typer.Option(min=8, max=1024, help="texels per side each page loads at most")
+    ] = 256,
+    overwrite: _Overwrite = False,
+) -> None:
+    """A static web site of the materials: their BTF and PBR fit in the browser.
+
+    One page per material draws its measured BTF (per-view PCA, the renderer's
+    nearest-four blends) or its PBR fit on the built-in meshes in WebGL2: drag to
+    orbit, shift-drag to move the light, exposure slider, BTF/PBR toggle. index.html
+    lists them with a thumbnail, size, sampling, capture date and fit error. Works
+    offline, from a file or any static server; needs `rig process --stages btf,pbr`.
+    """
+    from orchestrator.web_site import write_site
+
+    for material in materials:
+        if not (material / "zarr.json").is_file():
+            raise ConfigError(f"{material}: not a session archive or material store (no zarr.json)")
+    with _export_to(out, materials[0], overwrite=overwrite) as tmp:
+        manifest = write_site(materials, tmp, max_texels=max_texels)
+    size = sum(e["page_bytes"] for e in manifest["materials"]) / 1e6
+    console.print(escape(f"wrote {out} ({len(materials)} material(s), {size:.1f} MB of pages)"))

@@ -18,7 +18,7 @@ import numpy as np
 
 from rig.errors import ConfigError
 
-__all__ = ["BtfSource", "btf_source", "ps_maps"]
+__all__ = ["BtfSource", "btf_source", "pbr_maps", "ps_maps"]
 
 
 @dataclass(frozen=True)
@@ -131,3 +131,28 @@ def ps_maps(archive_path: Path, view_name: str | None):
         "view_deg": None if view.view_deg is None else list(view.view_deg),
     }
     return texture_maps(view), material.sample_mm, manifest
+
+
+def pbr_maps(archive_path: Path):
+    """The material's fitted PBR maps, the sample's side in mm, and the start of the
+    export's manifest: the source and the fit's error against the BTF."""
+    from rig.material import read_material
+
+    material = read_material(archive_path)
+    if material.pbr is None:
+        raise ConfigError(
+            f"{archive_path}: its material has no PBR fit; run `rig process --stages pbr` first"
+        )
+    attrs = material.pbr.attrs
+    manifest = {
+        "source_archive": str(Path(archive_path).resolve()),
+        "model": "glTF metallic-roughness + KHR_materials_specular, _sheen, _anisotropy",
+        "fit": {
+            "psnr_db": attrs.get("psnr_db"), "rmse": attrs.get("rmse"), "peak": attrs.get("peak"),
+            "units": attrs.get("units"), "white": attrs.get("white"),
+            "flagged_texels": int(np.count_nonzero(material.pbr.flags)),
+            "texels": int(material.pbr.flags.size), "height_source": attrs.get("height_source"),
+        },
+        "sample_mm": material.sample_mm,
+    }  # fmt: skip
+    return material.pbr, material.sample_mm, manifest

@@ -107,7 +107,10 @@ def register(app: typer.Typer) -> None:
         previous output as it was. Stages: ps (photometric stereo: normals, albedo,
         height on the sample's texel grid, with preview PNGs); btf (registered
         normtextures of every view slot, compressed by per-view PCA, --components);
-        mdf (the mesostructure distance function of the laser scans, with previews).
+        mdf (the mesostructure distance function of the laser scans, with previews);
+        pbr (the BTF fitted per texel by a glTF PBR material — base colour, roughness,
+        specular, sheen, anisotropy, normal, height — with its fit error; needs btf,
+        which may run first in the same command; the fit keeps the BTF's texel grid).
         A stage that can use none of its frames (all flagged: saturated, black…) is
         skipped with the reason, the others still run, and the exit code is 1. A
         stage the session captured nothing for (btf or mdf of a PS-only rig) is
@@ -130,10 +133,11 @@ def register(app: typer.Typer) -> None:
             prepare_folder(previews, f"--previews {previews}")
         flat = flat_beyond_mm or None
         options = {
-            "btf": {"components": components, "raw": raw},
-            "ps": {"raw": raw, "flat_beyond_mm": flat},
-        }
-        chosen = [STAGES[n](size=size, **options.get(n, {})) for n in names]
+            "btf": {"size": size, "components": components, "raw": raw},
+            "ps": {"size": size, "raw": raw, "flat_beyond_mm": flat},
+            "mdf": {"size": size}, "pbr": {},
+        }  # fmt: skip
+        chosen = [STAGES[n](**options[n]) for n in names]
         columns = (
             TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
             TimeElapsedColumn(),

@@ -161,6 +161,14 @@ def register(app: typer.Typer) -> None:
         peel: Annotated[
             int, typer.Option(min=1, max=8, help="depth-peeling passes with the MDF")
         ] = 2,
+        pbr: Annotated[
+            bool,
+            typer.Option(
+                "--pbr",
+                help="draw the material's PBR fit (rig process --stages pbr) instead of its BTF "
+                "and PS maps, without the MDF; point and directional lights only",
+            ),
+        ] = False,
     ) -> None:
         """Render a material on a mesh under point and directional lights or an environment."""
         if env_method not in ("visibility", "pca", "pem"):
@@ -182,6 +190,12 @@ def register(app: typer.Typer) -> None:
                 "or --no-mdf",
                 param_hint="--mdf",
             )
+        if pbr and (env is not None or mdf):
+            raise typer.BadParameter(
+                "the PBR fit draws under point and directional lights, without the MDF; "
+                "leave out --env and --mdf",
+                param_hint="--pbr",
+            )
         environment = None if env is None else parse_environment(env, env_rotate)
         lighting = environment, env_method, vis_res, median_cut
         # Under an environment, lights are only those given (added to its light).
@@ -195,7 +209,7 @@ def register(app: typer.Typer) -> None:
             require_display()  # before the material and the mesh are read
         _run(
             material, mesh, lights, camera_spec, fov_deg, image_size, tile_mm, exposure,
-            out, turntable, window, lighting, (mdf, peel),
+            out, turntable, window, lighting, (mdf, peel), ("pbr",) if pbr else None,
         )  # fmt: skip
 
 
@@ -213,6 +227,7 @@ def _run(
     window: bool,
     lighting: tuple,
     silhouettes: tuple[bool | None, int],
+    layers: tuple[str, ...] | None = None,
 ) -> None:
     from render import EnvironmentRenderer, PemRenderer, Renderer, RenderError
     from render.meshes import MeshError, mesh_by_name
@@ -251,7 +266,8 @@ def _run(
             try:
                 # Under an environment its own light fills the shadows: no ambient term on top.
                 fill = {} if environment is None else {"ambient": 0.0}
-                made = kind(material, mesh, tile_mm=tile_mm, mdf=mdf, peel=peel, **fill)
+                made = kind(material, mesh, tile_mm=tile_mm, mdf=mdf, peel=peel, layers=layers,
+                            **fill)  # fmt: skip
             except RenderError as err:  # --mdf on a material without one
                 err_console.print(f"[red]error:[/red] {err}")
                 raise typer.Exit(EXIT_INVALID) from err

@@ -8,6 +8,7 @@ See ``docs/processing.md`` for the stage protocol.
 
 from processing.offline.btf import BtfSlot, BtfStage
 from processing.offline.mdf import MdfStage
+from processing.offline.pbr import PbrStage
 from processing.offline.ps import PsStage
 from processing.offline.runner import (
     Stage,
@@ -21,13 +22,14 @@ from processing.offline.runner import (
 )
 
 #: stage name → how to build it (keyword options, e.g. ``size=``)
-STAGES = {"ps": PsStage, "btf": BtfStage, "mdf": MdfStage}
+STAGES = {"ps": PsStage, "btf": BtfStage, "mdf": MdfStage, "pbr": PbrStage}
 
 __all__ = [
     "STAGES",
     "BtfSlot",
     "BtfStage",
     "MdfStage",
+    "PbrStage",
     "PsStage",
     "Stage",
     "StageFailed",

@@ -39,7 +39,7 @@ from rig.interchange import imported_normtextures
 from rig.kind_kinematics import step_kinematics
 from rig.material import Radiometry, write_btf
 
-__all__ = ["BtfSlot", "BtfStage", "slot_normtextures", "slot_table"]
+__all__ = ["BtfSlot", "BtfStage", "resample_texels", "slot_normtextures", "slot_table"]
 
 
 @dataclass(frozen=True)
@@ -160,7 +160,7 @@ def slot_normtextures(
     if imported_normtextures(archive.plan):
         for step, camera in item.captures:
             frame = archive.read_frame(step, camera, 0)
-            textures.append(_resampled(frame, size) / records[step].exposures_s[0])
+            textures.append(resample_texels(frame, size) / records[step].exposures_s[0])
         return textures, flagged
     config = RigConfig.model_validate(archive.rig_config)
     for light, (step, camera) in enumerate(item.captures):
@@ -203,7 +203,7 @@ def _units(archive: Archive, radiometry: Radiometry) -> str:
     return f"{values} per second of exposure{flat}"
 
 
-def _resampled(frame: np.ndarray, size: int) -> np.ndarray:
+def resample_texels(frame: np.ndarray, size: int) -> np.ndarray:
     """A normtexture frame on the size × size texel grid: area average when it shrinks,
     linear interpolation when it grows."""
     import cv2

@@ -1,5 +1,6 @@
 // The measured material under point and directional lights (prepended by the
-// renderer: #version, and #defines BTF_KIND 0 none / 1 pca / 2 svd, PS 0/1,
+// renderer: #version, and #defines BTF_KIND 0 none / 1 pca / 2 svd, PS 0/1, PBR 0/1
+// (the fitted glTF material of pbr.glsl, prepended),
 // SHADOWS 0/1, MDF_SHADOWS 0/1, AMBIENT 0/1 (mdf_shadow.glsl), PEM 0/1 (lights
 // may be partial environment maps), N_LIGHTS (this
 // program's number of lights, ≥ 1); with a BTF
@@ -298,6 +299,9 @@ void main() {
     Blend lights[N_LIGHTS];
     for (int l = 0; l < N_LIGHTS; ++l) lights[l] = blend_light(light_local[l]);
     colour += shade_btf(st, view, lights, irradiance);
+#endif
+#if PBR == 1
+    for (int l = 0; l < N_LIGHTS; ++l) colour += irradiance[l] * shade_pbr(st, view_local, light_local[l]);
 #endif
 #if AMBIENT == 1
     // In shadow the ambient term (seed 001 §4.2): skylight of a · E, a uniform sky of

@@ -10,6 +10,8 @@ from rig.interchange._directions import ENCODINGS, FolderFrame, FolderListing, l
 from rig.interchange._errors import InterchangeError, InterchangeWriteError
 from rig.interchange._frames import FRAME_FORMATS, export_frames
 from rig.interchange._gltf import glb_generator, write_glb
+from rig.interchange._gltf_pbr import EXTENSIONS as GLTF_EXTENSIONS
+from rig.interchange._gltf_pbr import write_pbr_glb
 from rig.interchange._images import (
     IMAGE_SUFFIXES,
     read_image,
@@ -28,6 +30,8 @@ from rig.interchange._import import (
 )
 from rig.interchange._manifest import EXPORTED_BY, MANIFEST, is_export, write_manifest
 from rig.interchange._maps import TextureMaps, decode_normal_map, texture_maps, write_maps
+from rig.interchange._materialx import write_materialx
+from rig.interchange._pbr_textures import PbrTextures, pbr_textures
 from rig.interchange._ubo2003 import (
     UboFrame,
     UboListing,
@@ -41,6 +45,7 @@ __all__ = [
     "ENCODINGS",
     "EXPORTED_BY",
     "FRAME_FORMATS",
+    "GLTF_EXTENSIONS",
     "IMAGE_SUFFIXES",
     "MANIFEST",
     "MAX_IMAGE_PIXELS",
@@ -50,6 +55,7 @@ __all__ = [
     "ImportReport",
     "InterchangeError",
     "InterchangeWriteError",
+    "PbrTextures",
     "TextureMaps",
     "UboFrame",
     "UboListing",
@@ -63,6 +69,7 @@ __all__ = [
     "is_export",
     "list_folder",
     "list_ubo2003",
+    "pbr_textures",
     "read_image",
     "srgb_decode",
     "srgb_encode",
@@ -75,5 +82,7 @@ __all__ = [
     "write_image",
     "write_manifest",
     "write_maps",
+    "write_materialx",
+    "write_pbr_glb",
     "write_ubo2003",
 ]

@@ -2,7 +2,7 @@
 
 ``rig export material ARCHIVE --out M.zarr`` writes a zarr v3 directory whose
 root group carries ``format = "btfrig.material"``, ``version``, ``sample_mm``
-and ``provenance``, with the archive's ``btf``, ``ps`` and ``mdf`` groups
+and ``provenance``, with the archive's ``btf``, ``ps``, ``mdf`` and ``pbr`` groups
 copied unchanged below it.
 """
 
@@ -28,7 +28,7 @@ __all__ = ["export_material"]
 def export_material(archive_path: str | os.PathLike, out_path: str | os.PathLike) -> Path:
     """Write the material of the session archive ``archive_path`` as a store at ``out_path``.
 
-    The store holds the ``btf``, ``ps`` and ``mdf`` groups exactly as the
+    The store holds the ``btf``, ``ps``, ``mdf`` and ``pbr`` groups exactly as the
     archive has them, the sample's size, the calibration provenance and the
     software versions (of the archive and of this export); no frames and no
     live previews. The directory appears under its name only when complete.

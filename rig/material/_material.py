@@ -19,6 +19,7 @@ from rig.material._btf import read_btf
 from rig.material._btf_model import CompressedBTF, GlobalSVD
 from rig.material._errors import MaterialError
 from rig.material._mdf import Mdf, read_mdf
+from rig.material._pbr import PbrMaps, read_pbr
 from rig.material._ps import PsView, read_ps
 from rig.material._radiometry import Radiometry
 
@@ -35,12 +36,12 @@ __all__ = [
 STORE_FORMAT = "btfrig.material"
 STORE_VERSION = 1
 #: the groups that make a material (``live`` holds per-frame previews, not the material)
-GROUPS = ("btf", "ps", "mdf")
+GROUPS = ("btf", "ps", "mdf", "pbr")
 
 
 @dataclass(frozen=True)
 class Material:
-    """The measured material: compressed BTF, photometric-stereo maps and MDF.
+    """The measured material: compressed BTF, photometric-stereo maps, MDF and PBR fit.
 
     Attributes
     ----------
@@ -61,6 +62,8 @@ class Material:
     ps : dict[str, PsView]
         Photometric-stereo maps per view (empty when none).
     mdf : Mdf or None
+    pbr : PbrMaps or None
+        The BTF's fitted glTF PBR maps (``rig process --stages pbr``).
     provenance : dict
         ``source_archive``, ``calibration_version``, ``calibration`` (each
         calibrated section's provenance), ``corrections`` (the calibrated
@@ -77,6 +80,7 @@ class Material:
     btf_radiometry: Radiometry | None = None
     ps: dict[str, PsView] = field(default_factory=dict)
     mdf: Mdf | None = None
+    pbr: PbrMaps | None = None
     provenance: dict[str, Any] = field(default_factory=dict)
 
     def frontal_ps(self) -> PsView | None:
@@ -210,19 +214,22 @@ def _material(
     if config is not None:
         ps = {name: _with_view(view, config) for name, view in ps.items()}
     mdf = read_mdf(parts["mdf"], where=f"{where}/mdf") if "mdf" in parts else None
+    pbr = read_pbr(parts["pbr"], where=f"{where}/pbr") if "pbr" in parts else None
     if btf is not None:
         size = btf.model.size
     elif ps:
         size = next(iter(ps.values())).size
-    else:
+    elif mdf is not None:
         size = mdf.size
+    else:
+        size = pbr.size
     return Material(
         source=path, sample_mm=float(sample_mm), size=int(size),
         btf=None if btf is None else btf.model,
         btf_slot_valid=None if btf is None else btf.slot_valid,
         btf_units=None if btf is None else btf.units,
         btf_radiometry=None if btf is None else btf.radiometry,
-        ps=ps, mdf=mdf, provenance=provenance,
+        ps=ps, mdf=mdf, pbr=pbr, provenance=provenance,
     )  # fmt: skip
 
 

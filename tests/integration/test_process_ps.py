@@ -154,4 +154,4 @@ def test_cli_process_writes_previews_and_refuses_bad_input(plain, tmp_path):
     assert len(list((tmp_path / "png").glob("*_normals.png"))) == 1
     bad = runner.invoke(app, ["process", str(archive), "--stages", "ps,nope"])
     assert bad.exit_code == 2 and "nope" in bad.output
-    assert "valid are ['btf', 'mdf', 'ps']" in bad.output
+    assert "valid are ['btf', 'mdf', 'pbr', 'ps']" in bad.output

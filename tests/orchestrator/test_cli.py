@@ -185,7 +185,7 @@ def test_brackets_in_a_message_are_shown(tmp_path):
     result = runner.invoke(app, ["plan", str(plan)])
     _fails_cleanly(result, 2, "add [captures.btf], .ps, .mdf or .fixed")
     result = runner.invoke(app, ["process", str(tmp_path / "a.zarr"), "--stages", "foo"])
-    _fails_cleanly(result, 2, "unknown stage(s) ['foo']; valid are ['btf', 'mdf', 'ps']")
+    _fails_cleanly(result, 2, "unknown stage(s) ['foo']; valid are ['btf', 'mdf', 'pbr', 'ps']")
 
 
 def test_debug_shows_the_traceback(tmp_path):

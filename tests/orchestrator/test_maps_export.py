@@ -106,7 +106,7 @@ def test_an_archive_without_maps_fails_naming_it(tmp_path):
     bare = make_archive(tmp_path / "b.zarr")
     result = runner.invoke(app, ["export", "maps", str(bare), "--out", str(tmp_path / "m")])
     assert result.exit_code == 1
-    assert "b.zarr/material: holds none of btf, ps, mdf" in " ".join(result.output.split())
+    assert "b.zarr/material: holds none of btf, ps, mdf, pbr" in " ".join(result.output.split())
     assert not (tmp_path / "m").exists()
     wrong = runner.invoke(app, ["export", "gltf", str(bare), "--out", str(tmp_path / "x.gltf")])
     assert wrong.exit_code == 2 and "suffix .glb" in " ".join(wrong.output.split())

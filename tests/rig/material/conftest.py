@@ -1,10 +1,23 @@
 """Small synthetic materials, and archives that hold them."""
 
+import dataclasses
+
 import numpy as np
 import pytest
 
 from rig.archive import Archive, FrameFormat
-from rig.material import CompressedBTF, GlobalSVD, Mdf, PsView, write_btf, write_mdf, write_ps
+from rig.material import (
+    CompressedBTF,
+    GlobalSVD,
+    Mdf,
+    PbrFlag,
+    PbrMaps,
+    PsView,
+    write_btf,
+    write_mdf,
+    write_pbr,
+    write_ps,
+)
 
 N = 8
 SAMPLE_MM = 60.0
@@ -77,6 +90,7 @@ def make_archive(path, **groups):
         "btf": lambda g, m: write_btf(g, m, units="relative radiance", slot_valid=None),
         "ps": lambda g, views: write_ps(g, views, attrs={"method": "irls"}),
         "mdf": write_mdf,
+        "pbr": write_pbr,
     }
     with Archive.create(
         path, plan={}, rig_config=RIG, cameras={"cam0": FrameFormat(4, 4, 1, "uint8")},
@@ -93,3 +107,19 @@ def archive(tmp_path):
     """An archive with a PCA BTF, two PS views and an MDF."""
     views = [ps_view("cam1_tt000.0", (30.0, 0.0), 4), ps_view("cam0_tt000.0", (2.0, 0.0))]
     return make_archive(tmp_path / "s.zarr", btf=pca_model(), ps=views, mdf=mdf())
+
+
+def pbr_maps(n=4, channels=3, **changes) -> PbrMaps:
+    """Fitted PBR maps of n² texels with random values in range; ``changes`` replace fields."""
+    rng = np.random.default_rng(0)
+    normal = np.dstack([rng.normal(0, 0.1, (n, n, 2)), np.ones((n, n))])
+    maps = PbrMaps(
+        base_colour=rng.uniform(0, 1, (n, n, channels)), roughness=rng.uniform(0, 1, (n, n)),
+        specular=rng.uniform(0, 1, (n, n)), specular_colour=rng.uniform(0, 5, (n, n)),
+        sheen_colour=rng.uniform(0, 1, (n, n, channels)), sheen_roughness=np.full((n, n), 0.5),
+        anisotropy=np.zeros((n, n)), anisotropy_deg=np.full((n, n), 30.0),
+        normal=normal / np.linalg.norm(normal, axis=-1, keepdims=True),
+        height_mm=rng.normal(0, 0.1, (n, n)), error_rmse=np.full((n, n), 0.01),
+        flags=np.full((n, n), PbrFlag.NO_SPECULAR, np.uint8), attrs={"psnr_db": 31.5},
+    )  # fmt: skip
+    return dataclasses.replace(maps, **changes)

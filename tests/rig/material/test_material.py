@@ -113,7 +113,8 @@ def test_paths_that_hold_no_material_are_named(tmp_path):
     with pytest.raises(MaterialError, match="neither a session archive nor a material store"):
         read_material(tmp_path)
     empty = make_archive(tmp_path / "empty.zarr")
-    with pytest.raises(MaterialError, match=r"empty\.zarr/material: holds none of btf, ps, mdf"):
+    message = r"empty\.zarr/material: holds none of btf, ps, mdf, pbr"
+    with pytest.raises(MaterialError, match=message):
         read_material(empty)
 
 
