@@ -18,6 +18,7 @@ from rig.material._errors import MaterialError
 from rig.material._groups import (
     as_uint8,
     check_version,
+    finite_floats,
     format_attrs,
     other_attrs,
     read_arrays,
@@ -122,14 +123,14 @@ def write_pbr(group, maps: PbrMaps) -> None:
 def read_pbr(group, *, where: str = "material/pbr") -> PbrMaps:
     """The maps of a ``pbr`` group written by :func:`write_pbr`."""
     check_version(dict(group.attrs), "pbr", (VERSION,), where=where)
-    arrays = _checked(read_arrays(group), where=where)
+    arrays = _checked(read_arrays(group, where=where), where=where)
     return PbrMaps(**arrays, attrs=other_attrs(group.attrs, "model", "size", "flag_bits"))
 
 
 def _checked(arrays: dict[str, Any], *, where: str) -> dict[str, np.ndarray]:
     """The maps in their stored dtypes; MaterialError naming the array otherwise."""
     require_arrays(arrays, _ARRAYS, where=where)
-    normal = np.asarray(arrays["normal"], np.float32)
+    normal = finite_floats("normal", arrays["normal"], where=where).astype(np.float32)
     if normal.ndim != 3 or normal.shape[2] != 3 or normal.shape[0] != normal.shape[1]:
         raise MaterialError(f"{where}: normal has shape {normal.shape}, expected (N, N, 3)")
     n = normal.shape[0]
@@ -137,13 +138,11 @@ def _checked(arrays: dict[str, Any], *, where: str) -> dict[str, np.ndarray]:
     for name in _ARRAYS:
         if name in out:
             continue
-        value = np.asarray(arrays[name], np.float32)
+        value = finite_floats(name, arrays[name], where=where).astype(np.float32)
         coloured = name in ("base_colour", "sheen_colour")
         if value.shape[:2] != (n, n) or value.ndim != (3 if coloured else 2):
             want = f"({n}, {n}, C)" if coloured else f"({n}, {n})"
             raise MaterialError(f"{where}: {name} has shape {value.shape}, expected {want}")
-        if not np.all(np.isfinite(value)):
-            raise MaterialError(f"{where}: {name} holds NaN or inf; store finite values")
         if name in _UNIT and value.size and (value.min() < -1e-6 or value.max() > 1 + 1e-6):
             raise MaterialError(
                 f"{where}: {name} spans {value.min():.4g}…{value.max():.4g}; expected [0, 1]"
