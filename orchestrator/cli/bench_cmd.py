@@ -13,7 +13,7 @@ from typing import Annotated
 import typer
 from rich.table import Table
 
-from orchestrator.cli.common import console, quiet_dask_logs
+from orchestrator.cli.common import PLAIN_HELP, console, quiet_dask_logs
 from rig.config import default_rig_config
 from rig.plan import parse_plan
 from rig.schedule import compile_plan
@@ -78,7 +78,11 @@ HELP = {
     "one worker in the same run.",
 }
 
-app = typer.Typer(no_args_is_help=True, help="Benchmarks: accuracy against time, per area.")
+app = typer.Typer(
+    no_args_is_help=True,
+    help="Benchmarks: accuracy against time, per area.",
+    rich_markup_mode=PLAIN_HELP,
+)
 
 
 def print_rows(title: str, rows: list[dict]) -> None:

@@ -21,6 +21,7 @@ __all__ = [
     "EXIT_FAILURE",
     "EXIT_INVALID",
     "EXTRAS",
+    "PLAIN_HELP",
     "RigGroup",
     "SessionProgress",
     "check_new_archive",
@@ -31,9 +32,18 @@ __all__ = [
     "reporting_errors",
 ]
 
-# Wide when piped (logs, CI), so benchmark tables do not wrap at 80 columns.
-console = Console(highlight=False, width=None if sys.stdout.isatty() else 160)
-err_console = Console(stderr=True, highlight=False, width=None if sys.stderr.isatty() else 160)
+# Wide when piped (logs, CI), so benchmark tables do not wrap at 80 columns. Lines of
+# text are never wrapped or cropped (soft_wrap): a path or a message stays whole on
+# one line at any width, and the terminal folds what is longer.
+console = Console(highlight=False, soft_wrap=True, width=None if sys.stdout.isatty() else 160)
+err_console = Console(
+    stderr=True, highlight=False, soft_wrap=True, width=None if sys.stderr.isatty() else 160
+)
+
+#: ``rich_markup_mode`` of every `rig` command group: click's plain help, whose lines
+#: wrap between words at any width, and usage errors as one line (rich's panels cut
+#: option syntax at 80 columns and wrap an error's words across box lines).
+PLAIN_HELP = None
 
 EXIT_FAILURE = 1
 EXIT_INVALID = 2
@@ -95,7 +105,7 @@ def reporting_errors(*, debug: bool = False) -> Iterator[None]:
         if debug:
             err_console.print_exception()
         # rich markup would eat bracketed text of the message ("[…]", "[dask]")
-        err_console.print(f"[red]error:[/red] {escape(message)}", soft_wrap=True)  # paths whole
+        err_console.print(f"[red]error:[/red] {escape(message)}")
         raise typer.Exit(code) from err
 
 

@@ -19,7 +19,7 @@ import typer
 from rich.markup import escape
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from orchestrator.cli.common import console
+from orchestrator.cli.common import PLAIN_HELP, console
 from rig.errors import ConfigError
 
 __all__ = ["app"]
@@ -27,6 +27,7 @@ __all__ = ["app"]
 app = typer.Typer(
     help="Write a session's frames, normtextures or material in other formats.",
     no_args_is_help=True,
+    rich_markup_mode=PLAIN_HELP,
 )
 
 _Archive = Annotated[Path, typer.Argument(help="session archive", show_default=False)]

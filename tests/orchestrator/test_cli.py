@@ -171,8 +171,11 @@ def test_daemon_options_are_checked(args, needles):
 
 
 def test_daemon_certificates_must_exist(tmp_path):
-    result = runner.invoke(app, ["daemon", "--curve-secret-key", str(tmp_path / "none.key")])
-    assert result.exit_code == 2 and "does not exist" in result.output
+    # a path longer than a terminal line: the message must keep it whole at any width
+    key = tmp_path / ("certificates-" * 8) / "none.key"
+    result = runner.invoke(app, ["daemon", "--curve-secret-key", str(key)])
+    assert result.exit_code == 2
+    assert f"'{key}' does not exist" in result.output, result.output
 
 
 def test_brackets_in_a_message_are_shown(tmp_path):
