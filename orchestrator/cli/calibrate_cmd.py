@@ -14,6 +14,7 @@ from orchestrator.cli.common import (
     check_new_archive,
     console,
     load_config_option,
+    prepare_folder,
 )
 from rig.errors import ConfigError, RigError
 
@@ -114,6 +115,7 @@ def _capture(target: str, rig, plan: str, archive: Path, *, sim: bool, scale: fl
     from orchestrator.daemon import run_local
 
     check_new_archive(archive, "--archive", otherwise=f"compute from it with --from {archive}")
+    prepare_folder(archive.parent, "--archive")  # calibrations/ on a fresh clone
     plan_path = archive.with_suffix(".plan.toml")
     plan_path.write_text(plan)
     console.print(escape(f"plan: {plan_path}"))
