@@ -15,6 +15,7 @@ from orchestrator.cli.common import (
     console,
     load_config_option,
     prepare_folder,
+    readable,
 )
 from rig.errors import ConfigError, RigError
 
@@ -133,7 +134,9 @@ def _capture(target: str, rig, plan: str, archive: Path, *, sim: bool, scale: fl
         with SessionProgress() as view:
             final = run_local(plan_path, rig, archive=archive, on_event=view)
     if final.get("state") != "done":
-        raise RigError(f"the calibration session ended {final.get('state')}: {final}")
+        session = final.get("session") or {}
+        why = session.get("reason") or readable(session.get("fault") or {}) or "no reason given"
+        raise RigError(f"the calibration session of {archive} ended {final.get('state')}: {why}")
 
 
 def _compute(target: str, source: Path, rig, out: Path | None, apply: list[Path]) -> dict:

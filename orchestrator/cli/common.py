@@ -4,14 +4,21 @@ from __future__ import annotations
 
 import logging
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
 import typer
 from rich.console import Console
 from rich.markup import escape
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.progress import (
+    BarColumn,
+    MofNCompleteColumn,
+    Progress,
+    SpinnerColumn,
+    TextColumn,
+    TimeElapsedColumn,
+)
 from typer.core import TyperGroup
 
 from rig.config import RigConfig, default_rig_config, load_rig_config
@@ -29,7 +36,9 @@ __all__ = [
     "load_config_option",
     "prepare_folder",
     "quiet_dask_logs",
+    "readable",
     "reporting_errors",
+    "working",
 ]
 
 # Wide when piped (logs, CI), so benchmark tables do not wrap at 80 columns. Lines of
@@ -158,6 +167,41 @@ def _refuse_file_on_the_way(folder: Path, option: str) -> None:
         raise ConfigError(f"{option}: {blocking} is a file, not a folder; give another path")
 
 
+@contextmanager
+def working(what: str, *, total: int | None = None) -> Iterator[Callable[[], None]]:
+    """Say on stderr that a long wait is ``what`` (e.g. "compiling 6561 steps"): on a
+    terminal a spinner, or a bar of ``total`` steps, with the elapsed time, gone when
+    done; to a pipe or a log one line. Yields ``advance()``, to call once per step."""
+    if not err_console.is_terminal:
+        err_console.print(escape(f"{what} …"))
+        yield lambda: None
+        return
+    counted = [BarColumn(), MofNCompleteColumn()] if total is not None else []
+    columns = (SpinnerColumn(), TextColumn("{task.description}"), *counted, TimeElapsedColumn())
+    with Progress(*columns, console=err_console, transient=True) as progress:
+        task = progress.add_task(escape(what), total=total)
+        yield lambda: progress.advance(task)
+
+
+def readable(value) -> str:
+    """A daemon's reply or event field as words, not Python's repr: a mapping as
+    ``key value, key value`` (nested ones in parentheses), a list comma-separated."""
+    if isinstance(value, dict):
+        return ", ".join(
+            f"{key.replace('_', ' ')} {_nested(item)}"
+            for key, item in value.items()
+            if item is not None
+        )
+    if isinstance(value, list | tuple):
+        return ", ".join(_nested(item) for item in value)
+    return str(value)
+
+
+def _nested(value) -> str:
+    text = readable(value)
+    return f"({text})" if isinstance(value, dict | list | tuple) else text
+
+
 def _hms(seconds) -> str:
     if seconds is None:
         return "?"
@@ -201,6 +245,8 @@ class SessionProgress:
             self.progress.console.print(f"state: {event.get('from')} → [bold]{event.get('to')}[/]")
         elif topic == "log":
             detail = {k: v for k, v in event.items() if k not in ("topic", "seq", "time", "kind")}
-            self.progress.console.print(escape(f"{event.get('kind')}: {detail}"))
+            action = detail.pop("action", None)  # "session start: …", not "session: action …"
+            what = event.get("kind") if action is None else f"{event.get('kind')} {action}"
+            self.progress.console.print(escape(f"{what}: {readable(detail)}"))
         elif topic == "gap":
             self.progress.console.print(f"[yellow]missed {event['missed']} event(s)[/yellow]")

@@ -146,7 +146,7 @@ def ubo2003(
         typer.Option(
             min=1e-9,
             help="linear value written as 255, kept in the manifest (default: an imported "
-            "set's own, else the brightest 0.1 %% of the most frontal view slot)",
+            "set's own, else the brightest 0.1 % of the most frontal view slot)",
         ),
     ] = None,
     overwrite: _Overwrite = False,

@@ -9,7 +9,7 @@ from typing import Annotated
 import numpy as np
 import typer
 
-from orchestrator.cli.common import EXIT_INVALID, console, err_console
+from orchestrator.cli.common import EXIT_INVALID, console, err_console, working
 from orchestrator.cli.view_scene import (
     CAMERA_FORMS,
     ENV_FORMS,
@@ -284,7 +284,12 @@ def _run(
             return
         # A turntable turns the sample under the rig: camera and lights go round together.
         turns = np.arange(1, turntable) * 360.0 / turntable
-        frames = [first, *(draw(turn, 0.0, turn) for turn in turns)]
+        frames = [first]
+        with working(f"rendering {out}", total=turntable) as advance:
+            advance()
+            for turn in turns:
+                frames.append(draw(turn, 0.0, turn))
+                advance()
     _write_gif(out, [to_srgb8(frame, exposure_ev=exposure_ev) for frame in frames])
     console.print(f"wrote {out} ({turntable} frames, {size[0]}×{size[1]}, {mesh.name})")
 
