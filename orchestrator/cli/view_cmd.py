@@ -67,7 +67,8 @@ def register(app: typer.Typer) -> None:
             str,
             typer.Option(
                 help="plane | sphere | cylinder | torus | cloth (draped over a sphere), or an "
-                "OBJ/PLY/glTF/GLB file with UVs (positions in mm)"
+                "OBJ/PLY/glTF/GLB file with UVs (OBJ, PLY in mm; glTF in metres, +Y up, "
+                "as it defines)"
             ),
         ] = "cloth",
         light: Annotated[

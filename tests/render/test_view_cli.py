@@ -202,3 +202,24 @@ def test_point_light_power_is_the_irradiance_at_the_centre():
     assert light.colour == (1.0, 0.5, 0.0)
     turned = parse_light("point:110,0,0").light(centre, 90.0)
     assert_allclose(turned.position, (10.0, 100.0, 0.0), atol=1e-9)
+
+
+def test_a_gltf_in_metres_renders_as_the_same_plane_in_mm(store, tmp_path):
+    """glTF is metres, +Y up: the built-in 100 mm plane written so renders as that plane
+    (read as mm it was 0.1 mm wide, one featureless texel of the sample)."""
+    flat = mesh_by_name("plane")
+    x, y, z = flat.positions.T
+    visual = trimesh.visual.TextureVisuals(uv=flat.uvs / 100.0)
+    gltf = trimesh.Trimesh(np.stack([x, z, -y], 1) / 1000.0, flat.faces, visual=visual)
+    gltf.export(tmp_path / "plane.glb")
+    images = []
+    for mesh in ("plane", str(tmp_path / "plane.glb")):
+        out = tmp_path / f"{len(images)}.png"
+        args = ["view", str(store), "--mesh", mesh, "--size", "64x48", "--tile-mm", "20"]
+        result = runner.invoke(
+            app, [*args, "--light", "dir:30,0", "--exposure", "0", "--out", str(out)]
+        )
+        assert result.exit_code == 0, result.output
+        images.append(_png(out))
+    assert images[0].std() > 5  # the sample's texture shows
+    assert_allclose(images[1], images[0], atol=3)
