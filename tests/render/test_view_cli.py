@@ -1,7 +1,10 @@
 """`rig view`: images, EXR, turntable GIF from a small material store; exit codes for bad input."""
 
+import importlib.util
 import json
 import os
+import re
+import shlex
 import subprocess
 import sys
 from pathlib import Path
@@ -223,3 +226,21 @@ def test_a_gltf_in_metres_renders_as_the_same_plane_in_mm(store, tmp_path):
         images.append(_png(out))
     assert images[0].std() > 5  # the sample's texture shows
     assert_allclose(images[1], images[0], atol=3)
+
+
+def test_the_readme_caption_command_draws_the_demos_picture(store, tmp_path):
+    """The command under the README's cloth picture draws what `make demo` wrote there
+    (examples/demo.py's own rendering), here for a small material."""
+    readme = (Path(__file__).parents[2] / "README.md").read_text()
+    (command,) = re.findall(r"`(rig view out/demo/demo\.zarr [^`]*)`", readme)
+    args = shlex.split(command)[1:]
+    args[1], args[args.index("--out") + 1] = str(store), str(tmp_path / "caption.png")
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0, result.output
+    spec = importlib.util.spec_from_file_location(
+        "demo", Path(__file__).parents[2] / "examples" / "demo.py"
+    )
+    demo = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(demo)
+    drawn = demo._render_cloth(store, tmp_path)
+    assert_allclose(_png(tmp_path / "caption.png"), _png(drawn), atol=1)
