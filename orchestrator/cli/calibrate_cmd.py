@@ -146,6 +146,7 @@ def _compute(target: str, source: Path, rig, out: Path | None, apply: list[Path]
     from rig.material import copy_flat_field
 
     path = out or Path(rig.calibration or "calibrations/calibration.toml")
+    prepare_folder(path.parent, "--out")  # the plots beside it come first
     compute = {"cameras": _cameras, "laser": _laser, "response": _response, "lamps": _lamps}
     # each returns its section, what failed, and other fields of the file it sets
     section, failed, fields = compute[target](source, path)

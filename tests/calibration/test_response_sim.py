@@ -100,3 +100,13 @@ def test_calibrate_on_a_fresh_clone_makes_its_folder(tmp_path, monkeypatch):
     assert result.exit_code == 0, result.output
     assert (tmp_path / "calibrations" / "response.plan.toml").is_file()
     assert load_calibration(tmp_path / "calibrations" / "calibration.toml").response
+
+
+def test_the_calibration_file_may_go_to_a_new_folder(session, tmp_path):
+    archive, _ = session
+    out = tmp_path / "new" / "cal.toml"
+    result = CliRunner().invoke(
+        app, ["calibrate", "response", "--from", str(archive), "--out", str(out)]
+    )
+    assert result.exit_code == 0, result.output
+    assert load_calibration(out).response and out.with_suffix(".response.png").is_file()
