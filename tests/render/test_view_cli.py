@@ -79,6 +79,7 @@ def test_turntable_writes_a_gif_whose_frames_turn(store, tmp_path):
         str(out),
     )
     assert result.exit_code == 0, result.output
+    assert f"rendering {out}" in result.stderr  # the frames take a while: it says so
     with Image.open(out) as gif:
         assert gif.n_frames == 3
         frames = []
