@@ -308,16 +308,23 @@ BUILT_IN: dict[str, Callable[[], Mesh]] = {
 
 # Formats trimesh reads with texture coordinates (STL is read only to say it has none).
 _FORMATS = (".obj", ".ply", ".gltf", ".glb", ".stl")
+_GLTF = (".gltf", ".glb")
+# glTF's axes (+Y up, +Z towards the viewer) → the renderer's (+Z up): (X, Y, Z) → (X, −Z, Y).
+_Y_UP_TO_Z_UP = np.array([[1.0, 0.0, 0.0], [0.0, 0.0, -1.0], [0.0, 1.0, 0.0]])
 
 
-def load_mesh(path: str | Path, *, mm_per_unit: float = 1.0) -> Mesh:
+def load_mesh(path: str | Path, *, mm_per_unit: float | None = None) -> Mesh:
     """Read an OBJ, PLY, glTF/GLB or STL file with UVs through trimesh.
+
+    A glTF is in metres with +Y up, as the format defines: it is read into mm
+    with +Z up (``rig export gltf``'s plane comes back as the sample, in the
+    xy-plane). OBJ, PLY and STL define no unit and are read as mm, +Z up.
 
     Parameters
     ----------
     path : path of the file
-    mm_per_unit : float
-        Length of one of the file's units in mm (1000 for a glTF in metres).
+    mm_per_unit : float, optional
+        Length of one of the file's units in mm (default: 1000 for glTF, else 1).
 
     Returns
     -------
@@ -331,6 +338,9 @@ def load_mesh(path: str | Path, *, mm_per_unit: float = 1.0) -> Mesh:
         The file is missing, unreadable, of an unknown format, or has no UVs.
     """
     path = Path(path)
+    gltf = path.suffix.lower() in _GLTF
+    if mm_per_unit is None:
+        mm_per_unit = 1000.0 if gltf else 1.0
     _check_sizes(str(path), mm_per_unit=mm_per_unit)
     if path.suffix.lower() not in _FORMATS:
         raise MeshError(
@@ -351,7 +361,8 @@ def load_mesh(path: str | Path, *, mm_per_unit: float = 1.0) -> Mesh:
             "sample through them; export it with UVs (OBJ, PLY, glTF) or use a built-in mesh: "
             f"{', '.join(BUILT_IN)}"
         )
-    positions = np.asarray(loaded.vertices, dtype=np.float64) * mm_per_unit
+    turn = _Y_UP_TO_Z_UP if gltf else np.eye(3)
+    positions = np.asarray(loaded.vertices, dtype=np.float64) @ turn.T * mm_per_unit
     faces = np.asarray(loaded.faces, dtype=np.int64)
     uvs = np.asarray(uvs, dtype=np.float64)
     corners, uv_corners = positions[faces], uvs[faces]
@@ -363,7 +374,7 @@ def load_mesh(path: str | Path, *, mm_per_unit: float = 1.0) -> Mesh:
     if not (np.isfinite(uv_area) and uv_area > 0 and area > 0):
         raise MeshError(f"{path}: the UVs (or the surface) span no area; nothing can be mapped")
     # The file's normals (or trimesh's) when every one is unit; ours, with fallbacks, if not.
-    normals = np.asarray(loaded.vertex_normals, dtype=np.float64)
+    normals = np.asarray(loaded.vertex_normals, dtype=np.float64) @ turn.T
     if normals.shape != positions.shape or not np.allclose(
         np.linalg.norm(normals, axis=1), 1.0, atol=1e-3
     ):

@@ -13,7 +13,7 @@ with ρ the albedo and θ_i the angle between the normal and the lamp.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, fields
 
 import numpy as np
 
@@ -110,6 +110,18 @@ class SurfaceHits:
             view_dirs=view,
             albedo=albedo_fn(points, materials),
         )
+
+    @classmethod
+    def concatenate(cls, parts: list[SurfaceHits]) -> SurfaceHits:
+        """The hits of one image, from ``parts`` built over consecutive runs of its pixels."""
+        arrays = [f.name for f in fields(cls) if f.name != "shape"]
+        joined = {name: np.concatenate([getattr(p, name) for p in parts]) for name in arrays}
+        return cls(shape=parts[0].shape, **joined)
+
+    @property
+    def nbytes(self) -> int:
+        """Bytes the hit arrays hold."""
+        return sum(getattr(self, f.name).nbytes for f in fields(self) if f.name != "shape")
 
 
 @dataclass(frozen=True)

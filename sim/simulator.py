@@ -57,8 +57,10 @@ from sim.world import World, WorldSnapshot
 
 __all__ = ["Frame", "Simulator"]
 
-_HITS_CACHE = 16
-_SHADOW_CACHE = 128
+# What the caches may hold, in bytes: the hits of the rig's 8 cameras at one pose
+# (~0.2 GB each at --sim's calibration size, 4× supersampled), and shadow masks.
+_HITS_CACHE_BYTES = 2 << 30
+_SHADOW_CACHE_BYTES = 256 << 20
 
 
 @dataclass(frozen=True)
@@ -105,14 +107,17 @@ class Frame:
 
 
 class _Lru(OrderedDict):
-    def __init__(self, size: int):
+    """Least recently used values, at most ``max_bytes`` of them (the newest is kept
+    whatever its size)."""
+
+    def __init__(self, max_bytes: int):
         super().__init__()
-        self.size = size
+        self.max_bytes = max_bytes
 
     def put(self, key, value):
         self[key] = value
         self.move_to_end(key)
-        while len(self) > self.size:
+        while len(self) > 1 and sum(v.nbytes for v in self.values()) > self.max_bytes:
             self.popitem(last=False)
         return value
 
@@ -132,8 +137,8 @@ class Simulator:
         self.counters: Counter = Counter()
         self._lock = threading.RLock()
         self._raster = IdRasterizer(mesh.vertices, mesh.faces)
-        self._hits = _Lru(_HITS_CACHE)
-        self._shadows = _Lru(_SHADOW_CACHE)
+        self._hits = _Lru(_HITS_CACHE_BYTES)
+        self._shadows = _Lru(_SHADOW_CACHE_BYTES)
         self._sensor: dict = {}
         noise = self.scene.spec.params("noise") if self.scene.has("noise") else None
         self._noise_seed = noise.seed if noise else 0

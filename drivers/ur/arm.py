@@ -76,6 +76,7 @@ class UrArm:
             max_deg=360.0,
         )
         self._target: tuple[Pose, np.ndarray] | None = None
+        self._stopping = False  # a stopj was sent and no wait has seen the arm at rest yet
         self._sent_at = 0.0
         self._lock = DeviceLock(f"ur:tcp://{device.host}:{device.realtime_port}", device=name)
         self._dashboard: Dashboard | None = None
@@ -155,6 +156,7 @@ class UrArm:
         self._send(script, "move_to")
         self._target = (pose, joints)
         self._sent_at = self._clock.now()
+        self._stopping = False
 
     def wait_until_settled(self, timeout_s: float | None = None) -> Pose:
         """Wait until the move ends at its target; return the pose the arm reports.
@@ -165,7 +167,7 @@ class UrArm:
         (default: twice the slowest joint's move time plus 2 s).
         """
         if self._target is None:
-            return self.pose()
+            return self._pose_of(self._at_rest(timeout_s)) if self._stopping else self.pose()
         target_pose, target_q = self._target
         state = self._read_state("move_to")
         if timeout_s is None:
@@ -209,6 +211,25 @@ class UrArm:
         """Decelerate every joint and end the program; the next wait returns where it stopped."""
         self._send(f"stopj({np.radians(self.device.joint_accel_deg_s2):.4f})\n", "stop")
         self._target = None
+        self._stopping = True
+
+    def _at_rest(self, timeout_s: float | None) -> RobotState:
+        """The first state after a ``stop()`` whose program has ended and whose joints are
+        at their targets: the controller has taken the stop, however late its packet is."""
+        tolerance = np.radians(self.device.position_tolerance_deg)
+        if timeout_s is None:  # twice the time from full speed to rest, plus 2 s as for a move
+            timeout_s = 2.0 * self.device.joint_speed_deg_s / self.device.joint_accel_deg_s2 + 2.0
+        deadline = self._clock.now() + timeout_s
+        state = self._read_state("stop")
+        while state.program_running or np.max(np.abs(state.q_actual - state.q_target)) > tolerance:
+            if self._clock.now() >= deadline:
+                raise DeviceTimeout(
+                    self.name, "stop", f"still moving {timeout_s:.1f} s after the stopj"
+                )
+            self._clock.sleep(self._poll_s)
+            state = self._read_state("stop")
+        self._stopping = False
+        return state
 
     def pose(self) -> Pose:
         """The tool pose of the joint angles the controller reports (``q_actual``)."""

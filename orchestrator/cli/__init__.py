@@ -24,7 +24,7 @@ from orchestrator.cli import (
     sim_cmd,
     view_cmd,
 )
-from orchestrator.cli.common import RigGroup, console
+from orchestrator.cli.common import PLAIN_HELP, RigGroup, console
 
 __all__ = ["app", "main"]
 
@@ -35,6 +35,7 @@ app = typer.Typer(
     add_completion=False,
     pretty_exceptions_enable=False,
     cls=RigGroup,
+    rich_markup_mode=PLAIN_HELP,
 )
 
 

@@ -14,6 +14,8 @@ from orchestrator.cli.common import (
     check_new_archive,
     console,
     load_config_option,
+    prepare_folder,
+    readable,
 )
 from rig.errors import ConfigError, RigError
 
@@ -114,6 +116,7 @@ def _capture(target: str, rig, plan: str, archive: Path, *, sim: bool, scale: fl
     from orchestrator.local import run_local
 
     check_new_archive(archive, "--archive", otherwise=f"compute from it with --from {archive}")
+    prepare_folder(archive.parent, "--archive")  # calibrations/ on a fresh clone
     plan_path = archive.with_suffix(".plan.toml")
     plan_path.write_text(plan)
     console.print(escape(f"plan: {plan_path}"))
@@ -131,7 +134,9 @@ def _capture(target: str, rig, plan: str, archive: Path, *, sim: bool, scale: fl
         with SessionProgress() as view:
             final = run_local(plan_path, rig, archive=archive, on_event=view)
     if final.get("state") != "done":
-        raise RigError(f"the calibration session ended {final.get('state')}: {final}")
+        session = final.get("session") or {}
+        why = session.get("reason") or readable(session.get("fault") or {}) or "no reason given"
+        raise RigError(f"the calibration session of {archive} ended {final.get('state')}: {why}")
 
 
 def _compute(target: str, source: Path, rig, out: Path | None, apply: list[Path]) -> dict:
@@ -141,6 +146,7 @@ def _compute(target: str, source: Path, rig, out: Path | None, apply: list[Path]
     from rig.material import copy_flat_field
 
     path = out or Path(rig.calibration or "calibrations/calibration.toml")
+    prepare_folder(path.parent, "--out")  # the plots beside it come first
     compute = {"cameras": _cameras, "laser": _laser, "response": _response, "lamps": _lamps}
     # each returns its section, what failed, and other fields of the file it sets
     section, failed, fields = compute[target](source, path)

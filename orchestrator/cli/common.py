@@ -5,14 +5,21 @@ from __future__ import annotations
 import logging
 import signal
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
 import typer
 from rich.console import Console
 from rich.markup import escape
-from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+from rich.progress import (
+    BarColumn,
+    MofNCompleteColumn,
+    Progress,
+    SpinnerColumn,
+    TextColumn,
+    TimeElapsedColumn,
+)
 from typer.core import TyperGroup
 
 from rig.config import RigConfig, default_rig_config, load_rig_config
@@ -22,6 +29,7 @@ __all__ = [
     "EXIT_FAILURE",
     "EXIT_INVALID",
     "EXTRAS",
+    "PLAIN_HELP",
     "RigGroup",
     "SessionProgress",
     "check_new_archive",
@@ -30,13 +38,24 @@ __all__ = [
     "prepare_file",
     "prepare_folder",
     "quiet_dask_logs",
+    "readable",
     "reporting_errors",
     "terminating_as_interrupt",
+    "working",
 ]
 
-# Wide when piped (logs, CI), so benchmark tables do not wrap at 80 columns.
-console = Console(highlight=False, width=None if sys.stdout.isatty() else 160)
-err_console = Console(stderr=True, highlight=False, width=None if sys.stderr.isatty() else 160)
+# Wide when piped (logs, CI), so benchmark tables do not wrap at 80 columns. Lines of
+# text are never wrapped or cropped (soft_wrap): a path or a message stays whole on
+# one line at any width, and the terminal folds what is longer.
+console = Console(highlight=False, soft_wrap=True, width=None if sys.stdout.isatty() else 160)
+err_console = Console(
+    stderr=True, highlight=False, soft_wrap=True, width=None if sys.stderr.isatty() else 160
+)
+
+#: ``rich_markup_mode`` of every `rig` command group: click's plain help, whose lines
+#: wrap between words at any width, and usage errors as one line (rich's panels cut
+#: option syntax at 80 columns and wrap an error's words across box lines).
+PLAIN_HELP = None
 
 EXIT_FAILURE = 1
 EXIT_INVALID = 2
@@ -98,7 +117,7 @@ def reporting_errors(*, debug: bool = False) -> Iterator[None]:
         if debug:
             err_console.print_exception()
         # rich markup would eat bracketed text of the message ("[…]", "[dask]")
-        err_console.print(f"[red]error:[/red] {escape(message)}", soft_wrap=True)  # paths whole
+        err_console.print(f"[red]error:[/red] {escape(message)}")
         raise typer.Exit(code) from err
 
 
@@ -188,6 +207,41 @@ def _refuse_file_on_the_way(folder: Path, option: str) -> None:
         raise ConfigError(f"{option}: {blocking} is a file, not a folder; give another path")
 
 
+@contextmanager
+def working(what: str, *, total: int | None = None) -> Iterator[Callable[[], None]]:
+    """Say on stderr that a long wait is ``what`` (e.g. "compiling 6561 steps"): on a
+    terminal a spinner, or a bar of ``total`` steps, with the elapsed time, gone when
+    done; to a pipe or a log one line. Yields ``advance()``, to call once per step."""
+    if not err_console.is_terminal:
+        err_console.print(escape(f"{what} …"))
+        yield lambda: None
+        return
+    counted = [BarColumn(), MofNCompleteColumn()] if total is not None else []
+    columns = (SpinnerColumn(), TextColumn("{task.description}"), *counted, TimeElapsedColumn())
+    with Progress(*columns, console=err_console, transient=True) as progress:
+        task = progress.add_task(escape(what), total=total)
+        yield lambda: progress.advance(task)
+
+
+def readable(value) -> str:
+    """A daemon's reply or event field as words, not Python's repr: a mapping as
+    ``key value, key value`` (nested ones in parentheses), a list comma-separated."""
+    if isinstance(value, dict):
+        return ", ".join(
+            f"{key.replace('_', ' ')} {_nested(item)}"
+            for key, item in value.items()
+            if item is not None
+        )
+    if isinstance(value, list | tuple):
+        return ", ".join(_nested(item) for item in value)
+    return str(value)
+
+
+def _nested(value) -> str:
+    text = readable(value)
+    return f"({text})" if isinstance(value, dict | list | tuple) else text
+
+
 def _hms(seconds) -> str:
     if seconds is None:
         return "?"
@@ -249,6 +303,8 @@ class SessionProgress:
             self.progress.console.print(escape(f"daemon: {self.state}"))
         elif topic == "log":
             detail = {k: v for k, v in event.items() if k not in ("topic", "seq", "time", "kind")}
-            self.progress.console.print(escape(f"{event.get('kind')}: {detail}"))
+            action = detail.pop("action", None)  # "session start: …", not "session: action …"
+            what = event.get("kind") if action is None else f"{event.get('kind')} {action}"
+            self.progress.console.print(escape(f"{what}: {readable(detail)}"))
         elif topic == "gap":
             self.progress.console.print(f"[yellow]missed {event['missed']} event(s)[/yellow]")

@@ -20,7 +20,7 @@ import typer
 from rich.markup import escape
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from orchestrator.cli.common import console
+from orchestrator.cli.common import PLAIN_HELP, console
 from rig.errors import ConfigError
 
 __all__ = ["app"]
@@ -28,6 +28,7 @@ __all__ = ["app"]
 app = typer.Typer(
     help="Write a session's frames, normtextures or material in other formats.",
     no_args_is_help=True,
+    rich_markup_mode=PLAIN_HELP,
 )
 
 _Archive = Annotated[Path, typer.Argument(help="session archive", show_default=False)]
@@ -155,7 +156,7 @@ def ubo2003(
         typer.Option(
             min=1e-9,
             help="linear value written as 255, kept in the manifest (default: an imported "
-            "set's own, else the brightest 0.1 %% of the most frontal view slot)",
+            "set's own, else the brightest 0.1 % of the most frontal view slot)",
         ),
     ] = None,
     overwrite: _Overwrite = False,

@@ -9,7 +9,7 @@ import typer
 from rich.markup import escape
 from rich.table import Table
 
-from orchestrator.cli.common import console, load_config_option
+from orchestrator.cli.common import console, load_config_option, working
 from rig.config import RigConfig
 from rig.kinematics import sampling_residuals
 from rig.plan import Plan, load_plan
@@ -84,7 +84,8 @@ def register(app: typer.Typer) -> None:
             _print_residuals(the_plan, rig)
         if not (estimate or steps):
             return
-        schedule = compile_plan(the_plan, rig)
+        with working(f"compiling the plan for the {rig.kind} rig {rig.name}"):
+            schedule = compile_plan(the_plan, rig)
         if estimate:
             print_estimate(schedule)
         if steps:

@@ -10,7 +10,7 @@ from typing import Annotated
 import typer
 from rich.markup import escape
 
-from orchestrator.cli.common import SessionProgress, check_new_archive, console
+from orchestrator.cli.common import SessionProgress, check_new_archive, console, readable
 from rig.errors import ConfigError, RigError
 
 __all__ = ["FaultHints", "register"]
@@ -54,7 +54,24 @@ def _print_status(state: dict) -> None:
     console.print(f"daemon: [bold]{state.get('state')}[/bold]")
     for key in ("session", "sample", "archive", "committed", "steps", "frames", "fault", "reason"):
         if session.get(key) is not None:
-            console.print(escape(f"  {key}: {session[key]}"))
+            console.print(escape(f"  {key}: {readable(session[key])}"))
+
+
+def _steering(request: str):
+    """The command that sends ``request`` (pause, abort, shutdown) to the daemon; the
+    request is bound here, not as a parameter, so it is no option of the command."""
+
+    def command(
+        connect: Annotated[str, CONNECT] = DEFAULT_CONNECT,
+        server_key: Annotated[Path | None, SERVER_KEY] = None,
+        secret_key: Annotated[Path | None, SECRET_KEY] = None,
+    ) -> None:
+        from orchestrator import client
+
+        daemon = _daemon_at(connect, server_key, secret_key)
+        _print_status(getattr(client, request)(connect=daemon))
+
+    return command
 
 
 class FaultHints:
@@ -198,20 +215,7 @@ def register(app: typer.Typer) -> None:
         ("abort", "Abort the running session (committed steps stay in the archive)."),
         ("shutdown", "Stop the daemon cleanly."),
     ):
-
-        def command(
-            connect: Annotated[str, CONNECT] = DEFAULT_CONNECT,
-            server_key: Annotated[Path | None, SERVER_KEY] = None,
-            secret_key: Annotated[Path | None, SECRET_KEY] = None,
-            _name=name,
-        ) -> None:
-            from orchestrator import client
-
-            daemon = _daemon_at(connect, server_key, secret_key)
-            _print_status(getattr(client, _name)(connect=daemon))
-
-        command.__doc__ = doc
-        app.command(name)(command)
+        app.command(name, help=doc)(_steering(name))
 
     @app.command()
     def resume(

@@ -14,7 +14,7 @@ import typer
 from rich.markup import escape
 from typer.core import TyperGroup
 
-from orchestrator.cli.common import console, prepare_file
+from orchestrator.cli.common import PLAIN_HELP, console, prepare_file
 from rig.config import RIG_KINDS
 from rig.errors import ConfigError
 
@@ -37,6 +37,7 @@ class _DefaultServe(TyperGroup):
 app = typer.Typer(
     cls=_DefaultServe,
     no_args_is_help=True,
+    rich_markup_mode=PLAIN_HELP,
     help="The simulated rig: `rig sim SCENE` serves its devices; `rig sim render` draws it.",
 )
 

@@ -9,7 +9,7 @@ from typing import Annotated
 import numpy as np
 import typer
 
-from orchestrator.cli.common import EXIT_INVALID, console, err_console, prepare_file
+from orchestrator.cli.common import EXIT_INVALID, console, err_console, prepare_file, working
 from orchestrator.cli.view_scene import (
     CAMERA_FORMS,
     ENV_FORMS,
@@ -71,7 +71,8 @@ def register(app: typer.Typer) -> None:
             str,
             typer.Option(
                 help="plane | sphere | cylinder | torus | cloth (draped over a sphere), or an "
-                "OBJ/PLY/glTF/GLB file with UVs (positions in mm)"
+                "OBJ/PLY/glTF/GLB file with UVs (OBJ, PLY in mm; glTF in metres, +Y up, "
+                "as it defines)"
             ),
         ] = "cloth",
         light: Annotated[
@@ -319,7 +320,12 @@ def _run(
             return
         # A turntable turns the sample under the rig: camera and lights go round together.
         turns = np.arange(1, turntable) * 360.0 / turntable
-        frames = [first, *(draw(turn, 0.0, turn) for turn in turns)]
+        frames = [first]
+        with working(f"rendering {out}", total=turntable) as advance:
+            advance()
+            for turn in turns:
+                frames.append(draw(turn, 0.0, turn))
+                advance()
     _write_gif(out, [to_srgb8(frame, exposure_ev=exposure_ev) for frame in frames])
     console.print(f"wrote {out} ({turntable} frames, {size[0]}×{size[1]}, {mesh.name})")
 

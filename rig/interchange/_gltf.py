@@ -1,10 +1,12 @@
 """A binary glTF (``.glb``) of the sample with its maps as a PBR material.
 
 The mesh is a plane of the sample's size (metres, glTF's unit; +Y up, the
-sample's normal), or a mesh file with UVs. The material's base colour is the
-albedo (sRGB), its normal texture the OpenGL-convention normal map — glTF's
-own convention — at 8 bits (the image library trimesh writes through holds no
-16-bit RGB; the ``maps`` export has the 16-bit one), metallic 0, roughness 1.
+sample's normal), or a mesh file with UVs: a glTF's is kept as it is, an
+OBJ's or PLY's (mm, +Z up, as ``rig view`` reads them) turned into metres, +Y
+up. The material's base colour is the albedo (sRGB), its normal texture the
+OpenGL-convention normal map — glTF's own convention — at 8 bits (the image
+library trimesh writes through holds no 16-bit RGB; the ``maps`` export has the
+16-bit one), metallic 0, roughness 1.
 """
 
 from __future__ import annotations
@@ -51,6 +53,9 @@ def _mesh_file(path: Path):
     uvs = getattr(mesh.visual, "uv", None)
     if uvs is None or len(uvs) != len(mesh.vertices):
         raise InterchangeError(f"--mesh {path}: has no UV per vertex; the maps need UVs")
+    if path.suffix.lower() not in (".gltf", ".glb"):
+        x, y, z = np.asarray(mesh.vertices, dtype=np.float64).T
+        mesh.vertices = np.stack([x, z, -y], axis=1) / 1000.0  # (x, y, z) mm → (x, z, −y) m
     return mesh, np.asarray(uvs)
 
 

@@ -9,11 +9,14 @@ simulator's (``sim.sensor.inverse_response``) after both are normalised at 128.
 
 import numpy as np
 import pytest
+from typer.testing import CliRunner
 
 from calibration.plans import response_plan
 from calibration.response import ResponseError, calibrate_response, merge_bracket
 from calibration.sessions import calibrate_responses
+from orchestrator.cli import app
 from orchestrator.local import run_local
+from rig.calfile import load_calibration
 from rig.clock import VirtualClock
 from rig.config import default_rig_config
 from sim.calibration import target_scene
@@ -88,3 +91,22 @@ def test_a_scene_without_shades_is_refused():
     flat = [np.full((16, 16, 3), 255, np.uint8), np.full((16, 16, 3), 255, np.uint8)]
     with pytest.raises(ResponseError, match="vary over the bracket"):
         calibrate_response(flat, [0.01, 0.02])
+
+
+def test_calibrate_on_a_fresh_clone_makes_its_folder(tmp_path, monkeypatch):
+    """`rig calibrate response --sim` where no calibrations/ folder exists yet."""
+    monkeypatch.chdir(tmp_path)
+    result = CliRunner().invoke(app, ["calibrate", "response", "--sim", "--scale", "0.1"])
+    assert result.exit_code == 0, result.output
+    assert (tmp_path / "calibrations" / "response.plan.toml").is_file()
+    assert load_calibration(tmp_path / "calibrations" / "calibration.toml").response
+
+
+def test_the_calibration_file_may_go_to_a_new_folder(session, tmp_path):
+    archive, _ = session
+    out = tmp_path / "new" / "cal.toml"
+    result = CliRunner().invoke(
+        app, ["calibrate", "response", "--from", str(archive), "--out", str(out)]
+    )
+    assert result.exit_code == 0, result.output
+    assert load_calibration(out).response and out.with_suffix(".response.png").is_file()

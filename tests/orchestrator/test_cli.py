@@ -4,10 +4,13 @@ import tomllib
 from pathlib import Path
 
 import pytest
+import typer
 from typer.testing import CliRunner
 
 from orchestrator.cli import app
-from orchestrator.cli.common import EXTRAS
+from orchestrator.cli.bench_cmd import AREAS
+from orchestrator.cli.common import EXTRAS, SessionProgress
+from orchestrator.cli.session_cmd import _print_status as print_status
 from processing.offline import STAGES, MdfStage
 from rig.errors import KinematicsError
 
@@ -175,8 +178,11 @@ def test_daemon_options_are_checked(args, needles):
 
 
 def test_daemon_certificates_must_exist(tmp_path):
-    result = runner.invoke(app, ["daemon", "--curve-secret-key", str(tmp_path / "none.key")])
-    assert result.exit_code == 2 and "does not exist" in result.output
+    # a path longer than a terminal line: the message must keep it whole at any width
+    key = tmp_path / ("certificates-" * 8) / "none.key"
+    result = runner.invoke(app, ["daemon", "--curve-secret-key", str(key)])
+    assert result.exit_code == 2
+    assert f"'{key}' does not exist" in result.output, result.output
 
 
 def test_brackets_in_a_message_are_shown(tmp_path):
@@ -394,3 +400,62 @@ def test_sim_coverage_prints_the_table_and_the_chosen_locations():
     ]  # fmt: skip
     assert float(rows[1][3]) < 0.95 <= 0.99 <= float(rows[3][3])
     assert "laser_locations = [[45, 0], [45, 90], [45, 180], [45, 270], [20," in result.output
+
+
+def _command_paths(command, path=()):
+    """Every command of the `rig` tree, as the words that reach it."""
+    yield path
+    for name, sub in getattr(command, "commands", {}).items():
+        yield from _command_paths(sub, (*path, name))
+
+
+@pytest.mark.parametrize("path", list(_command_paths(typer.main.get_command(app))), ids=" ".join)
+def test_help_reads_whole_at_80_columns(path):
+    result = runner.invoke(app, [*path, "--help"], env={"COLUMNS": "80"})
+    assert result.exit_code == 0, result.output
+    assert max(len(line) for line in result.output.splitlines()) <= 80, result.output
+    lines = result.output.splitlines()
+    assert not [line for line in lines if line.rstrip(" │").endswith("…")]  # nothing cut short
+    assert "<bool>" not in result.output  # a flag takes no value
+    assert "%%" not in result.output
+    assert "---" not in result.output  # no internal parameter shown as an option
+
+
+def test_light_syntax_is_whole_in_view_help():
+    result = runner.invoke(app, ["view", "--help"], env={"COLUMNS": "80"})
+    assert "dir:THETA,PHI[:INTENSITY[:R,G,B]]" in result.output
+    assert "point:X,Y,Z[:IRRADIANCE[:R,G,B]]" in result.output
+
+
+@pytest.mark.parametrize("request_name", ["pause", "abort", "shutdown"])
+def test_steering_commands_have_no_hidden_request_option(request_name):
+    result = runner.invoke(
+        app, [request_name, "---name", "shutdown", "--connect", "tcp://127.0.0.1:1"]
+    )
+    assert result.exit_code == 2 and "No such option: ---name" in result.output, result.output
+
+
+@pytest.mark.parametrize("area", list(AREAS))
+def test_each_benchmark_says_what_it_measures(area):
+    lines = runner.invoke(app, ["bench", area, "--help"], env={"COLUMNS": "80"}).output.splitlines()
+    description = " ".join(lines[lines.index("") + 1 : lines.index("Options:")])
+    assert "benchmark" not in description and len(description.split()) >= 20, description
+
+
+def test_session_events_and_status_are_printed_as_words(capsys):
+    fault = {"device": "light arc", "operation": "move", "detail": "stalled", "step": 4}
+    with SessionProgress() as view:
+        view({"topic": "log", "seq": 3, "time": 1.0, "kind": "session", "action": "start",
+              "session": "abc", "committed": 0})  # fmt: skip
+        view({"topic": "log", "seq": 4, "time": 2.0, "kind": "fault", **fault})
+    print_status({"state": "paused", "session": {"session": "abc", "fault": fault}})
+    out = capsys.readouterr().out
+    assert "session start: session abc, committed 0" in out, out
+    assert "fault: device light arc, operation move, detail stalled, step 4" in out, out
+    assert "{" not in out and "'" not in out, out
+
+
+def test_a_long_compile_says_what_it_is_doing():
+    result = runner.invoke(app, ["plan", str(EXAMPLES / "demo.toml"), "--estimate"])
+    assert result.exit_code == 0, result.output
+    assert "compiling the plan for the wang rig default" in result.stderr

@@ -9,6 +9,7 @@ import trimesh
 from typer.testing import CliRunner
 
 from orchestrator.cli import app
+from render.meshes import load_mesh
 from rig.geometry import texel_centers_mm
 from rig.interchange import decode_normal_map, read_image, srgb_decode
 from rig.material import PsView
@@ -124,3 +125,30 @@ def test_a_mesh_with_uvs_carries_the_maps(archive, tmp_path):
     args[-1] = str(tmp_path / "flat.obj")
     refused = runner.invoke(app, [*args[:4], str(tmp_path / "x.glb"), *args[5:]])
     assert refused.exit_code == 2 and "has no UV per vertex" in " ".join(refused.output.split())
+
+
+def test_the_glb_comes_back_to_the_renderer_at_the_samples_size(archive, tmp_path):
+    """export → view: glTF's metres and +Y up are read as mm and +Z up, so the plane is
+    the sample at its size (read as mm it was 1000 times too small: one texel wide)."""
+    out = tmp_path / "sample.glb"
+    assert runner.invoke(app, ["export", "gltf", str(archive), "--out", str(out)]).exit_code == 0
+    mesh = load_mesh(out)
+    np.testing.assert_allclose(np.ptp(mesh.positions, axis=0), [SAMPLE_MM, SAMPLE_MM, 0])
+    np.testing.assert_allclose(np.ptp(mesh.uvs, axis=0), [SAMPLE_MM, SAMPLE_MM], rtol=1e-6)
+    np.testing.assert_allclose(mesh.normals, [[0, 0, 1]] * len(mesh.normals), atol=1e-6)
+    # texel row 0, column 0 (−x, +y) keeps its corner of the UV square
+    corner = np.argmin(mesh.positions[:, 0] - mesh.positions[:, 1])
+    np.testing.assert_allclose(mesh.uvs[corner], [0, SAMPLE_MM], atol=1e-9)
+
+
+def test_a_mesh_in_mm_is_written_in_metres(archive, tmp_path):
+    (tmp_path / "quad.obj").write_text(
+        "v 0 0 0\nv 60 0 0\nv 60 60 0\nv 0 60 0\nvt 0 0\nvt 1 0\nvt 1 1\nvt 0 1\n"
+        "f 1/1 2/2 3/3\nf 1/1 3/3 4/4\n"
+    )
+    out = tmp_path / "quad.glb"
+    args = ["export", "gltf", str(archive), "--out", str(out), "--mesh", str(tmp_path / "quad.obj")]
+    assert runner.invoke(app, args).exit_code == 0
+    (written,) = trimesh.load(out).geometry.values()
+    np.testing.assert_allclose(np.ptp(written.vertices, axis=0), [0.06, 0, 0.06])  # +Y up
+    np.testing.assert_allclose(np.ptp(load_mesh(out).positions, axis=0), [60, 60, 0], atol=1e-9)

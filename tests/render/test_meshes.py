@@ -215,10 +215,16 @@ def test_drape_is_deterministic():
 
 
 def _plane_file(path):
-    """A 100 mm plane with UVs in [0, 1], as a modelling tool would write it."""
+    """A 100 mm plane with UVs in [0, 1], as a modelling tool would write it: in mm,
+    +Z up, or as glTF defines, in metres with +Y up."""
     flat = plane(size_mm=100.0, segments=4)
     visual = trimesh.visual.TextureVisuals(uv=flat.uvs / 100.0)
-    mesh = trimesh.Trimesh(flat.positions, flat.faces, visual=visual, process=False)
+    x, y, z = flat.positions.T
+    positions = np.stack([x, z, -y], axis=1) / 1000.0 if path.suffix in (".glb", ".gltf") else None
+    mesh = trimesh.Trimesh(
+        flat.positions if positions is None else positions, flat.faces, visual=visual,
+        process=False,
+    )  # fmt: skip
     if path.suffix == ".gltf":
         # A .gltf comes with its buffers; trimesh hands them back as named files.
         for name, content in mesh.export(file_type="gltf").items():
@@ -240,6 +246,7 @@ def test_load_mesh_reads_uvs_and_scales_them_to_mm(tmp_path, suffix):
     assert_allclose(mesh.positions[order], flat.positions[expected], atol=1e-5)
     assert_allclose(mesh.uvs[order], flat.uvs[expected], atol=1e-3)
     assert_allclose(mesh.tangents[order], flat.tangents[expected], atol=1e-5)
+    assert_allclose(mesh.normals, [[0, 0, 1]] * len(mesh.normals), atol=1e-6)
     assert mesh_by_name(path).positions.shape == mesh.positions.shape
 
 

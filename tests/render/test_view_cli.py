@@ -1,7 +1,10 @@
 """`rig view`: images, EXR, turntable GIF from a small material store; exit codes for bad input."""
 
+import importlib.util
 import json
 import os
+import re
+import shlex
 import subprocess
 import sys
 from pathlib import Path
@@ -76,6 +79,7 @@ def test_turntable_writes_a_gif_whose_frames_turn(store, tmp_path):
         str(out),
     )
     assert result.exit_code == 0, result.output
+    assert f"rendering {out}" in result.stderr  # the frames take a while: it says so
     with Image.open(out) as gif:
         assert gif.n_frames == 3
         frames = []
@@ -235,3 +239,42 @@ def test_a_size_the_gl_context_cannot_draw_exits_2_naming_it(store, tmp_path):
     assert result.exit_code == 2, result.output
     said = " ".join(result.output.split())
     assert "image size 16384×16384: this OpenGL context" in said and not out.exists()
+
+
+def test_a_gltf_in_metres_renders_as_the_same_plane_in_mm(store, tmp_path):
+    """glTF is metres, +Y up: the built-in 100 mm plane written so renders as that plane
+    (read as mm it was 0.1 mm wide, one featureless texel of the sample)."""
+    flat = mesh_by_name("plane")
+    x, y, z = flat.positions.T
+    visual = trimesh.visual.TextureVisuals(uv=flat.uvs / 100.0)
+    gltf = trimesh.Trimesh(np.stack([x, z, -y], 1) / 1000.0, flat.faces, visual=visual)
+    gltf.export(tmp_path / "plane.glb")
+    images = []
+    for mesh in ("plane", str(tmp_path / "plane.glb")):
+        out = tmp_path / f"{len(images)}.png"
+        args = ["view", str(store), "--mesh", mesh, "--size", "64x48", "--tile-mm", "20"]
+        result = runner.invoke(
+            app, [*args, "--light", "dir:30,0", "--exposure", "0", "--out", str(out)]
+        )
+        assert result.exit_code == 0, result.output
+        images.append(_png(out))
+    assert images[0].std() > 5  # the sample's texture shows
+    assert_allclose(images[1], images[0], atol=3)
+
+
+def test_the_readme_caption_command_draws_the_demos_picture(store, tmp_path):
+    """The command under the README's cloth picture draws what `make demo` wrote there
+    (examples/demo.py's own rendering), here for a small material."""
+    readme = (Path(__file__).parents[2] / "README.md").read_text()
+    (command,) = re.findall(r"`(rig view out/demo/demo\.zarr [^`]*)`", readme)
+    args = shlex.split(command)[1:]
+    args[1], args[args.index("--out") + 1] = str(store), str(tmp_path / "caption.png")
+    result = runner.invoke(app, args)
+    assert result.exit_code == 0, result.output
+    spec = importlib.util.spec_from_file_location(
+        "demo", Path(__file__).parents[2] / "examples" / "demo.py"
+    )
+    demo = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(demo)
+    drawn = demo._render_cloth(store, tmp_path)
+    assert_allclose(_png(tmp_path / "caption.png"), _png(drawn), atol=1)

@@ -5,6 +5,7 @@ from pathlib import Path
 import pytest
 
 from rig.errors import ConfigError
+from rig.plan import load_plan
 from sim import load_scene, scene_from_dict
 
 SCENES = sorted((Path(__file__).parents[2] / "examples" / "scenes").glob("*.toml"))
@@ -108,3 +109,11 @@ def test_the_scene_or_the_caller_picks_the_rig_kind():
     stage = load_scene("examples/scenes/bumps.toml", kind="virtex")
     assert stage.rig.kind == "virtex" and [c.theta_deg for c in stage.rig.camera_arc.cameras] == [0]
     assert stage.rig.device_roles == ("lamp_bank",)
+
+
+def test_the_demo_plan_describes_the_scene_it_runs_on():
+    """`make demo` and the README run examples/plans/demo.toml on the default scene."""
+    examples = Path(__file__).parents[2] / "examples"
+    scene = load_scene(examples / "scenes" / "default.toml")
+    description = load_plan(examples / "plans" / "demo.toml").sample.description
+    assert scene.spec.sample.generator in description, (scene.spec.sample.generator, description)

@@ -1,4 +1,7 @@
-"""Simulator API: frames, timing, life cycle."""
+"""Simulator API: frames, timing, life cycle, memory."""
+
+import dataclasses
+import tracemalloc
 
 import numpy as np
 import pytest
@@ -59,3 +62,40 @@ def test_close_is_idempotent_and_final():
     sim.close()
     with pytest.raises(RuntimeError, match="closed"):
         sim.render_state("cam0", turntable_deg=5.0)
+
+
+def _hit_inputs(sim, camera_id="cam0"):
+    """What ``Simulator`` hands ``SceneModel.hits`` for one frame (no supersampling)."""
+    camera = sim.model.camera(camera_id)
+    faces = sim._raster.face_ids(camera, 0.0)
+    origin, dirs = sim.model.camera_rays(camera, 0.0)
+    pixels = np.flatnonzero(faces.ravel() >= 0)
+    return faces.shape, pixels, origin, dirs[pixels], faces.ravel()[pixels]
+
+
+def test_hits_built_in_chunks_are_the_same_and_bound_the_temporaries(bumps_sim):
+    inputs = _hit_inputs(bumps_sim)
+    whole = bumps_sim.model.hits(*inputs, chunk=len(inputs[1]))
+    tracemalloc.start()
+    try:
+        chunked = bumps_sim.model.hits(*inputs, chunk=len(inputs[1]) // 16)
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    for field in dataclasses.fields(whole):
+        np.testing.assert_array_equal(getattr(chunked, field.name), getattr(whole, field.name))
+    # the parts and their concatenation, plus one chunk's temporaries (whole: ~3×)
+    assert peak < 2.3 * whole.nbytes, (peak, whole.nbytes)
+
+
+def test_the_hits_cache_holds_at_most_its_bytes(monkeypatch):
+    sim = Simulator(small_scene("bumps", params={"grid": 65}))
+    try:
+        one = sim.model.hits(*_hit_inputs(sim)).nbytes
+        monkeypatch.setattr(sim._hits, "max_bytes", int(2.5 * one))
+        for camera_id in ("cam0", "cam1", "cam2", "cam3"):
+            sim.render_state(camera_id, lamps_on=["lamp1"])
+        assert len(sim._hits) == 2
+        assert sum(hits.nbytes for hits in sim._hits.values()) <= 2.5 * one
+    finally:
+        sim.close()

@@ -200,6 +200,40 @@ def test_stop_ends_the_move_where_the_arm_is(ready_arm, controller, clock):
     assert _pose_error(ready_arm.pose(), here)[0] < 1e-9
 
 
+def test_stop_waits_until_the_controller_has_taken_it(ready_arm, controller, clock, monkeypatch):
+    """A controller busy elsewhere takes the stopj only after some state packets (as a
+    loaded machine's peer does): the wait returns where the arm came to rest, not
+    where it was when the stopj left."""
+    state = controller.state
+    run_script, snapshot = state.run_script, state.snapshot
+    held: list[str] = []
+
+    def run_late(text: str) -> None:
+        if text.startswith("stopj"):
+            held.append(text)
+        else:
+            run_script(text)
+
+    def snapshot_then_run_held() -> dict:
+        if held and clock.now() >= stop_sent_at + 0.2:  # 0.2 s of virtual time later
+            run_script(held.pop())
+        return snapshot()
+
+    monkeypatch.setattr(state, "run_script", run_late)
+    monkeypatch.setattr(state, "snapshot", snapshot_then_run_held)
+    start = ready_arm.pose()
+    ready_arm.move_to(_offset(start, 0.1, 0.0, _TILTED))
+    while not ready_arm.status().program_state.startswith("PLAYING"):
+        clock.sleep(0.001)
+    clock.sleep(0.3)
+    stop_sent_at = clock.now()
+    ready_arm.stop()
+    here = ready_arm.wait_until_settled()
+    assert not held
+    clock.sleep(1.0)
+    assert _pose_error(ready_arm.pose(), here)[0] < 1e-9
+
+
 def test_one_owner_per_controller(arm, controller, clock):
     with pytest.raises(DeviceError, match="in use by process"):
         UrArm(device_of(controller), clock=clock)

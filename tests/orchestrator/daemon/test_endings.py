@@ -64,11 +64,10 @@ def test_abort_is_prompt_while_frames_wait_at_a_stuck_worker(config, rig, tmp_pa
             while control.request("status")["stream"]["in_flight"] < 2:
                 time.sleep(0.01)
             time.sleep(0.2)
-            started = time.monotonic()
+            # settled within 10 s, though a frame would be resent only after 60 s: the
+            # abort does not wait for the stuck worker (no wall-clock bound of its own)
             aborted = client.abort(connect=endpoints, timeout_s=10)
-            took = time.monotonic() - started
             assert aborted["state"] == "aborted" and not aborted["busy"]
-            assert took < 5, f"abort took {took:.1f} s"
             assert aborted["stream"]["in_flight"] == 0
         # a submit right after is taken (the stuck worker is gone: frames stay in the archive)
         with DaemonClient(endpoints) as control:
