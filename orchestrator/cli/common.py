@@ -25,6 +25,7 @@ __all__ = [
     "SessionProgress",
     "check_new_archive",
     "console",
+    "flagged_lines",
     "load_config_option",
     "prepare_folder",
     "quiet_dask_logs",
@@ -148,6 +149,21 @@ def _refuse_file_on_the_way(folder: Path, option: str) -> None:
         raise ConfigError(f"{option}: {blocking} is a file, not a folder; give another path")
 
 
+def flagged_lines(summary: dict) -> list[str]:
+    """``rig.frame_check.flag_summary`` as lines for a user: how many frames did not
+    record their step's state, at which steps, what became of them, and why."""
+    if not summary.get("frames"):
+        return []
+    steps = ", ".join(str(s) for s in summary["steps"])
+    lines = [
+        f"flagged: {summary['frames']} frame(s) did not record their step's state "
+        f"(steps {steps}): {summary['recaptured']} taken again and matched, "
+        f"{summary['left_out']} still mismatched (processing leaves them out)"
+    ]
+    lines += [f"  step {step}: {why}" for step, why in summary["reasons"].items()]
+    return lines
+
+
 def _hms(seconds) -> str:
     if seconds is None:
         return "?"
@@ -192,5 +208,13 @@ class SessionProgress:
         elif topic == "log":
             detail = {k: v for k, v in event.items() if k not in ("topic", "seq", "time", "kind")}
             self.progress.console.print(escape(f"{event.get('kind')}: {detail}"))
+        elif topic == "flagged":
+            self.progress.console.print(
+                escape(
+                    f"step {event['step']}: {event['frames']} frame(s) flagged, "
+                    f"{event['recaptured']} taken again and matched ({event['reason']})"
+                ),
+                style="yellow",
+            )
         elif topic == "gap":
             self.progress.console.print(f"[yellow]missed {event['missed']} event(s)[/yellow]")

@@ -10,7 +10,7 @@ from typing import Annotated
 import typer
 from rich.markup import escape
 
-from orchestrator.cli.common import SessionProgress, check_new_archive, console
+from orchestrator.cli.common import SessionProgress, check_new_archive, console, flagged_lines
 from rig.errors import ConfigError, RigError
 
 __all__ = ["FaultHints", "register"]
@@ -45,6 +45,8 @@ def _print_status(state: dict) -> None:
     for key in ("session", "sample", "archive", "committed", "steps", "frames", "fault", "reason"):
         if session.get(key) is not None:
             console.print(escape(f"  {key}: {session[key]}"))
+    for line in flagged_lines(session.get("flagged") or {}):
+        console.print(escape(f"  {line}"))
 
 
 class FaultHints:
