@@ -5,7 +5,8 @@ and ``orchestrator.daemon.devices``), model motion and exposure time on the inje
 clock (parallel axes overlap: each wait sleeps only up to its own end), make
 deterministic frames from the rig's state, record any exposure taken while an
 axis moved, and inject faults on request (stall, timeout, dropped frame, a dark
-lamp; a stray lamp lit or the turntable bumped during an exposure, a stale frame). Used by the daemon tests, in process and in ``soft_daemon.py``.
+lamp; a stray lamp lit or the turntable bumped during an exposure, a stale
+frame). Used by the daemon tests, in process and in ``soft_daemon.py``.
 """
 
 from __future__ import annotations
