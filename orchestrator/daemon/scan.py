@@ -18,7 +18,7 @@ import numpy as np
 from drivers.interfaces import Axis
 from rig.archive import FrameFlag
 from rig.clock import Clock
-from rig.config import RigConfig
+from rig.config import Laser, RigConfig
 from rig.frame_check import (
     FrameState,
     frame_mismatch,
@@ -76,8 +76,7 @@ def sweep_scan(
     captured: dict[str, list[Captured]] = {c: [] for c in cameras}
     readbacks = []
     tilt.move_to(tilt_deg[1])
-    sweep = _Sweep(tilt, clock, end_deg=tilt_deg[1], speed_deg_s=config.laser.sweep_speed_deg_s,
-                   count_deg=config.laser.device.gear_ratio)  # fmt: skip
+    sweep = _Sweep(tilt, clock, end_deg=tilt_deg[1], laser=config.laser)
     for sub, target in enumerate(planned):
         before = sweep.reach(float(target))
         shoot(cameras, exposure_s, sub, captured)
@@ -128,28 +127,31 @@ def _scan_mismatches(
 class _Sweep:
     """Paces a sweep's frames by the sheet's read-back, not by the clock.
 
-    ``reach`` waits until the tacho count says the sheet reached a tilt. It
+    ``reach`` waits until the tacho count says the sheet reached a tilt, and
+    at least a laser frame period (``frame_rate_hz``) after the frame before. It
     sleeps for the distance left at the speed the sheet has shown so far (never
     less than the configured one): a sheet faster than its config, or a clock
     slower than the sheet's (a simulator run sped up), does not make it wait
     past the crossing.
     """
 
-    def __init__(self, tilt: Axis, clock: Clock, *, end_deg: float, speed_deg_s: float,
-                 count_deg: float):  # fmt: skip
+    def __init__(self, tilt: Axis, clock: Clock, *, end_deg: float, laser: Laser):
         self.tilt = tilt
         self.clock = clock
         self.end_deg = end_deg
-        self.speed_deg_s = speed_deg_s
-        self.planned_deg_s = speed_deg_s
-        self.count_deg = count_deg  # one tacho count (deg): the read-back's resolution
+        self.speed_deg_s = self.planned_deg_s = laser.sweep_speed_deg_s
+        self.count_deg = laser.device.gear_ratio  # one tacho count: the read-back's resolution
+        self.period_s = 1.0 / laser.frame_rate_hz
         self._last: tuple[float, float] | None = None  # (time, tilt) of the last read
         self._timeout_at: float | None = None
+        self._not_before: float | None = None
 
     def reach(self, target_deg: float) -> float:
         """The tilt read back once the sheet is within half a count of ``target_deg``
         (or has stopped, or twice the planned sweep time passed)."""
         direction = 1.0 if self.end_deg >= target_deg else -1.0
+        if self._not_before is not None:
+            self.clock.sleep(max(0.0, self._not_before - self.clock.now()))
         if self._timeout_at is None:
             sweep_s = abs(self.end_deg - float(self.tilt.position())) / self.speed_deg_s
             self._timeout_at = self.clock.now() + 2.0 * sweep_s + 1.0
@@ -166,5 +168,6 @@ class _Sweep:
             remaining = direction * (target_deg - deg)
             # the count is rounded: a sheet at the target reads within half a count
             if remaining <= 0.5 * self.count_deg + 1e-9 or stopped or t > self._timeout_at:
+                self._not_before = t + self.period_s
                 return deg
             self.clock.sleep(remaining / self.speed_deg_s)
