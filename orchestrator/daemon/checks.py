@@ -1,10 +1,11 @@
 """The state check of a lamp step's frames, and how flagged frames are announced.
 
 A lamp step's frames must record the step's lamp alone, lit, with the axes
-where the step sent them. The bracket is the actuators' settled read-back (the
-move's) before the trigger and the devices' telemetry — the lamp bank's coils,
-the turntable's Modbus and the arc's Dynamixel position registers — after the
-frames came back; each camera's timestamps must rise. A step whose frames fail
+where the step's move settled them (the move's read-back, which the drivers
+checked against the step's targets on arrival). After the frames came back the
+devices' telemetry — the lamp bank's coils, the turntable's Modbus and the
+arc's Dynamixel position registers, the Bonn rail's — must still say so, and
+each camera's timestamps must rise. A step whose frames fail
 is driven again (the axes re-sent, the lamp switched again) and taken again
 once; what still fails stays flagged (``rig.archive.FrameFlag``) and processing
 leaves it out. Laser steps check their frames in ``orchestrator.daemon.scan``.
@@ -37,16 +38,15 @@ def checked_capture(
     again and returns the new read-back. Returns the frames to commit, their
     flags and the actuators' read-back the frames were taken at.
     """
-    meant = _meant(step)
     frames = devices.capture(step.cameras, step.exposures_s)
-    reasons = _mismatches(meant, actuators, devices.telemetry(), frames)
+    reasons = _mismatches(step, actuators, devices.telemetry(), frames)
     if not reasons:
         return frames, (), actuators
     devices.forget_position()
     actuators = redrive()
     devices.lamp(step.source, True)
     frames = devices.capture(step.cameras, step.exposures_s)
-    still = _mismatches(meant, actuators, devices.telemetry(), frames)
+    still = _mismatches(step, actuators, devices.telemetry(), frames)
     flags = []
     for key in sorted({*reasons, *still}):
         reason = reasons.get(key, "matched at first")
@@ -56,26 +56,25 @@ def checked_capture(
     return frames, tuple(flags), actuators
 
 
-def _meant(step: Step | BonnStep) -> FrameState:
-    if isinstance(step, BonnStep):
-        axes = {"rail_deg": step.rail_deg}
-    else:
-        axes = {"turntable_deg": step.turntable_deg, "arc_deg": step.arc_deg}
-    return FrameState(lamps_on=frozenset({step.source}), axes=axes)
+def _axes(step: Step | BonnStep) -> tuple[str, ...]:
+    return ("rail_deg",) if isinstance(step, BonnStep) else ("turntable_deg", "arc_deg")
 
 
 def _mismatches(
-    meant: FrameState, settled: Mapping[str, float], after: Mapping, frames: Frames
+    step: Step | BonnStep, settled: Mapping[str, float], after: Mapping, frames: Frames
 ) -> dict[tuple[str, int], str]:
-    """Why each frame (by camera and sub) does not record ``meant``."""
-    readbacks = [
-        FrameState(axes={k: v for k, v in settled.items() if k in meant.axes}),
-        FrameState(
-            lamps_on=None if "lamps_on" not in after else frozenset(after["lamps_on"]),
-            axes={k: v for k, v in after.items() if k in meant.axes},
-        ),
-    ]
-    why = frame_mismatch(meant, readbacks, tilt_tolerance_deg=0.0)
+    """Why each frame (by camera and sub) does not record ``step``'s state: its lamp
+    alone, and the axes where the move settled (the drivers checked that against the
+    step's targets on arrival; here they must not have left it)."""
+    meant = FrameState(
+        lamps_on=frozenset({step.source}),
+        axes={axis: settled[axis] for axis in _axes(step) if axis in settled},
+    )
+    readback = FrameState(
+        lamps_on=None if "lamps_on" not in after else frozenset(after["lamps_on"]),
+        axes={axis: after[axis] for axis in meant.axes if axis in after},
+    )
+    why = frame_mismatch(meant, [readback], tilt_tolerance_deg=0.0)
     reasons = {}
     for camera, captured in frames.items():
         stale = stale_frames([f.timestamp for f in captured])
