@@ -94,12 +94,13 @@ def sweep_scan(
             [FrameState(tilt_deg=t) for t in readbacks[sub]],
             tilt_tolerance_deg=tolerance,
         )
-        for camera in cameras:
+        for camera in cameras:  # every camera's frame is the re-take; the failed ones flagged
             captured[camera][sub] = again[camera][0]
-            reason = reasons[sub].get(camera) or next(iter(reasons[sub].values()))
-            if still is not None:
-                reason = f"{reason}; taken again at a held tilt: {still}"
-            flags.append(FrameFlag(camera, sub, reason, recaptured=still is None))
+            if camera in reasons[sub]:
+                reason = reasons[sub][camera]
+                if still is not None:
+                    reason = f"{reason}; taken again at a held tilt: {still}"
+                flags.append(FrameFlag(camera, sub, reason, recaptured=still is None))
     return Scan(captured, [before for before, _ in readbacks], tuple(flags))
 
 
