@@ -101,6 +101,7 @@ def sweep_scan(
                 if still is not None:
                     reason = f"{reason}; taken again at a held tilt: {still}"
                 flags.append(FrameFlag(camera, sub, reason, recaptured=still is None))
+    flags.sort(key=lambda flag: (flag.sub, flag.camera))
     return Scan(captured, [before for before, _ in readbacks], tuple(flags))
 
 
