@@ -37,6 +37,8 @@ __all__ = [
 #: How far (deg) a turntable, arc or rail read-back may lie from where the step sent
 #: it: a few encoder ticks or steps, well below a degree of view or light direction.
 AXIS_TOLERANCE_DEG = 0.1
+#: How many steps' reasons ``flag_summary`` quotes.
+_REASONS = 10
 
 
 @dataclass(frozen=True)
@@ -147,12 +149,14 @@ def flag_summary(flags: Iterable[tuple[int, FrameFlag]]) -> dict:
 
     ``frames`` flagged in all, ``recaptured`` (taken again, the archived frame
     matches) and ``left_out`` (still mismatched: processing leaves them out);
-    ``steps``: their step indices; ``reasons``: the first reason at each step.
+    ``steps``: their step indices; ``reasons``: the first reason at each of the
+    first ``_REASONS`` such steps (a status reply stays small however many).
     """
     flags = list(flags)
     reasons: dict[str, str] = {}
     for index, flag in flags:
-        reasons.setdefault(str(index), f"{flag.camera} frame {flag.sub}: {flag.reason}")
+        if len(reasons) < _REASONS or str(index) in reasons:
+            reasons.setdefault(str(index), f"{flag.camera} frame {flag.sub}: {flag.reason}")
     return {
         "frames": len(flags),
         "recaptured": sum(flag.recaptured for _, flag in flags),

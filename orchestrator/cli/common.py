@@ -161,6 +161,8 @@ def flagged_lines(summary: dict) -> list[str]:
         f"{summary['left_out']} still mismatched (processing leaves them out)"
     ]
     lines += [f"  step {step}: {why}" for step, why in summary["reasons"].items()]
+    if len(summary["steps"]) > len(summary["reasons"]):
+        lines.append(f"  … and {len(summary['steps']) - len(summary['reasons'])} more step(s)")
     return lines
 
 

@@ -109,3 +109,5 @@ def test_the_summary_counts_what_was_taken_again_and_what_is_left_out():
                     "9": "cam2 frame 0: lamps read back lit []"},
     }  # fmt: skip
     assert flag_summary([])["frames"] == 0
+    many = flag_summary([(i, FrameFlag("cam0", 0, f"reason {i}", True)) for i in range(25)])
+    assert many["steps"] == list(range(25)) and list(many["reasons"]) == [str(i) for i in range(10)]
