@@ -63,6 +63,9 @@ class _ModelledRig:
         self.here = (turntable_deg, arc_deg)
         return {"turntable_deg": turntable_deg, "arc_deg": arc_deg}
 
+    def forget_position(self) -> None:
+        pass
+
     def lamp(self, lamp_id: str, on: bool) -> None:
         self.clock.sleep(self.config.lamp_bank.warmup_s)  # the bank waits on and off
 

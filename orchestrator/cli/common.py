@@ -34,6 +34,7 @@ __all__ = [
     "SessionProgress",
     "check_new_archive",
     "console",
+    "flagged_lines",
     "load_config_option",
     "prepare_file",
     "prepare_folder",
@@ -242,6 +243,23 @@ def _nested(value) -> str:
     return f"({text})" if isinstance(value, dict | list | tuple) else text
 
 
+def flagged_lines(summary: dict) -> list[str]:
+    """``rig.frame_check.flag_summary`` as lines for a user: how many frames did not
+    record their step's state, at which steps, what became of them, and why."""
+    if not summary.get("frames"):
+        return []
+    steps = ", ".join(str(s) for s in summary["steps"])
+    lines = [
+        f"flagged: {summary['frames']} frame(s) did not record their step's state "
+        f"(steps {steps}): {summary['recaptured']} taken again and matched, "
+        f"{summary['left_out']} still mismatched (processing leaves them out)"
+    ]
+    lines += [f"  step {step}: {why}" for step, why in summary["reasons"].items()]
+    if len(summary["steps"]) > len(summary["reasons"]):
+        lines.append(f"  … and {len(summary['steps']) - len(summary['reasons'])} more step(s)")
+    return lines
+
+
 def _hms(seconds) -> str:
     if seconds is None:
         return "?"
@@ -306,5 +324,13 @@ class SessionProgress:
             action = detail.pop("action", None)  # "session start: …", not "session: action …"
             what = event.get("kind") if action is None else f"{event.get('kind')} {action}"
             self.progress.console.print(escape(f"{what}: {readable(detail)}"))
+        elif topic == "flagged":
+            self.progress.console.print(
+                escape(
+                    f"step {event['step']}: {event['frames']} frame(s) flagged, "
+                    f"{event['recaptured']} taken again and matched ({event['reason']})"
+                ),
+                style="yellow",
+            )
         elif topic == "gap":
             self.progress.console.print(f"[yellow]missed {event['missed']} event(s)[/yellow]")

@@ -9,7 +9,7 @@ import typer
 from rich.markup import escape
 from rich.progress import BarColumn, MofNCompleteColumn, Progress, TextColumn, TimeElapsedColumn
 
-from orchestrator.cli.common import console, prepare_folder, quiet_dask_logs
+from orchestrator.cli.common import console, flagged_lines, prepare_folder, quiet_dask_logs
 from rig.errors import ConfigError, RigError
 
 __all__ = ["register", "write_mdf_previews", "write_ps_previews"]
@@ -61,6 +61,15 @@ def write_mdf_previews(archive_path: Path, out: Path) -> list[Path]:
         image = np.where(s[..., None], grey[..., None], np.array([96, 0, 0], np.uint8))
         written.append(write_image(out / f"{name}_mdf.png", image))
     return written
+
+
+def archive_flagged_lines(archive_path: Path) -> list[str]:
+    """What the archive's step table flags: frames that did not record their step's state."""
+    from rig.archive import Archive
+    from rig.frame_check import flag_summary, flags_of
+
+    with Archive.open(archive_path, mode="r") as archive:
+        return flagged_lines(flag_summary(flags_of(archive.step_table())))
 
 
 def register(app: typer.Typer) -> None:
@@ -115,6 +124,8 @@ def register(app: typer.Typer) -> None:
         skipped with the reason, the others still run, and the exit code is 1. A
         stage the session captured nothing for (btf or mdf of a PS-only rig) is
         skipped with the reason too, and is no failure.
+        Frames the session flagged as not recording their step's state (the laser
+        tilt, the lamp, the axes) are listed; mdf leaves out those never re-captured.
         When the archive's calibration has them, ps and btf frames are linearised
         by the camera's response curve and divided by their lamp's flat field
         (--raw: not); the material records what was applied.
@@ -162,6 +173,8 @@ def register(app: typer.Typer) -> None:
             console.print(
                 escape(f"{run.stage}: {run.items} item(s) → material/{run.stage} ({detail})")
             )
+        for line in archive_flagged_lines(archive):
+            console.print(escape(line), style="yellow")
         folder = previews or archive.with_name(f"{archive.stem}_previews")
         for run in runs:
             if run.skipped is None and run.stage in writers:

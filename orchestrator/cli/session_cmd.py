@@ -10,7 +10,13 @@ from typing import Annotated
 import typer
 from rich.markup import escape
 
-from orchestrator.cli.common import SessionProgress, check_new_archive, console, readable
+from orchestrator.cli.common import (
+    SessionProgress,
+    check_new_archive,
+    console,
+    flagged_lines,
+    readable,
+)
 from rig.errors import ConfigError, RigError
 
 __all__ = ["FaultHints", "register"]
@@ -55,6 +61,8 @@ def _print_status(state: dict) -> None:
     for key in ("session", "sample", "archive", "committed", "steps", "frames", "fault", "reason"):
         if session.get(key) is not None:
             console.print(escape(f"  {key}: {readable(session[key])}"))
+    for line in flagged_lines(session.get("flagged") or {}):
+        console.print(escape(f"  {line}"))
 
 
 def _steering(request: str):

@@ -19,13 +19,13 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
-from dataclasses import dataclass
 from typing import Protocol, runtime_checkable
 
 import numpy as np
 
 from drivers import DeviceError, open_device
 from drivers.interfaces import Axis, LampBank, LaserUnit
+from orchestrator.daemon.scan import Captured, Scan, sweep_scan
 from rig.clock import Clock
 from rig.config import RigConfig
 
@@ -34,6 +34,7 @@ __all__ = [
     "Captured",
     "DeviceSet",
     "RigDevices",
+    "Scan",
     "ThreadedCamera",
     "build_devices",
 ]
@@ -108,16 +109,6 @@ class ThreadedCamera:
         self._camera.close()
 
 
-@dataclass(frozen=True)
-class Captured:
-    """One frame as the session stores it."""
-
-    image: np.ndarray
-    sub: int
-    exposure_s: float
-    timestamp: float
-
-
 class DeviceSet(Protocol):
     """What a session needs from the rig (``RigDevices``, or replay devices)."""
 
@@ -135,7 +126,8 @@ class DeviceSet(Protocol):
         tilt_deg: tuple[float, float],
         frames: int,
         exposure_s: float,
-    ) -> tuple[dict[str, list[Captured]], list[float]]: ...
+    ) -> Scan: ...
+    def forget_position(self) -> None: ...
     def all_off(self) -> None: ...
     def telemetry(self) -> dict: ...
     def close(self) -> None: ...
@@ -213,6 +205,11 @@ class RigDevices:
         self._position = {"turntable_deg": turntable_deg, "arc_deg": arc_deg}
         return {"turntable_deg": float(tt), "arc_deg": float(arc)}
 
+    def forget_position(self) -> None:
+        """Forget where the axes were sent: the next ``move`` sends both again (a
+        frame found them elsewhere)."""
+        self._position = {"turntable_deg": None, "arc_deg": None}
+
     def lamp(self, lamp_id: str, on: bool) -> None:
         """Light exactly ``lamp_id`` (the bank waits for its warm-up), or switch all off."""
         self.lamps.switch(frozenset({lamp_id}) if on else frozenset())
@@ -243,34 +240,28 @@ class RigDevices:
         tilt_deg: tuple[float, float],
         frames: int,
         exposure_s: float,
-    ) -> tuple[dict[str, list[Captured]], list[float]]:
+    ) -> Scan:
         """Sweep the sheet from ``tilt_deg[0]`` to ``[1]`` recording ``frames`` frames.
 
-        The frames are spread evenly over the sweep (the sheet tilts at
-        ``laser.sweep_speed_deg_s``), but never faster than the laser frame
-        rate: a step finer than speed / rate takes frames at the rate, the
-        last ones after the sheet has stopped at the end. The sheet returns to
-        the start afterwards. Returns the frames per camera and the tilt (deg)
-        read back at each frame.
+        The frames are planned at ``rig.frame_check.scan_tilts_deg`` (spread over
+        the sweep, never closer than the sheet moves in a laser frame period). Each
+        is triggered when the tilt motor's tacho count says the sheet has reached its
+        tilt, and checked against it: the tilt read back before the trigger and after
+        the frame came back must both lie within ``tilt_tolerance_deg`` of it, and the
+        camera's timestamp must be later than the frame before's. A frame that fails
+        (the sheet ran ahead of the camera) is taken again after the sweep with the
+        sheet held at its tilt, and flagged. The sheet returns to the start afterwards.
         """
-        tilt = self._laser_unit().tilt
-        start, end = tilt_deg
+        start = tilt_deg[0]
         if self._tilt_deg != start:
             self._tilt_deg = self._tilt_to(start)
-        laser = self.config.laser
-        sweep_s = abs(end - start) / laser.sweep_speed_deg_s
-        period = max(1.0 / laser.frame_rate_hz, sweep_s / max(frames - 1, 1))
-        captured: dict[str, list[Captured]] = {c: [] for c in cameras}
-        tilts = []
-        tilt.move_to(end)
-        t0 = self.clock.now()
-        for sub in range(frames):
-            self.clock.sleep(max(0.0, t0 + sub * period - self.clock.now()))
-            tilts.append(float(tilt.position()))
-            self._shoot(cameras, exposure_s, sub, captured)
-        tilt.wait_until_settled()
+        scan = sweep_scan(
+            self._laser_unit().tilt, self.config, self.clock, cameras,
+            tilt_deg=tilt_deg, frames=frames, exposure_s=exposure_s,
+            shoot=self._shoot, hold=self._tilt_to,
+        )  # fmt: skip
         self._tilt_deg = self._tilt_to(start)
-        return captured, tilts
+        return scan
 
     def _tilt_to(self, deg: float) -> float:
         tilt = self._laser_unit().tilt

@@ -1,4 +1,5 @@
-"""A session's progress: committed steps and frames, the fault in hand, and the ETA.
+"""A session's progress: committed steps and frames, flagged frames, the fault in
+hand, and the ETA.
 
 The session thread advances it; the daemon's loop reads ``snapshot`` for the
 ``status`` reply at any time (a lock guards the counts). The ETA is the
@@ -13,20 +14,31 @@ import time
 
 import numpy as np
 
+from rig.archive import FrameFlag
+from rig.frame_check import flag_summary
 from rig.schedule import Schedule, Step
 
 __all__ = ["Progress"]
 
 
 class Progress:
-    """Counts of a session that resumes with ``committed`` steps and ``frames`` frames."""
+    """Counts of a session that resumes with ``committed`` steps and ``frames`` frames,
+    ``flags`` of them flagged (step index, flag)."""
 
-    def __init__(self, schedule: Schedule, *, committed: int, frames: int):
+    def __init__(
+        self,
+        schedule: Schedule,
+        *,
+        committed: int,
+        frames: int,
+        flags: list[tuple[int, FrameFlag]] | None = None,
+    ):
         self._schedule = schedule
         self._lock = threading.Lock()
         self._committed = committed
         self._frames = frames
         self._frames_before = frames  # a resumed session's rate counts its own
+        self._flags = list(flags or ())
         self._step_index: int | None = None
         self._fault: dict | None = None
         self._reason: str | None = None
@@ -38,12 +50,14 @@ class Progress:
         self._done_estimate_s = 0.0
 
     def snapshot(self) -> dict:
-        """Committed steps, the step in hand, frames, fault and failure reason (thread-safe)."""
+        """Committed steps, the step in hand, frames, flagged frames
+        (``rig.frame_check.flag_summary``), fault and failure reason (thread-safe)."""
         with self._lock:
             return {
                 "committed": self._committed,
                 "step_index": self._step_index,
                 "frames": self._frames,
+                "flagged": flag_summary(self._flags),
                 "fault": self._fault,
                 "reason": self._reason,
             }
@@ -67,11 +81,15 @@ class Progress:
         with self._lock:
             self._reason = reason
 
-    def step_done(self, step: Step, n_frames: int, clock_now: float) -> dict:
-        """Count a committed step of ``n_frames`` frames; the ``progress`` event's payload."""
+    def step_done(
+        self, step: Step, n_frames: int, clock_now: float, *, flags: tuple[FrameFlag, ...] = ()
+    ) -> dict:
+        """Count a committed step of ``n_frames`` frames, ``flags`` of them flagged;
+        the ``progress`` event's payload."""
         with self._lock:
             self._committed += 1
             self._frames += n_frames
+            self._flags += [(step.index, flag) for flag in flags]
             committed, frames = self._committed, self._frames
         self._done_estimate_s += self._per_kind_s[step.kind]
         clock_elapsed = clock_now - self._t0[0]

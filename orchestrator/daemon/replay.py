@@ -14,7 +14,7 @@ from collections.abc import Sequence
 from pathlib import Path
 
 from drivers.errors import DeviceError
-from orchestrator.daemon.devices import Captured
+from orchestrator.daemon.scan import Captured, Scan
 from rig.archive import Archive, StepRecord
 from rig.clock import Clock
 from rig.config import RigConfig
@@ -44,7 +44,7 @@ class ReplayDevices:
         self._current: StepRecord | None = None
         self._t0: float | None = None
         self._position = {"turntable_deg": 0.0, "arc_deg": 0.0}
-        self._light: str | None = None
+        self._lit: tuple[str, object] | None = None  # ("lamp", id) or ("laser", mount)
 
     # -- motion and sources ------------------------------------------------------------
     def home(self, *, laser: bool) -> None:
@@ -74,6 +74,9 @@ class ReplayDevices:
         self._position = {k: float(recorded[k]) for k in ("turntable_deg", "arc_deg")}
         return dict(self._position)
 
+    def forget_position(self) -> None:
+        """Nothing to forget: the recording's positions are what they are."""
+
     def lamp(self, lamp_id: str, on: bool) -> None:
         self._check_source("lamp", lamp_id, on, self._record("lamp").lamp)
 
@@ -87,7 +90,7 @@ class ReplayDevices:
                 f"step {self._current.index}: the plan lights {kind} {wanted!r}, the recording "
                 f"{recorded!r}",
             )  # fmt: skip
-        self._light = f"{kind} {wanted}" if on else None
+        self._lit = (kind, wanted) if on else None
 
     # -- frames ------------------------------------------------------------------------
     def capture(
@@ -109,7 +112,7 @@ class ReplayDevices:
         tilt_deg: tuple[float, float],
         frames: int,
         exposure_s: float,
-    ) -> tuple[dict[str, list[Captured]], list[float]]:
+    ) -> Scan:
         record = self._record("scan")
         tilts = self._tilts.get(record.index)
         if tilts is None:
@@ -119,7 +122,8 @@ class ReplayDevices:
                 _DEVICE, "scan",
                 f"step {record.index}: the plan scans {frames} frames, the recording {len(tilts)}",
             )  # fmt: skip
-        return self._recorded_frames(record, cameras, frames), [float(t) for t in tilts]
+        frames_by_camera = self._recorded_frames(record, cameras, frames)
+        return Scan(frames_by_camera, [float(t) for t in tilts], record.flags)
 
     def _recorded_frames(
         self, record: StepRecord, cameras: Sequence[str], n: int
@@ -148,10 +152,11 @@ class ReplayDevices:
 
     # -- the rest of the DeviceSet ---------------------------------------------------------
     def all_off(self) -> None:
-        self._light = None
+        self._lit = None
 
     def telemetry(self) -> dict:
-        return {**self._position, "lamps_on": [self._light] if self._light else []}
+        lamps = [self._lit[1]] if self._lit is not None and self._lit[0] == "lamp" else []
+        return {**self._position, "lamps_on": lamps}
 
     def close(self) -> None:
         self._source.close()

@@ -46,6 +46,7 @@ from rig.calfile import load_calibration
 from rig.clock import Clock
 from rig.config import RigConfig
 from rig.errors import RigError
+from rig.frame_check import flags_of
 from rig.material import copy_flat_field
 from rig.plan import Plan, parse_plan
 from rig.schedule import Schedule, Step, compile_plan
@@ -102,7 +103,10 @@ class Session:
         self.drain_timeout_s = drain_timeout_s
         self._changed = threading.Condition()
         self._progress = Progress(
-            schedule, committed=len(archive.committed_steps()), frames=len(archive.frame_table())
+            schedule,
+            committed=len(archive.committed_steps()),
+            frames=len(archive.frame_table()),
+            flags=flags_of(archive.step_table()),
         )
         self._steps = StepRunner(session=self.id, config=config, archive=archive, outbox=outbox)
 
@@ -293,8 +297,8 @@ class Session:
         actuators = self._steps.move(step, devices)
         if self.machine.state == SessionState.ABORTED:  # the move took long: light nothing
             raise _Aborted
-        n_frames = self._steps.expose(step, devices, actuators, started_at, following)
-        payload = self._progress.step_done(step, n_frames, self.clock.now())
+        n_frames, flags = self._steps.expose(step, devices, actuators, started_at, following)
+        payload = self._progress.step_done(step, n_frames, self.clock.now(), flags=flags)
         self.outbox.publish("progress", {"session": self.id, **payload})
 
     def _finish(self, devices: DeviceSet) -> None:

@@ -15,10 +15,11 @@ import itertools
 
 import numpy as np
 
+from orchestrator.daemon.checks import checked_capture, flagged_payload
 from orchestrator.daemon.devices import Captured, DeviceSet
 from orchestrator.daemon.stream import SessionOutbox
 from orchestrator.wire.protocol import ArraySpec, FrameHeader
-from rig.archive import Archive, FrameRecord, StepRecord
+from rig.archive import Archive, FrameFlag, FrameRecord, StepRecord
 from rig.bonn import forward as bonn_forward
 from rig.bonn import plate_rotation
 from rig.bonn_plan import BonnStep
@@ -66,15 +67,16 @@ class StepRunner:
         actuators: dict,
         started_at: float,
         following: Step | BonnStep | None,
-    ) -> int:
-        """Light, capture and commit the step that ``move`` placed; how many frames it has.
+    ) -> tuple[int, tuple[FrameFlag, ...]]:
+        """Light, capture, check and commit the step that ``move`` placed; how many
+        frames it has, and those flagged (``rig.frame_check``: re-captured or not).
 
         The lamp stays lit where ``following`` (the next step to run) uses it too.
         """
         if step.kind == "mdf":
             mount = int(step.source.removeprefix("laser"))
             devices.laser(mount, True)
-            frames, tilts = devices.scan(
+            scan = devices.scan(
                 step.cameras,
                 tilt_deg=step.tilt_deg,
                 frames=step.scan_frames,
@@ -82,15 +84,17 @@ class StepRunner:
             )
             # Logged before the commit: a crash in between repeats the scan and its
             # event; readers take the last "scan" event of a step.
-            self.archive.log_event("scan", step=step.index, tilts_deg=tilts)
-            extra = {"laser": mount}
+            self.archive.log_event("scan", step=step.index, tilts_deg=scan.tilts_deg)
+            frames, flags, extra = scan.frames, scan.flags, {"laser": mount}
         else:
             if self.lit != step.source:
                 devices.lamp(step.source, True)
                 self.lit = step.source
-            frames = devices.capture(step.cameras, step.exposures_s)
+            frames, flags, actuators = checked_capture(
+                step, devices, actuators, redrive=lambda: self.move(step, devices)
+            )
             extra = {"lamp": step.source}
-        record = self._record(step, actuators, started_at, **extra)
+        record = self._record(step, actuators, started_at, flags=flags, **extra)
         records = {c: [_as_frame_record(f) for f in fr] for c, fr in frames.items()}
         self.archive.append_step(record, records)
         if step.kind == "mdf":
@@ -99,10 +103,12 @@ class StepRunner:
             devices.lamp(step.source, False)
             self.lit = None
         self._stream(step, frames)
-        return sum(len(f) for f in frames.values())
+        if flags:
+            self.outbox.publish("flagged", flagged_payload(self.session, step, flags))
+        return sum(len(f) for f in frames.values()), flags
 
     def _record(
-        self, step: Step | BonnStep, actuators: dict, started_at: float, **source
+        self, step: Step | BonnStep, actuators: dict, started_at: float, *, flags, **source
     ) -> StepRecord:
         views, light = {}, None
         if isinstance(step, BonnStep):  # the directions the arm and the rail were sent to
@@ -125,6 +131,7 @@ class StepRunner:
             actuators=actuators,
             exposures_s=step.exposures_s,
             started_at=started_at,
+            flags=flags,
             **source,
         )
 

@@ -7,11 +7,13 @@ and compressed with ``processing.btf.compress_view`` (seed 000 §4.1), so only
 one slot's normtextures are in memory at a time. The material layout is
 ``docs/material.md`` (written by ``rig.material.write_btf``).
 
-A frame whose registration is flagged (too few or collinear markers…) is never
-warped into the data: its slot is stored empty (``slot_valid`` false) and the
-reason listed in ``flagged``, so a re-capture or the renderer's view blending
-can stand in for it. An imported archive's frames are normtextures already
-(``rig import``): registration is skipped, they are only resampled.
+A frame whose registration is flagged (too few or collinear markers…), or that
+the session flagged as not recording its step's state and could not take again
+(``StepRecord.excluded``), is never warped into the data: its slot is stored
+empty (``slot_valid`` false) and the reason listed in ``flagged``, so a
+re-capture or the renderer's view blending can stand in for it. An imported
+archive's frames are normtextures already (``rig import``): registration is
+skipped, they are only resampled.
 When no slot at all can be registered (a saturated or black session) there
 is nothing to compress: the stage is skipped (``StageSkipped``) with the
 count of each flag's reason.
@@ -152,7 +154,9 @@ def slot_normtextures(
     imported archive's frames already are normtextures
     (``rig.interchange.imported_normtextures``) and are only resampled to
     ``size`` (area averaging). A flagged capture is ``(slot, light, step,
-    camera, reason)`` and gives no texture.
+    camera, reason)`` and gives no texture: its registration failed, or the
+    session flagged its frame as not recording the step's state
+    (``StepRecord.excluded``; reason ``STATE_MISMATCH``).
     """
     corrections = FrameCorrections() if corrections is None else corrections
     records = {s.index: s for s in archive.step_table()}
@@ -165,6 +169,9 @@ def slot_normtextures(
     config = RigConfig.model_validate(archive.rig_config)
     for light, (step, camera) in enumerate(item.captures):
         record = records[step]
+        if 0 in record.excluded(camera):  # the rig was not in the step's state
+            flagged.append((item.index, light, step, camera, "STATE_MISMATCH"))
+            continue
         frame = archive.read_frame(step, camera, 0)
         # the lens (intrinsics, distortion) matters, not the pose: the markers give it
         # (a rig without a turntable, as the Bonn lab, records none)

@@ -4,7 +4,9 @@ A *view* is one camera at one turntable angle; its scans are the ``mdf`` steps
 taken from there, one laser location each (seed 001 §3). Per scan, the frames
 and the sheet tilt read back at each frame (the step's ``scan`` event) give
 D_{v,l} on the texel grid (``processing.mdf.reconstruct_scan``: line in the
-reference region, space-time peaks, triangulation); the scans of a view are
+reference region, space-time peaks, triangulation), less the frames the step
+still flags as not recording their planned tilt (``StepRecord.excluded``; a
+frame taken again at its tilt counts); the scans of a view are
 merged with the tetrahedron weights (``merge_scans``). The laser sheet's angle
 to the reference plane comes from the rig's kinematics at each recorded tilt
 (``rig.kinematics.laser_plane``), shifted by what the archive's laser
@@ -71,10 +73,13 @@ class MdfStage:
                 source_mm = laser_source_mm(
                     config, record.laser, arc_deg=arc, turntable_deg=turntable
                 )
-                frames = (archive.read_frame(index, item.camera, sub) for sub in range(len(angles)))
+                # A frame still flagged did not record its tilt: it is left out.
+                left_out = record.excluded(item.camera)
+                subs = [sub for sub in range(len(angles)) if sub not in left_out]
+                frames = (archive.read_frame(index, item.camera, sub) for sub in subs)
                 scan = reconstruct_scan(
                     frames, region, texels, source_mm=source_mm,
-                    sheet_angle_deg=np.array(angles), settings=settings,
+                    sheet_angle_deg=np.array([angles[sub] for sub in subs]), settings=settings,
                 )  # fmt: skip
                 scans.append(scan)
         merged = merge_scans(scans)

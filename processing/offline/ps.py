@@ -12,7 +12,9 @@ lab's plate rotation), and the solve is refined with the
 integrated height (seed 004: Woodham's method, then integration). Frames are
 linearised by the archive's response curve and divided by the part of their
 lamp's flat field the near-lamp model does not explain before they reach the
-solver (``processing.offline.radiometry``; ``raw`` keeps them as recorded).
+solver (``processing.offline.radiometry``; ``raw`` keeps them as recorded). A frame
+the session flagged as not recording its step's lamp or position, and could not
+take again (``StepRecord.excluded``), is left out like an unregistered one.
 """
 
 from __future__ import annotations
@@ -88,6 +90,8 @@ class PsStage:
         full_scale = float(2 ** config.camera(item.camera).bit_depth - 1)
         images, usable, lamps, registered = [], None, [], 0
         for step, frame in zip(steps, frames, strict=True):
+            if 0 in step.excluded(item.camera):
+                continue  # the rig was not in the step's state (StepRecord.flags): left out
             capture = register_capture(
                 frame, config, step, item.camera, size=self.size, camera=lens
             )

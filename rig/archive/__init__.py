@@ -14,6 +14,7 @@ from rig.archive._index import FRAME_TABLE_DTYPE
 from rig.archive._records import (
     FRAME_DTYPES,
     Event,
+    FrameFlag,
     FrameFormat,
     FrameInfo,
     FrameRecord,
@@ -33,6 +34,7 @@ __all__ = [
     "ArchiveError",
     "ArchiveFull",
     "Event",
+    "FrameFlag",
     "FrameFormat",
     "FrameInfo",
     "FrameRecord",

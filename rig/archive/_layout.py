@@ -34,6 +34,7 @@ from rig.archive._versions import software_versions
 __all__ = [
     "FORMAT_VERSION",
     "JOURNAL",
+    "READABLE_VERSIONS",
     "Layout",
     "lock_writer",
     "read_layout",
@@ -42,7 +43,10 @@ __all__ = [
 ]
 
 #: Version of the archive layout written by this code.
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
+#: Versions this code reads: format 1 has no frame flags in its step records
+#: (read as none); format 2 adds them (``StepRecord.flags``).
+READABLE_VERSIONS = (1, 2)
 # The journal and the writer lock sit inside the ``log`` node, an empty zarr
 # array: zarr never lists inside an array, so zarr readers see no stray files.
 JOURNAL = "log/journal.jsonl"
@@ -152,10 +156,10 @@ def read_layout(path: Path) -> Layout:
             raise ArchiveError(f"{path}/zarr.json: attribute {key!r} is missing")
     marker = attributes["btfrig_archive"]
     version = marker.get("format_version") if isinstance(marker, dict) else None
-    if version != FORMAT_VERSION:
+    if version not in READABLE_VERSIONS:
         raise ArchiveError(
             f"{path}: archive format version {version!r}, this btfrig reads "
-            f"version {FORMAT_VERSION}"
+            f"versions {list(READABLE_VERSIONS)}"
         )
     level = attributes["zstd_level"]
     if not isinstance(level, int) or isinstance(level, bool):

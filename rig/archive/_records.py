@@ -20,6 +20,7 @@ from rig.archive._errors import ArchiveError
 __all__ = [
     "FRAME_DTYPES",
     "Event",
+    "FrameFlag",
     "FrameFormat",
     "FrameInfo",
     "FrameRecord",
@@ -127,6 +128,40 @@ class FrameFormat:
 
 
 @dataclass(frozen=True)
+class FrameFlag:
+    """A frame that did not record the state its step meant (``rig.frame_check``).
+
+    ``camera`` and ``sub`` name the frame; ``reason`` says what the devices read
+    back instead; ``recaptured``: the frame was taken again and the archived one
+    matches (True), or the archived frame is still the mismatched one (False:
+    processing leaves it out).
+    """
+
+    camera: str
+    sub: int
+    reason: str
+    recaptured: bool
+
+    def __post_init__(self) -> None:
+        if not isinstance(self.camera, str) or not self.camera:
+            raise ArchiveError(f"FrameFlag.camera = {self.camera!r}: must be a camera name")
+        if not isinstance(self.sub, int | np.integer) or isinstance(self.sub, bool) or self.sub < 0:
+            raise ArchiveError(f"FrameFlag.sub = {self.sub!r}: must be an int ≥ 0")
+        object.__setattr__(self, "sub", int(self.sub))
+        if not isinstance(self.reason, str) or not self.reason:
+            raise ArchiveError(f"FrameFlag.reason = {self.reason!r}: must say why")
+        object.__setattr__(self, "recaptured", bool(self.recaptured))
+
+    def to_json(self) -> dict:
+        return {"camera": self.camera, "sub": self.sub, "reason": self.reason,
+                "recaptured": self.recaptured}  # fmt: skip
+
+    @classmethod
+    def from_json(cls, data: Mapping) -> FrameFlag:
+        return cls(data["camera"], data["sub"], data["reason"], data["recaptured"])
+
+
+@dataclass(frozen=True)
 class StepRecord:
     """One step of a session: where the rig stood and what it captured.
 
@@ -153,6 +188,9 @@ class StepRecord:
         rig, virtual seconds in the simulator; replay paces steps by its differences.
     committed_at : float or None
         Unix time (s) of the commit; set by the archive, None before.
+    flags : tuple of FrameFlag
+        The step's frames that did not match the state it meant, re-captured or
+        not (archive format 2; a format-1 archive reads as none).
     """
 
     index: int
@@ -166,6 +204,7 @@ class StepRecord:
     laser: str | int | None = None
     started_at: float = 0.0
     committed_at: float | None = None
+    flags: tuple[FrameFlag, ...] = ()
 
     def __post_init__(self) -> None:
         where = f"step {self.index}"
@@ -208,6 +247,17 @@ class StepRecord:
         if self.committed_at is not None:
             committed = _finite(self.committed_at, where=f"{where}: committed_at")
             object.__setattr__(self, "committed_at", committed)
+        flags = tuple(self.flags)
+        for flag in flags:
+            if not isinstance(flag, FrameFlag) or flag.camera not in cameras:
+                raise ArchiveError(
+                    f"{where}: flags holds {flag!r}; expected FrameFlags of cameras {cameras}"
+                )
+        object.__setattr__(self, "flags", flags)
+
+    def excluded(self, camera: str) -> frozenset[int]:
+        """Subs of ``camera``'s frames still mismatched: what processing leaves out."""
+        return frozenset(f.sub for f in self.flags if f.camera == camera and not f.recaptured)
 
     def to_json(self) -> dict:
         return {
@@ -222,6 +272,7 @@ class StepRecord:
             "laser": self.laser,
             "started_at": self.started_at,
             "committed_at": self.committed_at,
+            "flags": [f.to_json() for f in self.flags],
         }
 
     @classmethod
@@ -238,6 +289,7 @@ class StepRecord:
             laser=data["laser"],
             started_at=data["started_at"],
             committed_at=data["committed_at"],
+            flags=tuple(FrameFlag.from_json(f) for f in data.get("flags", ())),
         )
 
 

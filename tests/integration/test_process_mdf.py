@@ -62,3 +62,38 @@ def test_mdf_matches_the_ray_cast_truth(scan):
     assert np.median(error) < 0.05 and np.percentile(error, 95) < 0.3, (
         np.median(error), np.percentile(error, 95),
     )  # fmt: skip
+
+
+def test_frames_still_flagged_are_left_out_of_the_mdf(scan, tmp_path):
+    """The same scan with the middle third of its frames flagged as never matching their
+    tilt: the stage leaves them out, so the texels only they swept go unseen, and the
+    rest is as before."""
+    from dataclasses import replace
+
+    from rig.archive import FrameFlag, FrameRecord
+
+    archive, _ = scan
+    copy = tmp_path / "flagged.zarr"
+    with Archive.open(archive) as source:
+        (record,) = source.step_table()
+        (event,) = source.events("scan")
+        n = len(event.payload["tilts_deg"])
+        middle = range(n // 3, 2 * n // 3)
+        flags = tuple(FrameFlag("cam0", sub, "laser tilt read back off", False) for sub in middle)
+        rows = source.frame_table()
+        with Archive.create(copy, plan=source.plan, rig_config=source.rig_config,
+                            cameras=source.cameras, fsync=False) as target:  # fmt: skip
+            target.log_event("scan", **event.payload)
+            frames = [FrameRecord(source.read_frame(record.index, "cam0", int(r["sub"])),
+                                  int(r["sub"]), float(r["exposure_s"]), float(r["timestamp"]))
+                      for r in rows]  # fmt: skip
+            target.append_step(replace(record, flags=flags, committed_at=None), {"cam0": frames})
+    seen = {}
+    for path in (archive, copy):
+        run_stages(path, [MdfStage(size=SIZE)])
+        with Archive.open(path) as arch:
+            seen[path] = arch.material["mdf"]["distance_mm"][0] >= 0
+    assert record.cameras == ("cam0",)
+    kept, full = seen[copy].sum(), seen[archive].sum()
+    assert 0.2 * full < kept < 0.8 * full  # a third of the sweep's frames missing
+    assert not np.any(seen[copy] & ~seen[archive])  # nothing seen that was not before

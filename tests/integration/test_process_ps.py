@@ -117,6 +117,33 @@ def test_the_weave_height_is_flat_where_its_truth_is(tmp_path):
     assert low_frequency_std(height) < 0.01
 
 
+def test_a_frame_still_flagged_is_left_out_of_the_solve(plain):
+    """A lamp's frame the session flagged as not recording its state (and could not take
+    again) does not reach the solver: the view is solved from the other lamps."""
+    from dataclasses import replace
+
+    from processing.offline.runner import frame_camera, views_of
+    from rig.archive import Archive, FrameFlag
+    from rig.config import RigConfig
+
+    archive, _ = plain
+    with Archive.open(archive, mode="r") as arch:
+        (view,) = views_of(arch, "ps")
+        config = RigConfig.model_validate(arch.rig_config)
+        records = {s.index: s for s in arch.step_table()}
+        steps = [records[i] for i in view.steps]
+        frames = [arch.read_frame(s.index, view.camera, 0) for s in steps]
+        lens = frame_camera(arch, config, view.camera, view.turntable_deg)
+    stage = PsStage(size=SIZE)
+    whole = stage.solve(view, config, lens, steps, frames)
+    wrong = FrameFlag(view.camera, 0, "lamps read back lit [], planned ['lamp3']", False)
+    steps[2] = replace(steps[2], flags=(wrong,))
+    solved = stage.solve(view, config, lens, steps, frames)
+    assert whole["lamps"] == [s.lamp for s in steps]
+    assert solved["lamps"] == [s.lamp for i, s in enumerate(steps) if i != 2]
+    assert solved["valid"].mean() > 0.9  # the others still give the view
+
+
 def test_rerun_replaces_and_a_failed_run_keeps_the_output(plain):
     archive, _ = plain
     run_stages(archive, [PsStage(size=32)])

@@ -5,7 +5,8 @@ and ``orchestrator.daemon.devices``), model motion and exposure time on the inje
 clock (parallel axes overlap: each wait sleeps only up to its own end), make
 deterministic frames from the rig's state, record any exposure taken while an
 axis moved, and inject faults on request (stall, timeout, dropped frame, a dark
-lamp). Used by the daemon tests, in process and in ``soft_daemon.py``.
+lamp; a stray lamp lit or the turntable bumped during an exposure, a stale
+frame). Used by the daemon tests, in process and in ``soft_daemon.py``.
 """
 
 from __future__ import annotations
@@ -206,9 +207,16 @@ class SoftCamera:
     def __init__(self, rig: SoftRig, camera: str, fmt: FrameFormat):
         self.rig, self.camera, self.fmt = rig, camera, fmt
         self._pending = None
+        self._last_t = 0.0
 
     def trigger(self, exposure_s: float) -> None:
         rig = self.rig
+        disturbance = rig.faults.take(f"{self.camera}.trigger")
+        if disturbance == "stray_lamp":  # a relay lights a second lamp
+            stray = next(lamp for lamp in SoftLamps(rig).lamp_ids if lamp not in rig.lamps_on)
+            rig.lamps_on = rig.lamps_on | {stray}
+        elif disturbance == "bump":  # someone knocks the turntable half a degree on
+            rig.turntable_deg += 0.5
         if rig.moving():
             rig.violations.append(("exposed while moving", self.camera, rig.moving()))
         if not (rig.lamps_on or rig.laser_on):
@@ -222,11 +230,15 @@ class SoftCamera:
         self.rig.clock.sleep(max(0.0, ready - self.rig.clock.now()))
         if self.rig.real_delay_s:
             time.sleep(self.rig.real_delay_s)
-        if self.rig.faults.take(f"{self.camera}.read") == "drop":
+        fault = self.rig.faults.take(f"{self.camera}.read")
+        if fault == "drop":
             raise DeviceTimeout(self.camera, "read", "frame dropped (gave up after 4 tries)")
         tt, arc, lamps, laser = state
         image = soft_image(self.fmt, self.camera, tt, arc, lamps, laser, exposure)
         self.rig.captures.append((self.camera, tt, arc, lamps, laser, exposure))
+        if fault == "stale":  # the buffer's last frame again
+            t = self._last_t
+        self._last_t = t
         return _SoftFrame(image, t, exposure)
 
     def close(self) -> None:

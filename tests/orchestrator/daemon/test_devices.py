@@ -117,15 +117,64 @@ def test_a_scan_spreads_its_frames_over_the_whole_sweep(world, peers, half_sweep
         try:
             devices.home(laser=True)
             frames = round(2 * half_sweep_deg / step_deg) + 1
-            _, tilts = devices.scan(
+            scan = devices.scan(
                 [spec.id], tilt_deg=(-half_sweep_deg, half_sweep_deg), frames=frames,
                 exposure_s=0.001,
             )  # fmt: skip
         finally:
             devices.close()
+    tilts = scan.tilts_deg
+    assert scan.flags == ()  # the camera keeps up with the sheet: every frame matches
     spacing = max(step_deg, 1 / 7.5)
     moving = round(2 * half_sweep_deg / spacing)
     assert tilts[0] == pytest.approx(-half_sweep_deg, abs=0.05)
     # read back through the tacho: one count is 1/24°
     assert np.diff(tilts[: moving + 1]) == pytest.approx(np.full(moving, spacing), abs=0.05)
     assert tilts[-1] == pytest.approx(half_sweep_deg, abs=0.05)
+
+
+def _fast_sheet_world(speedup: float) -> World:
+    """A world whose sheet tilts ``speedup`` times faster than the daemon's config says:
+    what a simulator run with ``--speed`` does to a daemon on real time, and a real rig
+    whose camera is slower than its sweep."""
+    config = default_rig_config()
+    laser = config.laser.model_copy(
+        update={"sweep_speed_deg_s": config.laser.sweep_speed_deg_s * speedup}
+    )
+    return World(config.model_copy(update={"laser": laser}), VirtualClock())
+
+
+def test_frames_the_sheet_ran_away_from_are_flagged_and_taken_again_at_their_tilt():
+    """The sheet sweeps 10× faster than planned: the frames of the sweep land past
+    their tilts; each is flagged naming the tilt read back, taken again with the sheet
+    held at its planned tilt, and the scan ends with every frame at its plan."""
+    from rig.frame_check import scan_tilts_deg, tilt_tolerance_deg
+
+    world = _fast_sheet_world(10.0)
+    started = {role: start_peer(role, getattr(world.config, role), world) for role in DEVICE_ROLES}
+    try:
+        with CameraServer(world, _dark) as cameras:
+            # the daemon's config: the sheet's planned speed, 1°/s
+            config = _with_camera_server(_on_peers(default_rig_config(), started), cameras)
+            spec = config.camera_arc.cameras[0]
+            devices = build_devices(config, clock=world.clock)
+            try:
+                devices.home(laser=True)
+                scan = devices.scan([spec.id], tilt_deg=(-3.0, 3.0), frames=31, exposure_s=0.005)
+            finally:
+                devices.close()
+    finally:
+        for peer in started.values():
+            peer.stop()
+    planned = scan_tilts_deg(config, (-3.0, 3.0), 31)
+    assert len(scan.frames[spec.id]) == 31
+    tilts = np.array(scan.tilts_deg)
+    assert np.abs(tilts - planned).max() <= tilt_tolerance_deg(config, planned)
+    flagged = sorted({flag.sub for flag in scan.flags})
+    assert len(flagged) > 20  # the sheet outran the camera for most of the sweep
+    # taken again with the sheet held: at the plan within the tacho's resolution (1/24°)
+    assert tilts[flagged] == pytest.approx(planned[flagged], abs=1 / 48 + 1e-9)
+    assert all(flag.recaptured and flag.camera == spec.id for flag in scan.flags)
+    first = min(scan.flags, key=lambda flag: flag.sub)
+    assert first.reason.startswith("laser tilt read back")
+    assert f"planned {planned[first.sub]:.3f}°" in first.reason
