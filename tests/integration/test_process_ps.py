@@ -21,7 +21,7 @@ from typer.testing import CliRunner
 
 from orchestrator.cli import app
 from orchestrator.local import run_local
-from processing.offline import PsStage, run_stages
+from processing.offline import PsStage, StageFailed, run_stages
 from rig.clock import VirtualClock
 from rig.material import read_material
 from sim import Simulator
@@ -153,7 +153,7 @@ def test_rerun_replaces_and_a_failed_run_keeps_the_output(plain):
         def compute(self, archive_path, item):
             raise RuntimeError("a worker fell over")
 
-    with pytest.raises(RuntimeError, match="fell over"):
+    with pytest.raises(StageFailed, match=r"stage ps, view .*RuntimeError: a worker fell over"):
         run_stages(archive, [Broken(size=16)])
     assert _view(archive)["normals"].shape == (32, 32, 3)  # the previous output, whole
 
