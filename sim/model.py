@@ -35,17 +35,25 @@ class SceneModel:
     def sample(self) -> SampleGeometry:
         spec = self.scene.spec.sample
         return generator(spec.generator).build(
-            self.scene.sample_params, sample_mm=self.sample_mm, depth_mm=spec.depth_mm
+            self.scene.sample_params, sample_mm=self.recess_mm, depth_mm=spec.depth_mm
         )
 
     @property
     def sample_mm(self) -> float:
+        """Side of the measured square (the texel grids'), mm."""
         return self.scene.rig.holder.sample_mm
+
+    @property
+    def recess_mm(self) -> float:
+        """Side of the holder's recess and of the sample filling it, mm: the measured
+        square and ``sample.margin_mm`` on every side."""
+        return self.sample_mm + 2.0 * self.scene.spec.sample.margin_mm
 
     @cached_property
     def mesh(self) -> SceneMesh:
+        spec = self.scene.spec.sample
         return assemble(
-            self.scene.rig.holder, self.sample, depth_mm=self.scene.spec.sample.depth_mm
+            self.scene.rig.holder, self.sample, depth_mm=spec.depth_mm, recess_mm=self.recess_mm
         )
 
     @cached_property
