@@ -120,15 +120,17 @@ class EnvironmentMap:
         A point lookup of a map whose features are smaller than the spacing of the
         directions asked for catches them or misses them (a 3° sun between the 20°
         texels of a hemicube: six times its light or none). Here each direction reads
-        the level of a pyramid of solid-angle weighted 2 × 2 means whose pixel is at
-        least ``width_rad`` wide, bilinearly: a sum over directions spaced about one
-        such pixel apart keeps a small bright source's light wherever it falls.
+        the level of a pyramid of solid-angle weighted 2 × 2 means whose pixel is nearest
+        ``width_rad`` wide (by its logarithm), bilinearly: a sum over directions spaced
+        about one such pixel apart keeps a small bright source's light wherever it falls.
+        (The next coarser level would keep it better still but blurs sharp-edged lights
+        more than a texel: see ``docs/render.md``.)
         """
         d = np.asarray(directions, dtype=np.float64)
         width = np.broadcast_to(np.asarray(width_rad, dtype=np.float64), d.shape[:-1])
         theta, phi = direction_angles(d)
         ratio = np.maximum(width / (np.pi / self.height), 1.0)
-        level = np.minimum(np.ceil(np.log2(ratio)).astype(np.int64), len(self._means) - 1)
+        level = np.minimum(np.rint(np.log2(ratio)).astype(np.int64), len(self._means) - 1)
         out = np.empty((*d.shape[:-1], 3))
         for index in np.unique(level):
             chosen = level == index
