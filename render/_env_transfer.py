@@ -3,7 +3,8 @@
 Seed 000 §5.3 eq. (10)–(12). For vertex v the radiance arriving from measured
 light direction i is g_i = Σ_α V_α L(ω_α) Δω_α h_αi over its hemicube texels α
 (visibility V, environment radiance L in the texel's scene direction averaged
-over the texel's width (:meth:`EnvironmentMap.mean_lookup`), the texel's solid angle Δω and its light weights h). A normtexture holds what the
+over the texel's width (:meth:`EnvironmentMap.mean_lookup`), the texel's solid
+angle Δω and its light weights h). A normtexture holds what the
 camera saw under one lamp, the lamp's cosine included (the point-light path
 multiplies it by the light's intensity alone), so a texel weighs by its solid
 angle only. Per view slot j the texture under the environment is then

@@ -85,8 +85,8 @@ class EnvironmentRenderer:
 
     def __init__(
         self, material, mesh, *, tile_mm: float | None = None, method: str = "visibility",
-        resolution: int = DEFAULT_RESOLUTION, light_method: str = "nearest4", view_method: str = "nearest4",
-        rotations: int = 30, components: int = 5,
+        resolution: int = DEFAULT_RESOLUTION, light_method: str = "nearest4",
+        view_method: str = "nearest4", rotations: int = 30, components: int = 5,
     ) -> None:  # fmt: skip
         self.btf = check_btf(material.btf)
         svd = isinstance(self.btf, GlobalSVD)

@@ -75,8 +75,8 @@ def test_a_cast_shadow_shows_the_ambient_term_of_what_it_holds_back(kind, view_d
         .astype(np.float32),
     )  # fmt: skip
     light = DirectionalLight(tuple(frame @ light_local), intensity=2.0)
-    with Renderer(with_mdf(model, synthetic_mdf()), merged([quad, roof], name="quad under a roof"), mdf=True,
-                  ambient=0.5) as renderer:  # fmt: skip
+    scene = merged([quad, roof], name="quad under a roof")
+    with Renderer(with_mdf(model, synthetic_mdf()), scene, mdf=True, ambient=0.5) as renderer:
         image = renderer.render(texel_camera(SAMPLE_MM, N), [light])
     blend = nearest_directions(direction_vector(VIEWS[:, 0], VIEWS[:, 1]),
                                direction_vector(*view_deg), k=4)  # fmt: skip
