@@ -103,8 +103,8 @@ class SampleSpec(_Closed):
 class RigSpec(_Closed):
     config: Path | None = Field(None, description="rig config TOML (default rig if absent)")
     kind: Literal["wang", "bonn", "virtex"] | None = Field(
-        None,
-        description="the rig's kind (its section's defaults unless given); default: the config's",
+        None, description="the rig's kind (its section's defaults unless given); default: "
+        "the config's"
     )
     overrides: dict[str, Any] = Field(default_factory=dict, description="RigConfig fields")
 
