@@ -2,8 +2,9 @@
 
 Seed 000 §5.3 eq. (10)–(12). For vertex v the radiance arriving from measured
 light direction i is g_i = Σ_α V_α L(ω_α) Δω_α h_αi over its hemicube texels α
-(visibility V, environment radiance L in the texel's scene direction, the
-texel's solid angle Δω and its light weights h). A normtexture holds what the
+(visibility V, environment radiance L in the texel's scene direction averaged
+over the texel's width (:meth:`EnvironmentMap.mean_lookup`), the texel's solid
+angle Δω and its light weights h). A normtexture holds what the
 camera saw under one lamp, the lamp's cosine included (the point-light path
 multiplies it by the light's intensity alone), so a texel weighs by its solid
 angle only. Per view slot j the texture under the environment is then
@@ -57,10 +58,13 @@ def light_radiance(maps, environment, n_lights: int, vertices=slice(None)) -> np
     visible = maps.visibility(vertices)
     out = np.empty((len(frames), n_lights, 3))
     per_pass = max(1, _TEXELS_PER_PASS // maps.texels)
+    # Each texel reads the map averaged over its own width: a sun smaller than a texel
+    # lights every vertex that sees it with its own light, not 0 or several times it.
+    texel_width = np.sqrt(maps.solid_angles)
     for first in range(0, len(frames), per_pass):
         part = slice(first, first + per_pass)
         scene_dirs = maps.directions @ frames[part]  # (v, T, 3)
-        radiance = environment.lookup(scene_dirs).astype(np.float64)
+        radiance = environment.mean_lookup(scene_dirs, texel_width)
         radiance *= (visible[part] * maps.solid_angles)[..., None]
         out[part] = np.swapaxes(np.tensordot(radiance, blend, axes=([1], [0])), 1, 2)
     return out

@@ -25,7 +25,7 @@ from render._textures import upload_btf
 from render.camera import Camera
 from render.env_pca import check_basis_size, illumination_basis
 from render.environment import EnvironmentMap
-from render.visibility import visibility_maps
+from render.visibility import DEFAULT_RESOLUTION, visibility_maps
 from rig.geometry import spherical_triangulation
 from rig.material import GlobalSVD
 
@@ -77,7 +77,7 @@ class EnvironmentRenderer:
     method : {"visibility", "pca"}
         A new U per environment or rotation, or the PCA of illumination.
     resolution : int
-        Hemicube n of the visibility maps (3n² rays per vertex).
+        Hemicube n of the visibility maps (3n² rays per vertex; 8 for a faster preview).
     light_method, view_method : {"nearest4", "barycentric", "nearest"}
     rotations, components : int
         A and e of the PCA of illumination.
@@ -85,8 +85,8 @@ class EnvironmentRenderer:
 
     def __init__(
         self, material, mesh, *, tile_mm: float | None = None, method: str = "visibility",
-        resolution: int = 8, light_method: str = "nearest4", view_method: str = "nearest4",
-        rotations: int = 30, components: int = 5,
+        resolution: int = DEFAULT_RESOLUTION, light_method: str = "nearest4",
+        view_method: str = "nearest4", rotations: int = 30, components: int = 5,
     ) -> None:  # fmt: skip
         self.btf = check_btf(material.btf)
         svd = isinstance(self.btf, GlobalSVD)

@@ -66,6 +66,7 @@ def target_scene(
         "sample": {
             "generator": generator,
             "depth_mm": depth,
+            "margin_mm": 0.0,  # a target's layout fills the measured square, wall to wall
             "params": {} if params is None else params.model_dump(mode="json"),
         },
         "materials": {"default": material},

@@ -1,7 +1,8 @@
 """The holder plate around the sample: plate, recess walls and floor, markers.
 
 The plate's top is the reference plane z = 0; the sample sits in a square
-recess of side ``holder.sample_mm`` and depth ``depth_mm``. ArUco markers are
+recess of side ``recess_mm`` (the measured square ``holder.sample_mm`` and a margin
+around it, so the walls stay out of the texel grid) and depth ``depth_mm``. ArUco markers are
 printed on the plate as an albedo texture, laid out as ``docs/btf.md`` fixes:
 marker *i* carries id *i*, is centred at ``holder.marker_centers_mm()[i]``,
 measures ``holder.marker_mm`` over its black border, and reads upright when the
@@ -48,9 +49,20 @@ def _quad(corners: np.ndarray, normal) -> tuple[np.ndarray, np.ndarray, np.ndarr
     return corners, np.tile(np.asarray(normal, float), (4, 1)), faces
 
 
-def assemble(holder: Holder, sample: SampleGeometry, *, depth_mm: float) -> SceneMesh:
-    """Plate + recess walls (+ floor for non-height-field samples) + the sample."""
-    P, s, d = holder.plate_mm / 2, holder.sample_mm / 2, depth_mm
+def assemble(
+    holder: Holder, sample: SampleGeometry, *, depth_mm: float, recess_mm: float
+) -> SceneMesh:
+    """Plate + recess walls (+ floor for non-height-field samples) + the sample.
+
+    ``recess_mm`` (≥ ``holder.sample_mm``) must leave the markers on the plate."""
+    P, s, d = holder.plate_mm / 2, recess_mm / 2, depth_mm
+    clear = float(np.abs(holder.marker_centers_mm()).max(axis=1).min()) - holder.marker_mm / 2
+    if not holder.sample_mm <= recess_mm <= 2 * clear:
+        raise ConfigError(
+            f"sample.margin_mm: the recess of {recess_mm:g} mm must hold the "
+            f"{holder.sample_mm:g} mm measured square and leave the markers, which start "
+            f"{clear:g} mm from the centre: a margin of 0 … {clear - holder.sample_mm / 2:g} mm"
+        )
     quads = [  # (corners, normal, part)
         ([[-P, s, 0], [P, s, 0], [P, P, 0], [-P, P, 0]], (0, 0, 1), PART_PLATE),
         ([[-P, -P, 0], [P, -P, 0], [P, -s, 0], [-P, -s, 0]], (0, 0, 1), PART_PLATE),

@@ -38,17 +38,48 @@ class SceneModel:
     def sample(self) -> SampleGeometry:
         spec = self.scene.spec.sample
         return generator(spec.generator).build(
-            self.scene.sample_params, sample_mm=self.sample_mm, depth_mm=spec.depth_mm
+            self._recess[1], sample_mm=self.recess_mm, depth_mm=spec.depth_mm
         )
 
     @property
     def sample_mm(self) -> float:
+        """Side of the measured square (the texel grids'), mm."""
         return self.scene.rig.holder.sample_mm
+
+    @property
+    def recess_mm(self) -> float:
+        """Side of the holder's recess and of the sample filling it, mm: the measured
+        square and ``sample.margin_mm`` on every side (a height field's: rounded up to whole
+        steps of its lattice)."""
+        return self._recess[0]
+
+    @cached_property
+    def _recess(self):
+        """The recess side and the generator's parameters for it. A height field's lattice
+        keeps its points on the measured square where they were without a margin (the
+        square's own truth does not move) and adds whole steps around it, unless a step is
+        longer than the margin (a plane's)."""
+        params = self.scene.sample_params
+        margin = self.scene.spec.sample.margin_mm
+        grid = getattr(params, "grid", None)
+        if grid is None:
+            return self.sample_mm + 2.0 * margin, params
+        pitch = self.sample_mm / (grid - 1)
+        steps = int(np.ceil(margin / pitch - 1e-9))
+        if steps * pitch <= 2.0 * margin:
+            return self.sample_mm + 2 * steps * pitch, params.model_copy(
+                update={"grid": grid + 2 * steps}
+            )
+        # A lattice coarser than the margin (a plane): no finer than it was over the square.
+        recess = self.sample_mm + 2.0 * margin
+        intervals = int(np.ceil((grid - 1) * recess / self.sample_mm - 1e-9))
+        return recess, params.model_copy(update={"grid": intervals + 1})
 
     @cached_property
     def mesh(self) -> SceneMesh:
+        spec = self.scene.spec.sample
         return assemble(
-            self.scene.rig.holder, self.sample, depth_mm=self.scene.spec.sample.depth_mm
+            self.scene.rig.holder, self.sample, depth_mm=spec.depth_mm, recess_mm=self.recess_mm
         )
 
     @cached_property

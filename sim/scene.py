@@ -90,6 +90,12 @@ class _Closed(BaseModel):
 class SampleSpec(_Closed):
     generator: str = Field(description="a registered sample generator")
     depth_mm: float = Field(3.0, gt=0, le=100, description="depth of the holder's recess")
+    margin_mm: float = Field(
+        5.0, ge=0, le=100,
+        description="how far the recess, and the sample filling it, reach past the measured "
+        "square (holder.sample_mm) on every side: the recess walls, the shadows they cast and "
+        "the gap at them stay out of the texel grid, as on a real holder",
+    )  # fmt: skip
     materials: tuple[str, ...] = Field(("default",), min_length=1)
     params: dict[str, Any] = Field(default_factory=dict, description="the generator's options")
 

@@ -280,17 +280,18 @@ void main() {
             to_light = safe_normalize(light_place[l].xyz, vec3(0.0, 0.0, 1.0));
         }
         light_local[l] = to_local * to_light;
-#if AMBIENT == 1
-        shadowed += e;  // the lit part is taken back below
-#endif
         if (light_local[l].z <= 0.0) continue;  // below the horizon: no light, never NaN
+        float lit = 1.0;
 #if SHADOWS == 1
-        e *= lit_fraction(l, shadow_point, n, to_light);
+        lit = lit_fraction(l, shadow_point, n, to_light);
 #endif
 #if AMBIENT == 1
-        shadowed -= e;
+        // What a shadow holds back is the irradiance the light would bring, E cos θ_l:
+        // it fades to nothing towards the horizon as the lit side's shading does, and
+        // a surface facing away is unlit, not shadowed.
+        shadowed += e * (light_local[l].z * (1.0 - lit));
 #endif
-        irradiance[l] = e;
+        irradiance[l] = e * lit;
     }
 
     vec3 colour = vec3(0.0);
@@ -304,8 +305,8 @@ void main() {
     for (int l = 0; l < N_LIGHTS; ++l) colour += irradiance[l] * shade_pbr(st, view_local, light_local[l]);
 #endif
 #if AMBIENT == 1
-    // In shadow the ambient term (seed 001 §4.2): skylight of a · E, a uniform sky of
-    // radiance a · E / π, for what each shadow holds back.
+    // In shadow the ambient term (seed 001 §4.2): a of what each shadow holds back comes
+    // back as a uniform sky of radiance a · E cos θ_l / π.
     colour += (ambient / 3.14159265) * shadowed * ambient_term(st, view);
 #endif
 #if PEM == 1 && PS == 1

@@ -74,3 +74,24 @@ def test_bad_maps_name_what_is_wrong(tmp_path):
         read_environment(tmp_path / "broken.exr")
     with pytest.raises(RenderError, match="synthetic ones are"):
         synthetic_environment("beach")
+
+
+def test_mean_lookup_keeps_the_light_of_the_map_at_every_width():
+    """Each level's pixels times their solid angles sum to the map's light (within float64
+    rounding), a uniform map reads as itself at any width, and at a width below a pixel
+    the lookup at a pixel's centre reads that pixel."""
+    sky = synthetic_environment("sky", height=32).with_view(rotation_deg=33.0)
+    rng = np.random.default_rng(3)
+    directions = rng.normal(size=(500, 3))
+    directions /= np.linalg.norm(directions, axis=1, keepdims=True)
+    total = (sky.radiance.astype(np.float64) * sky.pixel_directions()[1][..., None]).sum((0, 1))
+    for level in sky._means:
+        h = level.shape[0]
+        _, solid = EnvironmentMap(np.zeros((h, 2 * h, 3), np.float32)).pixel_directions()
+        np.testing.assert_allclose((level * solid[..., None]).sum((0, 1)), total, rtol=1e-12)
+    assert [m.shape[0] for m in sky._means] == [32, 16, 8, 4, 2]
+    uniform = EnvironmentMap(np.full((16, 32, 3), 0.7, np.float32))
+    for width in (0.01, 0.3, 3.0):
+        np.testing.assert_allclose(uniform.mean_lookup(directions, width), 0.7, rtol=1e-6)
+    centres, _ = sky.pixel_directions()  # rotation applied
+    np.testing.assert_allclose(sky.mean_lookup(centres, 1e-3), sky.radiance, rtol=1e-5, atol=1e-6)

@@ -28,29 +28,14 @@ def with_mdf(model, mdf: Mdf):
     return dataclasses.replace(material(model), mdf=mdf)
 
 
-@pytest.mark.parametrize("kind", ["pca", "svd"])
-@pytest.mark.parametrize("view_deg", [(0.0, 0.0), (23.0, 41.0), (64.0, 137.0)])
-def test_shadowed_texels_show_the_ambient_term(kind, view_deg, request):
-    """A light below the horizon holds back all its irradiance E: each texel shows
-    a · E / π · Σ_j ω_j L_a,j, the view slots blended as the BTF blends them."""
-    model = request.getfixturevalue(f"{kind}_model")
-    mesh, frame = tilted_quad(view_deg)
-    below = DirectionalLight(tuple(frame @ np.array([0.3, 0.2, -0.93])), intensity=2.0)
-    with Renderer(with_mdf(model, synthetic_mdf()), mesh, mdf=True, ambient=0.5) as renderer:
-        image = renderer.render(texel_camera(SAMPLE_MM, N), [below])
-    blend = nearest_directions(direction_vector(VIEWS[:, 0], VIEWS[:, 1]),
-                               direction_vector(*view_deg), k=4)  # fmt: skip
-    ambient = ambient_term(model)
-    slots = np.tensordot(blend.weights[0], ambient[blend.indices[0]], axes=1)
-    expected = 0.5 * 2.0 / np.pi * slots
-    assert np.abs(expected).max() > 0.01
-    np.testing.assert_allclose(image, expected, atol=1e-4 * np.abs(expected).max())
-
-
-def test_without_ambient_a_shadow_stays_black(pca_model):
+def test_a_surface_facing_away_from_the_light_is_unlit_not_shadowed(pca_model):
+    """Below the horizon a light brings nothing, so its shadow holds nothing back: no
+    ambient term. Counted as all held back it lit the night side of a sphere with the
+    ambient term while the lit side faded to black at the terminator: a hard-edged
+    crescent at the rim."""
     mesh, frame = tilted_quad((23.0, 41.0))
-    below = DirectionalLight(tuple(frame @ np.array([0.3, 0.2, -0.93])))
-    with Renderer(with_mdf(pca_model, synthetic_mdf()), mesh, mdf=True, ambient=0.0) as r:
+    below = DirectionalLight(tuple(frame @ np.array([0.3, 0.2, -0.93])), intensity=2.0)
+    with Renderer(with_mdf(pca_model, synthetic_mdf()), mesh, mdf=True, ambient=0.5) as r:
         assert np.all(r.render(texel_camera(SAMPLE_MM, N), [below]) == 0)
 
 
@@ -67,6 +52,38 @@ def render_scene(model, mdf, light_deg, *, use_mdf, camera_deg=(30.0, 200.0)):
     with Renderer(with_mdf(model, mdf), ball_over_floor(), mdf=use_mdf, ambient=0.0,
                   tile_mm=10.0, shadow_size=256) as renderer:  # fmt: skip
         return renderer.render(camera, [light])
+
+
+@pytest.mark.parametrize("kind", ["pca", "svd"])
+@pytest.mark.parametrize("view_deg", [(0.0, 0.0), (23.0, 41.0), (64.0, 137.0)])
+def test_a_cast_shadow_shows_the_ambient_term_of_what_it_holds_back(kind, view_deg, request):
+    """A texel-exact quad in the shadow of a roof, a light at θ_l = 40° in the quad's frame
+    (from opposite the view): the shadow holds back E cos θ_l, so each texel shows
+    a · E cos θ_l / π · Σ_j ω_j L_a,j, the view slots blended as the BTF blends them. The
+    roof, twice the quad's side (the view pulls the shadow test's point along the view ray by up
+    to the MDF's depth), floats 2 sides above the quad along the light
+    ray, out of the camera's frame, which holds the quad alone."""
+    model = request.getfixturevalue(f"{kind}_model")
+    quad, frame = tilted_quad(view_deg)
+    light_local = direction_vector(40.0, view_deg[1] + 180.0)
+    roof = plane(size_mm=2.0 * SAMPLE_MM, segments=1)
+    lifted = roof.positions + 2.0 * SAMPLE_MM * light_local / light_local[2]
+    roof = dataclasses.replace(
+        roof, positions=(lifted @ frame.T).astype(np.float32),
+        normals=(roof.normals @ frame.T).astype(np.float32),
+        tangents=np.concatenate([roof.tangents[:, :3] @ frame.T, roof.tangents[:, 3:]], axis=1)
+        .astype(np.float32),
+    )  # fmt: skip
+    light = DirectionalLight(tuple(frame @ light_local), intensity=2.0)
+    scene = merged([quad, roof], name="quad under a roof")
+    with Renderer(with_mdf(model, synthetic_mdf()), scene, mdf=True, ambient=0.5) as renderer:
+        image = renderer.render(texel_camera(SAMPLE_MM, N), [light])
+    blend = nearest_directions(direction_vector(VIEWS[:, 0], VIEWS[:, 1]),
+                               direction_vector(*view_deg), k=4)  # fmt: skip
+    slots = np.tensordot(blend.weights[0], ambient_term(model)[blend.indices[0]], axes=1)
+    expected = 0.5 * 2.0 * light_local[2] / np.pi * slots
+    assert np.abs(expected).max() > 0.01
+    np.testing.assert_allclose(image, expected, atol=1e-4 * np.abs(expected).max())
 
 
 def test_an_mdf_that_is_all_unseen_changes_nothing(pca_model):

@@ -101,3 +101,15 @@ def test_lights_add_to_the_environment(store, tmp_path, method):
     np.testing.assert_allclose(
         images["both"], images["env"] + images["lamp"], rtol=1e-5, atol=1e-6 * images["both"].max()
     )
+
+
+def test_vis_res_defaults_to_the_renderers_default():
+    """`rig view --env` without --vis-res gets the renderer's default hemicube (the one the
+    docs' sky figure and its accuracy table were made with), not the faster preview."""
+    import typer
+
+    from render.visibility import DEFAULT_RESOLUTION
+
+    view = typer.main.get_command(app).commands["view"]
+    vis_res = next(p for p in view.params if p.name == "vis_res")
+    assert vis_res.default == DEFAULT_RESOLUTION == 16

@@ -26,8 +26,10 @@ N = 48
 SCENES = Path(__file__).parents[2] / "examples" / "scenes"
 
 
-def _model(name: str) -> SceneModel:
-    return SceneModel(scene_from_dict(tomllib.loads((SCENES / f"{name}.toml").read_text())))
+def _model(name: str, **sample) -> SceneModel:
+    data = tomllib.loads((SCENES / f"{name}.toml").read_text())
+    data["sample"].update(sample)
+    return SceneModel(scene_from_dict(data))
 
 
 @pytest.fixture(scope="module")
@@ -61,12 +63,18 @@ def test_a_45_degree_mount_misses_the_recess_floor_a_steeper_one_reaches_it(weav
     assert kept[:4] == list(at_45[::3]) and reach.coverage(kept) >= 0.99
 
 
-def test_a_flat_target_is_covered_by_one_location_but_the_wall_shadow():
+def test_a_flat_target_is_covered_by_one_location():
     flat = _model("flat_target")
     reach = laser_reach(flat, flat.scene.rig, (0.0, 0.0), [[45.0, 0.0]], N)
-    # The emitter stands at +x: the recess wall there shadows the last column.
+    # The emitter stands at +x; the recess wall there shadows the 2 mm next to it, in the
+    # margin around the measured square.
+    assert not (reach.visible & ~reach.reached[0]).any()
+    # With the wall on the square's edge its shadow takes the last column.
+    walled = _model("flat_target", margin_mm=0.0)
+    reach = laser_reach(walled, walled.scene.rig, (0.0, 0.0), [[45.0, 0.0]], N)
     unreached = reach.visible & ~reach.reached[0]
     assert unreached[:, -1].all() and not unreached[:, :-1].any()
+    flat = _model("flat_target")
     # A 1° sweep moves the strip only ±6 mm over the 100 mm sample.
     narrow = _with_mounts(flat.scene.rig, 45.0, sweep_deg=1.0)
     band = laser_reach(flat, narrow, (0.0, 0.0), [[45.0, 0.0]], N)
