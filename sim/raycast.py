@@ -25,6 +25,7 @@ class RayCaster:
         else:  # pragma: no cover - embreex is a dependency of btfrig[sim]
             from trimesh.ray.ray_triangle import RayMeshIntersector
         self._intersector = RayMeshIntersector(tm)
+        self._top_z = float(mesh.vertices[:, 2].max())
         self.backend = "embree" if trimesh.ray.has_embree else "numpy"
         self.rays = 0  # rays cast, for the cost accounting
 
@@ -37,8 +38,17 @@ class RayCaster:
         return np.asarray(self._intersector.intersects_first(origins, dirs), dtype=np.int64)
 
     def occluded(self, origins: np.ndarray, dirs: np.ndarray) -> np.ndarray:
-        """(n,) bool: something lies along each ray (the scene is below every lamp)."""
-        self.rays += len(dirs)
-        if len(dirs) == 0:
-            return np.zeros(0, dtype=bool)
-        return np.asarray(self._intersector.intersects_any(origins, dirs), dtype=bool)
+        """(n,) bool: something lies along each ray (the scene is below every lamp).
+
+        Rays that start above the mesh's top and do not descend (from the
+        plate's top towards a lamp: most of a frame's shadow rays) cannot meet
+        it and are not cast; ``rays`` counts those cast.
+        """
+        origins = np.asarray(origins, dtype=np.float64)
+        dirs = np.asarray(dirs, dtype=np.float64)
+        cast = np.flatnonzero((origins[:, 2] <= self._top_z) | (dirs[:, 2] < 0))
+        occluded = np.zeros(len(dirs), dtype=bool)
+        self.rays += len(cast)
+        if len(cast):
+            occluded[cast] = self._intersector.intersects_any(origins[cast], dirs[cast])
+        return occluded
