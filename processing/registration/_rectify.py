@@ -105,8 +105,8 @@ def _footprint_px(H, grid: np.ndarray, step: float, camera) -> tuple[float, floa
     shifted = np.concatenate([pts, pts + np.array([step, 0.0]), pts + np.array([0.0, step])])
     pix = _to_pixels(H, shifted, camera)
     along_x, along_y = pix[n : 2 * n] - pix[:n], pix[2 * n :] - pix[:n]
-    extent_x = float(np.sqrt((along_x**2).sum(axis=1).max()))
-    return extent_x, float(np.sqrt((along_y**2).sum(axis=1).max()))
+    extent_x = np.sqrt((along_x[:, 0] ** 2 + along_x[:, 1] ** 2).max())
+    return float(extent_x), float(np.sqrt((along_y[:, 0] ** 2 + along_y[:, 1] ** 2).max()))
 
 
 def rectify(
