@@ -48,9 +48,7 @@ def render_sequence(sim: Simulator) -> dict[str, np.ndarray]:
     """``image_k`` and ``signal_k`` of every frame of :data:`SEQUENCE`."""
     out = {}
     for k, (cam, tt, arc, lamps, laser) in enumerate(SEQUENCE):
-        frame = sim.render_state(
-            cam, turntable_deg=tt, arc_deg=arc, lamps_on=lamps, laser=laser
-        )
+        frame = sim.render_state(cam, turntable_deg=tt, arc_deg=arc, lamps_on=lamps, laser=laser)
         out[f"image_{k}"] = frame.image
         out[f"signal_{k}"] = frame.signal
     return out
