@@ -26,9 +26,7 @@ def visible_from(
 ) -> np.ndarray:
     """(n,) bool: the point ``position`` (sample frame, mm) sees each hit."""
     origins = hits.reuse(("offset", offset_mm), lambda: hits.points + offset_mm * hits.normals)
-    dirs = position - origins
-    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
-    return ~model.caster.occluded(origins, dirs)
+    return model.caster.sees(origins, position)
 
 
 def laser_irradiance(

@@ -196,7 +196,7 @@ class Simulator:
                 )  # fmt: skip
             if self.scene.has("saturation"):
                 self.counters["stage.saturation"] += 1
-                signal = np.clip(signal, 0, full_scale(spec.bit_depth))
+                signal = np.clip(signal, 0, full_scale(spec.bit_depth), out=signal)
             if self.scene.has("response"):
                 self.counters["stage.response"] += 1
                 gamma = self.scene.spec.params("response").gamma
@@ -355,8 +355,9 @@ class Simulator:
 
     def _to_dn(self, radiance, exposure, bit_depth, channels) -> np.ndarray:
         radiometry = self.scene.spec.radiometry
-        dn = radiance * (exposure / radiometry.full_scale_exposure * full_scale(bit_depth))
-        return dn.mean(axis=2) if channels == 1 else dn
+        # In place: the radiance image is this frame's own.
+        radiance *= exposure / radiometry.full_scale_exposure * full_scale(bit_depth)
+        return radiance.mean(axis=2) if channels == 1 else radiance
 
     def _sensor_cache(self, kind: str, camera_id: str, camera):
         key = (kind, camera_id)
