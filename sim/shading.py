@@ -171,7 +171,7 @@ def reflected_radiance(
     """
     cos_i = np.clip(np.einsum("ij,ij->i", hits.normals, light_dirs), 0, None)
     e = irradiance * cos_i
-    radiance = hits.reuse("albedo/pi", lambda: hits.albedo / np.pi) * e[:, None]
+    radiance = hits.albedo / np.pi * e[:, None]
     for material, lobe in (specular or {}).items():
         sel, normals, views, terms = hits.reuse(
             ("specular", material), lambda m=material, lobe=lobe: _specular_view(hits, m, lobe)
