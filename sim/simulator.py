@@ -6,7 +6,8 @@ the scene lists its effect:
 
 1. face ids by GL — once per (camera, turntable angle), cached and reused for
    every lamp and laser position; exact hits and albedo are reconstructed from
-   them in float64;
+   them in float64, and the hits keep what depends on the view only (specular
+   frame, shadow-ray origins) for every lamp;
 2. direct light from each lit lamp (Lambertian, + ``specular``, × ``shadows``)
    and the ``laser`` sheet;
 3. ``interreflection`` (Mitsuba 3 reference, indirect light only);
