@@ -25,10 +25,8 @@ def visible_from(
     model: SceneModel, hits: SurfaceHits, position: np.ndarray, *, offset_mm: float
 ) -> np.ndarray:
     """(n,) bool: the point ``position`` (sample frame, mm) sees each hit."""
-    origins = hits.points + offset_mm * hits.normals
-    dirs = position - origins
-    dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
-    return ~model.caster.occluded(origins, dirs)
+    origins = hits.reuse(("offset", offset_mm), lambda: hits.points + offset_mm * hits.normals)
+    return model.caster.sees(origins, position)
 
 
 def laser_irradiance(

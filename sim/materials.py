@@ -40,6 +40,7 @@ __all__ = [
     "Specular",
     "eval_albedo",
     "eval_specular",
+    "specular_view_terms",
 ]
 
 Unit = Annotated[float, Field(ge=0, le=1)]
@@ -166,21 +167,16 @@ def eval_albedo(spec: Albedo, xy: np.ndarray, *, sample_mm: float) -> np.ndarray
     return np.clip(spec.gain * sample_image(img, xy, sample_mm, order=1), 0, 1)
 
 
-def eval_specular(
-    spec: Specular, normals: np.ndarray, light_dirs: np.ndarray, view_dirs: np.ndarray
-) -> np.ndarray:
-    """Specular BRDF value (n,) float64, 1/sr, for unit vectors (n, 3).
+def specular_view_terms(spec: Specular, normals: np.ndarray, view_dirs: np.ndarray) -> dict:
+    """The parts of :func:`eval_specular` that depend on the view only, (n,) arrays.
 
-    Zero where the light or the view is below the local surface.
+    ``cos_v``, and for Lafortune lobes the local frame (``t``, ``b``) and the
+    view in it (``vx``, ``vy``): computed once per set of hits and reused for
+    every lamp that lights them.
     """
-    cos_l = np.einsum("ij,ij->i", normals, light_dirs)
-    cos_v = np.einsum("ij,ij->i", normals, view_dirs)
-    front = (cos_l > 0) & (cos_v > 0)
+    terms = {"cos_v": np.einsum("ij,ij->i", normals, view_dirs)}
     if isinstance(spec, PhongSpecular):
-        mirror = 2 * cos_l[:, None] * normals - light_dirs
-        r_dot_v = np.clip(np.einsum("ij,ij->i", mirror, view_dirs), 0, None)
-        f = spec.ks * (spec.exponent + 2) / (2 * np.pi) * r_dot_v**spec.exponent
-        return np.where(front, f, 0.0)
+        return terms
     # Local frame: tangent = sample x projected onto the tangent plane.
     ex = np.array([1.0, 0.0, 0.0])
     t = ex - normals * normals[:, :1]
@@ -188,8 +184,36 @@ def eval_specular(
     t[bad] = np.cross(normals[bad], [0.0, 1.0, 0.0]) if bad.any() else t[bad]
     t /= np.linalg.norm(t, axis=1, keepdims=True)
     b = np.cross(normals, t)
-    lx, ly = np.einsum("ij,ij->i", t, light_dirs), np.einsum("ij,ij->i", b, light_dirs)
     vx, vy = np.einsum("ij,ij->i", t, view_dirs), np.einsum("ij,ij->i", b, view_dirs)
+    return {**terms, "t": t, "b": b, "vx": vx, "vy": vy}
+
+
+def eval_specular(
+    spec: Specular,
+    normals: np.ndarray,
+    light_dirs: np.ndarray,
+    view_dirs: np.ndarray,
+    view_terms: dict | None = None,
+) -> np.ndarray:
+    """Specular BRDF value (n,) float64, 1/sr, for unit vectors (n, 3).
+
+    Zero where the light or the view is below the local surface.
+    ``view_terms``: :func:`specular_view_terms` of these normals and views,
+    when the caller keeps them (computed here otherwise).
+    """
+    if view_terms is None:
+        view_terms = specular_view_terms(spec, normals, view_dirs)
+    cos_l = np.einsum("ij,ij->i", normals, light_dirs)
+    cos_v = view_terms["cos_v"]
+    front = (cos_l > 0) & (cos_v > 0)
+    if isinstance(spec, PhongSpecular):
+        mirror = 2 * cos_l[:, None] * normals - light_dirs
+        r_dot_v = np.clip(np.einsum("ij,ij->i", mirror, view_dirs), 0, None)
+        f = spec.ks * (spec.exponent + 2) / (2 * np.pi) * r_dot_v**spec.exponent
+        return np.where(front, f, 0.0)
+    t, b = view_terms["t"], view_terms["b"]
+    lx, ly = np.einsum("ij,ij->i", t, light_dirs), np.einsum("ij,ij->i", b, light_dirs)
+    vx, vy = view_terms["vx"], view_terms["vy"]
     f = np.zeros(len(normals))
     for lobe in spec.lobes:
         base = lobe.cx * lx * vx + lobe.cy * ly * vy + lobe.cz * cos_l * cos_v

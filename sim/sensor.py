@@ -84,17 +84,20 @@ def add_noise(
     with ``g = full_scale / full_well`` DN per electron.
     """
     gain = full_scale(bit_depth) / full_well_e
-    electrons = np.clip(signal_dn, 0, None) / gain
+    electrons = np.clip(signal_dn, 0, None)
+    electrons /= gain
     noisy = rng.poisson(electrons).astype(np.float64)
     if read_noise_e > 0:
         noisy += rng.normal(0.0, read_noise_e, size=noisy.shape)
-    return noisy * gain
+    noisy *= gain
+    return noisy
 
 
 def quantize(signal_dn: np.ndarray, dtype: np.dtype) -> np.ndarray:
     """Round to integers and clip to the storage type's range (never wraps)."""
     info = np.iinfo(dtype)
-    return np.clip(np.rint(signal_dn), info.min, info.max).astype(dtype)
+    rounded = np.rint(signal_dn)
+    return np.clip(rounded, info.min, info.max, out=rounded).astype(dtype)
 
 
 def apply_response(signal_dn: np.ndarray, *, bit_depth: int, gamma: float) -> np.ndarray:

@@ -13,12 +13,13 @@ with ρ the albedo and θ_i the angle between the normal and the lamp.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from collections.abc import Callable
+from dataclasses import dataclass, field, fields
 
 import numpy as np
 
 from rig.config import Lamp
-from sim.materials import Specular, eval_specular
+from sim.materials import Specular, eval_specular, specular_view_terms
 
 __all__ = ["LightSource", "SurfaceHits", "reflected_radiance", "triangle_hits"]
 
@@ -63,6 +64,7 @@ class SurfaceHits:
     faces, materials : (n,) int64; parts : (n,) int8
     view_dirs : (n, 3) float64 unit, from the point towards the camera
     albedo : (n, 3) float64
+    memo : what :meth:`reuse` keeps (not part of the hits' value)
     """
 
     shape: tuple[int, int]
@@ -74,6 +76,14 @@ class SurfaceHits:
     parts: np.ndarray
     view_dirs: np.ndarray
     albedo: np.ndarray
+    memo: dict = field(default_factory=dict, compare=False, repr=False)
+
+    def reuse(self, key, compute: Callable[[], object]):
+        """``compute()``, kept with these hits under ``key``: a term that depends on
+        the hits (the view) only, shared by every lamp that lights them."""
+        if key not in self.memo:
+            self.memo[key] = compute()
+        return self.memo[key]
 
     @classmethod
     def build(cls, mesh, shape, pixels, origins, dirs, faces, albedo_fn) -> SurfaceHits:
@@ -114,14 +124,22 @@ class SurfaceHits:
     @classmethod
     def concatenate(cls, parts: list[SurfaceHits]) -> SurfaceHits:
         """The hits of one image, from ``parts`` built over consecutive runs of its pixels."""
-        arrays = [f.name for f in fields(cls) if f.name != "shape"]
+        arrays = [f.name for f in fields(cls) if f.name not in ("shape", "memo")]
         joined = {name: np.concatenate([getattr(p, name) for p in parts]) for name in arrays}
         return cls(shape=parts[0].shape, **joined)
 
     @property
     def nbytes(self) -> int:
-        """Bytes the hit arrays hold."""
-        return sum(getattr(self, f.name).nbytes for f in fields(self) if f.name != "shape")
+        """Bytes the hit arrays and what :meth:`reuse` kept hold."""
+        arrays = [getattr(self, f.name) for f in fields(self) if f.name not in ("shape", "memo")]
+        return _nbytes(arrays) + _nbytes(list(self.memo.values()))
+
+
+def _nbytes(value) -> int:
+    """Bytes of the arrays in ``value`` (an array, or tuples and lists of them)."""
+    if isinstance(value, tuple | list):
+        return sum(_nbytes(item) for item in value)
+    return getattr(value, "nbytes", 0)
 
 
 @dataclass(frozen=True)
@@ -174,10 +192,18 @@ def reflected_radiance(
     cos_i = np.clip(np.einsum("ij,ij->i", hits.normals, light_dirs), 0, None)
     e = irradiance * cos_i
     radiance = hits.albedo / np.pi * e[:, None]
-    if specular:
-        for material, lobe in specular.items():
-            sel = hits.materials == material
-            if sel.any():
-                f = eval_specular(lobe, hits.normals[sel], light_dirs[sel], hits.view_dirs[sel])
-                radiance[sel] += (f * e[sel])[:, None]
+    for material, lobe in (specular or {}).items():
+        sel, normals, views, terms = hits.reuse(
+            ("specular", material), lambda m=material, lobe=lobe: _specular_view(hits, m, lobe)
+        )
+        if len(sel):
+            f = eval_specular(lobe, normals, light_dirs[sel], views, terms)
+            radiance[sel] += (f * e[sel])[:, None]
     return radiance
+
+
+def _specular_view(hits: SurfaceHits, material: int, lobe: Specular) -> tuple:
+    """The hits of one material, their normals and views, and the lobe's view terms."""
+    sel = np.flatnonzero(hits.materials == material)
+    normals, views = hits.normals[sel], hits.view_dirs[sel]
+    return sel, normals, views, specular_view_terms(lobe, normals, views)

@@ -6,7 +6,8 @@ the scene lists its effect:
 
 1. face ids by GL — once per (camera, turntable angle), cached and reused for
    every lamp and laser position; exact hits and albedo are reconstructed from
-   them in float64;
+   them in float64, and the hits keep what depends on the view only (specular
+   frame, shadow-ray origins) for every lamp;
 2. direct light from each lit lamp (Lambertian, + ``specular``, × ``shadows``)
    and the ``laser`` sheet;
 3. ``interreflection`` (Mitsuba 3 reference, indirect light only);
@@ -201,7 +202,7 @@ class Simulator:
                 )  # fmt: skip
             if self.scene.has("saturation"):
                 self.counters["stage.saturation"] += 1
-                signal = np.clip(signal, 0, full_scale(spec.bit_depth))
+                signal = np.clip(signal, 0, full_scale(spec.bit_depth), out=signal)
             if self.scene.has("response"):
                 self.counters["stage.response"] += 1
                 gamma = self.scene.spec.params("response").gamma
@@ -360,8 +361,9 @@ class Simulator:
 
     def _to_dn(self, radiance, exposure, bit_depth, channels) -> np.ndarray:
         radiometry = self.scene.spec.radiometry
-        dn = radiance * (exposure / radiometry.full_scale_exposure * full_scale(bit_depth))
-        return dn.mean(axis=2) if channels == 1 else dn
+        # In place: the radiance image is this frame's own.
+        radiance *= exposure / radiometry.full_scale_exposure * full_scale(bit_depth)
+        return radiance.mean(axis=2) if channels == 1 else radiance
 
     def _sensor_cache(self, kind: str, camera_id: str, camera):
         key = (kind, camera_id)

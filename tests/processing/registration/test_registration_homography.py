@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import cv2
 import numpy as np
 import pytest
 from hypothesis import given
@@ -152,3 +153,20 @@ def test_a_pose_looking_away_from_the_sample_is_flagged(rig_config, holder):
     camera = PinholeCamera(lens.K, lens.dist, turned @ lens.R, turned @ lens.t, 64, 64)
     fit = pose_plane_homography(camera, holder)
     assert not fit.valid and fit.reason == Reason.SAMPLE_NOT_VISIBLE
+
+
+def test_plane_points_map_to_the_pixels_opencv_gives():
+    from processing.registration._rectify import _footprint_px, _to_pixels
+
+    H = np.array([[4.1, 0.3, 250.0], [-0.2, 3.7, 190.0], [1e-4, -2e-4, 1.0]])
+    xy = np.random.default_rng(3).uniform(-40, 40, (500, 2))
+    expected = cv2.perspectiveTransform(xy[None], H)[0]
+    np.testing.assert_allclose(_to_pixels(H, xy, None), expected, rtol=0, atol=1e-9)
+    # The footprint of a texel step is the largest step seen in the image.
+    grid = np.stack(np.meshgrid(np.linspace(-40, 40, 9), np.linspace(-40, 40, 9)), -1)
+    fx, fy = _footprint_px(H, grid, 0.5, None)
+    pts = grid.reshape(-1, 2)
+    base = cv2.perspectiveTransform(pts[None], H)[0]
+    steps = [cv2.perspectiveTransform((pts + d)[None], H)[0] - base for d in ([0.5, 0], [0, 0.5])]
+    assert fx == pytest.approx(np.linalg.norm(steps[0], axis=1).max(), abs=1e-9)
+    assert fy == pytest.approx(np.linalg.norm(steps[1], axis=1).max(), abs=1e-9)
