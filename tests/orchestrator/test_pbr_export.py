@@ -7,6 +7,7 @@ import subprocess
 
 import numpy as np
 import pytest
+from numpy.testing import assert_allclose
 from typer.testing import CliRunner
 
 from orchestrator.cli import app
@@ -114,8 +115,10 @@ def test_gltf_on_a_mesh_file_keeps_its_uvs(fitted, tmp_path):
         return np.frombuffer(blob, np.float32, accessor["count"] * width, start).reshape(-1, width)
 
     uvs, positions = attribute("TEXCOORD_0", 2), attribute("POSITION", 3)
+    # the OBJ's mm with +Z up are glTF's metres with +Y up: its (x, y) is glTF's (x, −z);
     # glTF's v runs down the image: the OBJ's corner at v = 0 has glTF's v = 1
-    pairs = {tuple(p[:2].round(6)): tuple(uv.round(6))
+    assert_allclose(positions[:, 1], 0.0)
+    pairs = {(round(1000 * p[0], 3), round(-1000 * p[2], 3)): tuple(uv.round(6))
              for p, uv in zip(positions, uvs, strict=True)}  # fmt: skip
     assert pairs == {(0, 0): (0, 1), (1, 0): (1, 1), (1, 1): (1, 0), (0, 1): (0, 0)}
     assert "TANGENT" not in primitive["attributes"]
