@@ -77,6 +77,7 @@ def board_views():
     return poses, views
 
 
+@pytest.mark.slow  # renders its boards: seconds
 def test_intrinsics_and_pose_from_rendered_boards(board_views):
     poses, views = board_views
     cal = calibrate_intrinsics(views, (CAMERA.width, CAMERA.height))

@@ -23,6 +23,9 @@ from rig.kinematics import rotate_z
 from sim.calibration import target_scene
 from sim.rig import SimulatedRig
 
+# Simulated sessions, rendered targets or fits of seconds each: make test only, not make quick.
+pytestmark = pytest.mark.slow
+
 CAMERAS = ("cam0", "cam2")
 # Stated tolerances at half size (f = 1500 px, 800 mm away); see docs/calibration.md.
 RMS_PX = 0.1

@@ -13,6 +13,9 @@ from rig.geometry import angular_distance_deg
 from rig.kinematics import lamp_position_mm
 from rig.material import read_flat_field
 
+# Simulated sessions, rendered targets or fits of seconds each: make test only, not make quick.
+pytestmark = pytest.mark.slow
+
 LAMPS = (
     {"id": "sun45", "theta_deg": 45.0, "kind": "directional", "intensity": 1.0},
     {"id": "near30", "theta_deg": 30.0, "kind": "point", "intensity": 0.8},

@@ -26,6 +26,9 @@ from rig.targets import MirrorSphere
 from sim.scene import scene_from_dict
 from sim.simulator import Simulator
 
+# Simulated sessions, rendered targets or fits of seconds each: make test only, not make quick.
+pytestmark = pytest.mark.slow
+
 DISTORTION = [-0.08, 0.05, 0.0004, -0.0003, 0.0]
 LAMPS = [
     {"id": "sun30", "theta_deg": 30.0, "kind": "directional", "intensity": 1.0},

@@ -23,6 +23,9 @@ from sim.calibration import target_scene
 from sim.rig import SimulatedRig
 from sim.sensor import inverse_response
 
+# Simulated sessions, rendered targets or fits of seconds each: make test only, not make quick.
+pytestmark = pytest.mark.slow
+
 VALUES = slice(32, 241)  # 8-bit values where one step is < 7 % of the linear signal
 # The 1 % for every value; measured median ≤ 0.3 %, worst ≤ 0.8 % (docs/calibration.md).
 MEDIAN_TOLERANCE, MAX_TOLERANCE = 0.004, 0.01

@@ -60,6 +60,7 @@ def test_bad_plan_exits_2_with_field_names(tmp_path):
     assert "captures.btf.views" in result.output
 
 
+@pytest.mark.slow  # waits out the client's retries
 def test_status_without_a_daemon_fails_clearly():
     result = runner.invoke(app, ["status", "--connect", "tcp://127.0.0.1:1"])
     assert result.exit_code == 1

@@ -6,6 +6,9 @@ import pytest
 from orchestrator.mdf_shadows import ShadowScene, relief_mdf, run_check
 from rig.geometry import texel_centers_mm
 
+# Simulated sessions, rendered targets or fits of seconds each: make test only, not make quick.
+pytestmark = pytest.mark.slow
+
 # 128² pixels, the relief meshed at 0.2 mm: the check of docs/render.md at a quarter of the pixels.
 SCENE = ShadowScene(size=128, band_px=5, relief_step_mm=0.2)
 

@@ -16,6 +16,9 @@ from rig.material import read_material
 from tests.rig.interchange.test_gltf_pbr import SCRIPT, VALIDATOR, _chunks
 from tests.rig.material.conftest import make_archive, pbr_maps, pca_model, ps_view
 
+# Simulated sessions, rendered targets or fits of seconds each: make test only, not make quick.
+pytestmark = pytest.mark.slow
+
 runner = CliRunner()
 NO_VALIDATOR = "the glTF validator is not installed: `make tools` (needs Debian's nodejs, npm)"
 

@@ -20,6 +20,9 @@ from orchestrator.cli import app
 from orchestrator.web_site import CAMERA, CANVAS, LIGHT
 from tests.rig.material.conftest import make_archive, pbr_maps, pca_model
 
+# Simulated sessions, rendered targets or fits of seconds each: make test only, not make quick.
+pytestmark = pytest.mark.slow
+
 runner = CliRunner()
 CHROMIUM, DRIVER = shutil.which("chromium"), shutil.which("chromedriver")
 #: the BTF image may differ from `rig view`'s by this much, in 8-bit sRGB codes (measured:

@@ -13,6 +13,9 @@ import pytest
 
 from orchestrator.silhouettes import _shell, run_silhouettes, scores
 
+# Simulated sessions, rendered targets or fits of seconds each: make test only, not make quick.
+pytestmark = pytest.mark.slow
+
 
 def _by_peel(case) -> dict[int, dict]:
     return {row["peel"]: row for row in case.rows}

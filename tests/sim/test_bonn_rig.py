@@ -10,6 +10,9 @@ from rig.devices import Retry
 from sim.rig import SimulatedRig
 from sim.scene import load_scene
 
+# Simulated sessions, rendered targets or fits of seconds each: make test only, not make quick.
+pytestmark = pytest.mark.slow
+
 FAST = Retry(timeout_s=0.5, retries=2, backoff_s=0.01)
 
 

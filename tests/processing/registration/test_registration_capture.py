@@ -17,6 +17,7 @@ from rig.archive import StepRecord
 from rig.config import load_rig_config
 
 
+@pytest.mark.slow  # a simulated capture
 def test_capture_registers_like_the_frame_with_the_config_camera(frames, rig_config):
     frame, _, _ = frames("cam3", 30.0)
     step = StepRecord(7, "btf", ("cam3",), {"cam3": (45.0, 330.0)}, (15.0, 90.0),

@@ -16,6 +16,9 @@ from processing.registration import Reason, register_frame
 from sim import Simulator
 from tests.processing.registration.sim_views import SimRegistration, registration_scene
 
+# Simulated sessions, rendered targets or fits of seconds each: make test only, not make quick.
+pytestmark = pytest.mark.slow
+
 # One view per H1 ring up to 68°, two at 68° (the sparsest marker view, φ = 270°:
 # the far markers are the most foreshortened, 4–6 of them are found).
 VIEWS = [(0.0, 0.0), (17.0, 60.0), (34.0, 150.0), (51.0, 220.0), (68.0, 18.0), (68.0, 270.0)]
