@@ -44,9 +44,9 @@ test: lint tools
 	HYPOTHESIS_PROFILE=ci $(BIN)/pytest
 
 # The fast tier: no test marked slow (subprocess sessions, benches, long simulations) and
-# the quick hypothesis profile.
+# the quick hypothesis profile, on every core (pytest-xdist).
 quick: lint
-	HYPOTHESIS_PROFILE=quick $(BIN)/pytest -m "not slow"
+	HYPOTHESIS_PROFILE=quick $(BIN)/pytest -m "not slow" -n auto
 
 clean:
 	rm -rf $(VENV) $(TOOLS) out .pytest_cache .ruff_cache .hypothesis .benchmarks

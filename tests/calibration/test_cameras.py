@@ -13,6 +13,9 @@ from rig.camera import PinholeCamera
 from rig.config import default_rig_config
 from rig.targets import CharucoTarget
 
+# Simulated sessions, rendered targets or fits of seconds each: make test only, not make quick.
+pytestmark = pytest.mark.slow
+
 SPEC = CharucoTarget(square_mm=15.0, marker_mm=11.0)
 PPMM = 12  # board texture resolution, pixels per mm
 SUPERSAMPLE = 2
@@ -77,7 +80,6 @@ def board_views():
     return poses, views
 
 
-@pytest.mark.slow  # renders its boards: seconds
 def test_intrinsics_and_pose_from_rendered_boards(board_views):
     poses, views = board_views
     cal = calibrate_intrinsics(views, (CAMERA.width, CAMERA.height))

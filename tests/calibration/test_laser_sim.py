@@ -22,6 +22,9 @@ from sim.calibration import target_scene
 from sim.rig import SimulatedRig
 from sim.simulator import Simulator
 
+# Simulated sessions, rendered targets or fits of seconds each: make test only, not make quick.
+pytestmark = pytest.mark.slow
+
 ANGLE_DEG = 0.1  # the tolerance
 
 

@@ -179,6 +179,7 @@ def test_bench_brute_force_is_the_interpolate_sum(pca_model, small_cloth):
     np.testing.assert_allclose(got, expected, rtol=0, atol=1e-5 * np.abs(expected).max())
 
 
+@pytest.mark.slow  # 200k vertices: seconds
 def test_200k_vertices_stay_finite_in_bounded_memory():
     """U itself (200 659 vertices × 27 slots × 3 coefficients × RGB float32 = 186 MB) plus
     the passes' work, which does not grow with the vertex count: under 100 MB more."""

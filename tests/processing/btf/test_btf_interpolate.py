@@ -120,6 +120,7 @@ def test_material_arrays_round_trip(btf, model, kind):
         btf_from_arrays(broken, attrs)
 
 
+@pytest.mark.slow  # a bench
 def test_bench_rows(benchmark, tmp_path):
     rows = benchmark.pedantic(
         lambda: run_bench(
