@@ -5,9 +5,11 @@ simulated rig in virtual time (``run_local``), processed by the ``btf``
 stage (registration, per-view PCA), and the material is rendered on a flat
 quad at light and view directions that no plan captured. Each image is
 compared texel by texel with the simulator's noise-free BTF of the true
-sample at the same directions (``Simulator.btf_truth``, ray cast, never the
-rasteriser). The rows put the PSNR beside each plan's capture time from the
-session estimate (``rig plan --estimate``): what accuracy costs in time.
+sample at the same directions, averaged over each texel's footprint
+(``Simulator.btf_truth``, ray cast, never the rasteriser; as many rays per
+texel as the score needs, ``orchestrator.footprint``). The rows put the PSNR
+beside each plan's capture time from the session estimate (``rig plan
+--estimate``): what accuracy costs in time.
 
 It runs the simulator, the processing and the renderer side by side, so it
 lives on top of all three.
@@ -23,6 +25,7 @@ from pathlib import Path
 import numpy as np
 
 from orchestrator.daemon import run_local
+from orchestrator.footprint import converged_truth, truth_at
 from processing.btf import CompressedBTF, interpolate, psnr_db, reconstruct, rmse
 from processing.offline import BtfStage, run_stages
 from render import DirectionalLight, Renderer
@@ -181,9 +184,15 @@ def irradiance_scale(scene: Scene, config: RigConfig) -> float:
     return irradiance / radiometry.full_scale_exposure
 
 
-def _truth(sim: Simulator, pairs, size: int) -> np.ndarray:
-    """(pairs, N, N, 3) noise-free BTF of the simulated sample at (view, light) pairs."""
-    return np.stack([sim.btf_truth(view, light, size) for view, light in pairs])
+def _interpolated(btf: CompressedBTF, valid: np.ndarray, pairs) -> np.ndarray:
+    """(pairs, N, N, 3): ``processing.btf.interpolate`` over the valid view slots."""
+    reference = _valid_slots(btf, valid)
+    return np.stack([interpolate(reference, view_deg=v, light_deg=light) for v, light in pairs])
+
+
+def _reconstructed(btf: CompressedBTF, pairs) -> np.ndarray:
+    """(pairs, N, N, 3): the model at (view slot, light) index pairs."""
+    return np.stack([reconstruct(btf, view=j, light=i) for j, i in pairs])
 
 
 def _gap_deg(held: np.ndarray, table_deg: np.ndarray) -> float:
@@ -207,31 +216,35 @@ def _captured_pairs(btf: CompressedBTF, valid: np.ndarray, held_out) -> list[tup
 
 def _rows(name, plan, material, sims, scale, components, held_out, capture_s):
     btf, valid = material.btf, np.asarray(material.btf_slot_valid, bool)
-    own, other = (_truth(sim, held_out, material.size) for sim in sims)
-    peak = float(own.max())
     captured = _captured_pairs(btf, valid, held_out)
-    at_captured = _truth(sims[0], [(btf.view_dirs_deg[j], btf.light_dirs_deg[i])
-                                   for j, i in captured], material.size)  # fmt: skip
+    captured_dirs = [(btf.view_dirs_deg[j], btf.light_dirs_deg[i]) for j, i in captured]
+    # the truths converge on the largest c's scores; the smaller c's share them
+    full = _truncated(btf, max(components))
+    own = converged_truth(sims[0], held_out, _interpolated(full, valid, held_out) / scale)
+    peak = float(own.values.max())
+    at_captured = converged_truth(sims[0], captured_dirs, _reconstructed(full, captured) / scale,
+                                  peak=peak)  # fmt: skip
+    other = truth_at(sims[1], held_out, material.size, own.rays)
     views = np.array([v for v, _ in held_out], float)
     lights = np.array([light for _, light in held_out], float)
     rows = []
     for c in components:
         model = _truncated(btf, c)
         rendered = rendered_at(dataclasses.replace(material, btf=model), held_out) / scale
-        reference = _valid_slots(model, valid)
-        cpu = np.stack([interpolate(reference, view_deg=v, light_deg=light)
-                        for v, light in held_out]) / scale  # fmt: skip
-        measured = np.stack([reconstruct(model, view=j, light=i) for j, i in captured]) / scale
-        fit = float(np.sum(rendered * own) / np.sum(rendered * rendered))
+        cpu = _interpolated(model, valid, held_out) / scale
+        measured = _reconstructed(model, captured) / scale
+        fit = float(np.sum(rendered * own.values) / np.sum(rendered * rendered))
         rows.append({
             "scene": name, "plan": plan, "views": int(valid.sum()),
             "lights": len(btf.light_dirs_deg), "frames": int(valid.sum()) * len(btf.light_dirs_deg),
             "capture_s": round(capture_s, 1), "components": c,
-            "psnr_db": round(psnr_db(rmse(rendered, own), peak=peak), 2),
-            "psnr_cpu_db": round(psnr_db(rmse(cpu, own), peak=peak), 2),
-            "psnr_captured_db": round(psnr_db(rmse(measured, at_captured), peak=peak), 2),
+            "psnr_db": round(psnr_db(rmse(rendered, own.values), peak=peak), 2),
+            "psnr_cpu_db": round(psnr_db(rmse(cpu, own.values), peak=peak), 2),
+            "psnr_captured_db": round(psnr_db(rmse(measured, at_captured.values), peak=peak), 2),
             "render_vs_cpu": float(np.abs(rendered - cpu).max() / peak),
             "psnr_other_sample_db": round(psnr_db(rmse(rendered, other), peak=peak), 2),
+            "truth_rays": max(own.rays, at_captured.rays),
+            "truth_converged": own.converged and at_captured.converged,
             "scale_fit_ratio": round(1.0 / fit, 4),
             "view_gap_deg": round(_gap_deg(views, btf.view_dirs_deg[valid]), 1),
             "light_gap_deg": round(_gap_deg(lights, btf.light_dirs_deg), 1),
@@ -257,7 +270,10 @@ def run_bench(
     the *other* sample's truth: what an unrelated material scores),
     ``scale_fit_ratio`` (least-squares scale over the derived one, see
     :func:`irradiance_scale`), ``view_gap_deg`` / ``light_gap_deg`` (closest
-    approach of a held-out direction to a captured one).
+    approach of a held-out direction to a captured one), ``truth_rays`` (rays per
+    texel side of the footprint truth, :func:`orchestrator.footprint.converged_truth`
+    at the largest c) and ``truth_converged`` (doubling them changed both scores by
+    < 0.1 dB).
 
     ``quick``: 32² texels, the first two held-out pairs, c ∈ {2, 6}, the
     coarse plan; else 64² texels, all four pairs, c ∈ {2, 4, 8}, all plans.
