@@ -41,7 +41,20 @@ from sim.rig import SimulatedRig
 from sim.scene import Scene, scene_from_dict
 from sim.simulator import Simulator
 
-__all__ = ["HELD_OUT", "PLANS", "SCENES", "patient_cameras", "plot_bench", "run_bench"]
+__all__ = [
+    "HELD_OUT",
+    "PLANS",
+    "SCENES",
+    "captured_pairs",
+    "interpolated",
+    "irradiance_scale",
+    "measure",
+    "patient_cameras",
+    "plot_bench",
+    "reconstructed",
+    "run_bench",
+    "truncated",
+]
 
 #: The samples: the examples' bumps and weave, with sensor noise (a measurement,
 #: not the truth) and the weave's specular yarns.
@@ -125,7 +138,7 @@ def patient_cameras(config: RigConfig) -> RigConfig:
     return config.model_copy(update={"camera_arc": arc})
 
 
-def _measure(scene: Scene, plan_text: str, folder: Path, *, size: int, components: int):
+def measure(scene: Scene, plan_text: str, folder: Path, *, size: int, components: int):
     """Run the plan on the simulated rig, process its BTF; (material, rig config)."""
     plan_path, archive = folder / "plan.toml", folder / "session.zarr"
     plan_path.write_text(plan_text)
@@ -139,7 +152,7 @@ def _measure(scene: Scene, plan_text: str, folder: Path, *, size: int, component
     return read_material(archive), config
 
 
-def _truncated(btf: CompressedBTF, c: int) -> CompressedBTF:
+def truncated(btf: CompressedBTF, c: int) -> CompressedBTF:
     """The first ``c`` components of a per-view PCA: the same model the btf stage
     makes with ``components=c`` (the components come in descending order of λ)."""
     return dataclasses.replace(
@@ -184,13 +197,13 @@ def irradiance_scale(scene: Scene, config: RigConfig) -> float:
     return irradiance / radiometry.full_scale_exposure
 
 
-def _interpolated(btf: CompressedBTF, valid: np.ndarray, pairs) -> np.ndarray:
+def interpolated(btf: CompressedBTF, valid: np.ndarray, pairs) -> np.ndarray:
     """(pairs, N, N, 3): ``processing.btf.interpolate`` over the valid view slots."""
     reference = _valid_slots(btf, valid)
     return np.stack([interpolate(reference, view_deg=v, light_deg=light) for v, light in pairs])
 
 
-def _reconstructed(btf: CompressedBTF, pairs) -> np.ndarray:
+def reconstructed(btf: CompressedBTF, pairs) -> np.ndarray:
     """(pairs, N, N, 3): the model at (view slot, light) index pairs."""
     return np.stack([reconstruct(btf, view=j, light=i) for j, i in pairs])
 
@@ -207,7 +220,7 @@ def _nearest(table_deg: np.ndarray, query_deg) -> int:
     return int(np.argmin(angular_distance_deg(direction_vector(*table_deg.T), v)))
 
 
-def _captured_pairs(btf: CompressedBTF, valid: np.ndarray, held_out) -> list[tuple[int, int]]:
+def captured_pairs(btf: CompressedBTF, valid: np.ndarray, held_out) -> list[tuple[int, int]]:
     """(valid view slot, light) of the captured pair nearest each held-out one."""
     slots = np.flatnonzero(valid)
     return [(int(slots[_nearest(btf.view_dirs_deg[slots], v)]),
@@ -216,23 +229,23 @@ def _captured_pairs(btf: CompressedBTF, valid: np.ndarray, held_out) -> list[tup
 
 def _rows(name, plan, material, sims, scale, components, held_out, capture_s):
     btf, valid = material.btf, np.asarray(material.btf_slot_valid, bool)
-    captured = _captured_pairs(btf, valid, held_out)
+    captured = captured_pairs(btf, valid, held_out)
     captured_dirs = [(btf.view_dirs_deg[j], btf.light_dirs_deg[i]) for j, i in captured]
     # the truths converge on the largest c's scores; the smaller c's share them
-    full = _truncated(btf, max(components))
-    own = converged_truth(sims[0], held_out, _interpolated(full, valid, held_out) / scale)
+    full = truncated(btf, max(components))
+    own = converged_truth(sims[0], held_out, interpolated(full, valid, held_out) / scale)
     peak = float(own.values.max())
-    at_captured = converged_truth(sims[0], captured_dirs, _reconstructed(full, captured) / scale,
+    at_captured = converged_truth(sims[0], captured_dirs, reconstructed(full, captured) / scale,
                                   peak=peak)  # fmt: skip
     other = truth_at(sims[1], held_out, material.size, own.rays)
     views = np.array([v for v, _ in held_out], float)
     lights = np.array([light for _, light in held_out], float)
     rows = []
     for c in components:
-        model = _truncated(btf, c)
+        model = truncated(btf, c)
         rendered = rendered_at(dataclasses.replace(material, btf=model), held_out) / scale
-        cpu = _interpolated(model, valid, held_out) / scale
-        measured = _reconstructed(model, captured) / scale
+        cpu = interpolated(model, valid, held_out) / scale
+        measured = reconstructed(model, captured) / scale
         fit = float(np.sum(rendered * own.values) / np.sum(rendered * rendered))
         rows.append({
             "scene": name, "plan": plan, "views": int(valid.sum()),
@@ -296,7 +309,7 @@ def run_bench(
             for plan in plans:
                 text = plan_toml(plan)
                 with tempfile.TemporaryDirectory(prefix="rig-render-loop-") as tmp:
-                    material, config = _measure(
+                    material, config = measure(
                         loaded[name], text, Path(tmp), size=size, components=max(components)
                     )
                     capture_s = compile_plan(parse_plan(text), config).estimate.total_s

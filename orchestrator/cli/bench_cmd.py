@@ -67,6 +67,7 @@ AREAS: dict[str, tuple[str, Callable]] = {
     "radiometry": ("orchestrator.radiometry_bench", _plain),
     "render": ("render.bench", _plain),
     "render-loop": ("orchestrator.render_loop", _plain),
+    "error-budget": ("orchestrator.error_budget", _plain),
     "silhouettes": ("orchestrator.silhouettes", _plain),
     "environment": ("render.env_bench", _plain),
 }
