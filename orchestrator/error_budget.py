@@ -14,10 +14,12 @@ and all together. A term is switched off in the *scene*, never in processing:
   (``render.supersample``), as a sensor integrates over its pixel's area,
   instead of its centre alone.
 
-Two more terms are processing's own choices, read from every run: compression
-(the per-view PCA at c against all its components, lossless) and
-interpolation (the material at held-out directions against the captured pairs
-nearest them). Everything is scored against the footprint truth
+Three more terms are processing's own choices, read from every run: the
+per-texel near-lamp irradiance (each session processed as it is, and
+``raw``: without it, :mod:`processing.offline.texel_light`), compression (the
+per-view PCA at c against all its components, lossless) and interpolation
+(the material at held-out directions against the captured pairs nearest
+them). Everything is scored against the footprint truth
 (:func:`orchestrator.footprint.converged_truth`, converged on the run with all
 terms off, the most demanding score) with the peak of the held-out truth.
 """
@@ -38,9 +40,10 @@ from orchestrator.render_loop import (
     captured_pairs,
     interpolated,
     irradiance_scale,
-    measure,
     plan_toml,
+    process,
     reconstructed,
+    record,
     truncated,
 )
 from processing.btf import psnr_db, rmse
@@ -138,8 +141,9 @@ def run_bench(
     """``quick``: 32² texels, the coarse plan; else 64² texels, the coarse and
     medium plans. ``scenes``, ``plans``: which of the render loop's to run.
 
-    Rows, one per (scene, plan, run, c): ``scene``, ``plan``, ``run`` (which terms
-    are off), ``off`` (their names), ``components`` (c, or every component:
+    Rows, one per (scene, plan, run, processing, c): ``scene``, ``plan``, ``run``
+    (which terms are off), ``off`` (their names), ``processing`` (``raw``, or the
+    near-lamp ``irradiance per texel`` divided out), ``components`` (c, or every component:
     ``lossless``), ``psnr_captured_db`` (the material at the captured pairs
     nearest the held-out ones against the truth there), ``psnr_held_out_db``
     (interpolated at :data:`~orchestrator.render_loop.HELD_OUT`),
@@ -167,37 +171,41 @@ def run_bench(
 
 def _plan_rows(name: str, plan: str, sim: Simulator, size: int) -> list[dict]:
     measured = {}
+    lights = len(parse_plan(plan_toml(plan)).captures.btf.lights.resolve().directions)
     for off in reversed(CONFIGS):  # all off first: its truth convergence is the strictest
         scene = scene_from_dict(scene_without(name, off))
-        lights = len(parse_plan(plan_toml(plan)).captures.btf.lights.resolve().directions)
         with tempfile.TemporaryDirectory(prefix="rig-error-budget-") as tmp:
+            archive, config = record(scene, plan_toml(plan), Path(tmp))
+            scale = irradiance_scale(scene, config)
             # as many components as lights: the per-view PCA is then lossless
-            material, config = measure(scene, plan_toml(plan), Path(tmp), size=size,
-                                       components=lights)  # fmt: skip
-        measured[off] = (material, irradiance_scale(scene, config))
-    first = measured[tuple(TERMS)]
+            for raw in (False, True):
+                material = process(archive, size=size, components=lights, raw=raw)
+                measured[off, raw] = (material, scale)
+    first = measured[tuple(TERMS), False]
     held_truth, captured_truth, rays, converged = _converged(first[0], sim, first[1])
     rows = []
     for off in CONFIGS:
-        material, scale = measured[off]
-        lossless = material.btf.basis.shape[-1]
-        for c, label in ((COMPONENTS, COMPONENTS), (lossless, "lossless")):
-            rows.append({
-                "scene": name, "plan": plan, "run": _label(off), "off": list(off),
-                "components": label,
-                **_scores(material, scale, (held_truth, captured_truth), c),
-                "truth_rays": rays, "truth_converged": converged,
-            })  # fmt: skip
+        for raw in (True, False):
+            material, scale = measured[off, raw]
+            lossless = material.btf.basis.shape[-1]
+            for c, label in ((COMPONENTS, COMPONENTS), (lossless, "lossless")):
+                rows.append({
+                    "scene": name, "plan": plan, "run": _label(off), "off": list(off),
+                    "processing": "raw" if raw else "irradiance per texel", "components": label,
+                    **_scores(material, scale, (held_truth, captured_truth), c),
+                    "truth_rays": rays, "truth_converged": converged,
+                })  # fmt: skip
     return rows
 
 
 def plot_budget(rows: list[dict], path: str | Path) -> None:
-    """The waterfall: one panel per (scene, plan), one group of bars per run, PSNR at
-    the captured pairs and at the held-out directions, at c and lossless."""
+    """The waterfall: one panel per (scene, plan), one group of bars per run and
+    processing, PSNR at the captured pairs and at the held-out directions, at c and
+    lossless."""
     from matplotlib.figure import Figure
 
     panels = list(dict.fromkeys((r["scene"], r["plan"]) for r in rows))
-    fig = Figure(figsize=(4.6 * len(panels), 4.0))
+    fig = Figure(figsize=(5.5 * len(panels), 4.6))
     axes = np.atleast_1d(fig.subplots(1, len(panels), sharey=True))
     series = (("psnr_captured_db", "lossless", "captured, lossless"),
               ("psnr_captured_db", COMPONENTS, f"captured, c = {COMPONENTS}"),
@@ -205,13 +213,15 @@ def plot_budget(rows: list[dict], path: str | Path) -> None:
               ("psnr_held_out_db", COMPONENTS, f"held out, c = {COMPONENTS}"))  # fmt: skip
     for ax, (scene, plan) in zip(axes, panels, strict=True):
         sel = [r for r in rows if (r["scene"], r["plan"]) == (scene, plan)]
-        runs = list(dict.fromkeys(r["run"] for r in sel))
+        runs = list(dict.fromkeys((r["run"], r["processing"]) for r in sel))
         x = np.arange(len(runs))
         for k, (key, c, label) in enumerate(series):
-            values = [next(r[key] for r in sel if r["run"] == run and r["components"] == c)
+            values = [next(r[key] for r in sel
+                           if (r["run"], r["processing"]) == run and r["components"] == c)
                       for run in runs]  # fmt: skip
             ax.bar(x + (k - 1.5) * 0.2, values, 0.2, label=label)
-        ax.set_xticks(x, runs, rotation=20, fontsize=8)
+        ax.set_xticks(x, [f"{run}\n{processing}" for run, processing in runs], rotation=30,
+                      ha="right", fontsize=7)  # fmt: skip
         ax.set_title(f"{scene}, {plan} plan", fontsize=9)
         ax.grid(axis="y", alpha=0.3)
     axes[0].set_ylabel("PSNR against the footprint truth (dB)")

@@ -51,7 +51,9 @@ __all__ = [
     "measure",
     "patient_cameras",
     "plot_bench",
+    "process",
     "reconstructed",
+    "record",
     "run_bench",
     "truncated",
 ]
@@ -140,6 +142,12 @@ def patient_cameras(config: RigConfig) -> RigConfig:
 
 def measure(scene: Scene, plan_text: str, folder: Path, *, size: int, components: int):
     """Run the plan on the simulated rig, process its BTF; (material, rig config)."""
+    archive, config = record(scene, plan_text, folder)
+    return process(archive, size=size, components=components), config
+
+
+def record(scene: Scene, plan_text: str, folder: Path) -> tuple[Path, RigConfig]:
+    """Run the plan on the simulated rig in virtual time; (archive, rig config)."""
     plan_path, archive = folder / "plan.toml", folder / "session.zarr"
     plan_path.write_text(plan_text)
     clock = VirtualClock()
@@ -148,8 +156,13 @@ def measure(scene: Scene, plan_text: str, folder: Path, *, size: int, components
         final = run_local(plan_path, config, archive=archive, clock=clock, on_fault="fail")
     if final.get("state") != "done":
         raise RigError(f"the simulated session of {plan_path} ended {final.get('state')}: {final}")
-    run_stages(archive, [BtfStage(size=size, components=components)], workers=1)
-    return read_material(archive), config
+    return archive, config
+
+
+def process(archive: Path, *, size: int, components: int, raw: bool = False) -> Material:
+    """The archive's ``btf`` stage (``raw``: without the calibration's corrections)."""
+    run_stages(archive, [BtfStage(size=size, components=components, raw=raw)], workers=1)
+    return read_material(archive)
 
 
 def truncated(btf: CompressedBTF, c: int) -> CompressedBTF:

@@ -51,9 +51,9 @@ def test_an_unknown_term_names_the_valid_ones():
 
 
 def test_the_waterfall_is_drawn(tmp_path):
-    rows = [{"scene": s, "plan": "coarse", "run": run, "components": c,
+    rows = [{"scene": s, "plan": "coarse", "run": run, "processing": p, "components": c,
              "psnr_captured_db": 30.0 + k, "psnr_held_out_db": 22.0 + k}
             for s in ("bumps", "weave") for k, run in enumerate(("all terms on", "all terms off"))
-            for c in (4, "lossless")]  # fmt: skip
+            for p in ("raw", "irradiance per texel") for c in (4, "lossless")]  # fmt: skip
     plot_budget(rows, tmp_path / "budget.png")
     assert (tmp_path / "budget.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
