@@ -205,8 +205,8 @@ def _plan_rows(name: str, plan: str, sim: Simulator, size: int, runs) -> list[di
 
 def plot_budget(rows: list[dict], path: str | Path) -> None:
     """The waterfall: one panel per (scene, plan), one group of bars per run and
-    processing, PSNR at the captured pairs and at the held-out directions, at c and
-    lossless."""
+    processing (``corrected``: the near-lamp irradiance per texel divided out), PSNR
+    at the captured pairs and at the held-out directions, at c and lossless."""
     from matplotlib.figure import Figure
 
     panels = list(dict.fromkeys((r["scene"], r["plan"]) for r in rows))
@@ -225,11 +225,14 @@ def plot_budget(rows: list[dict], path: str | Path) -> None:
                            if (r["run"], r["processing"]) == run and r["components"] == c)
                       for run in runs]  # fmt: skip
             ax.bar(x + (k - 1.5) * 0.2, values, 0.2, label=label)
-        ax.set_xticks(x, [f"{run}\n{processing}" for run, processing in runs], rotation=30,
-                      ha="right", fontsize=7)  # fmt: skip
+        short = {"raw": "raw"}  # the corrected processing's label is long
+        ax.set_xticks(x, [f"{run}, {short.get(p, 'corrected')}" for run, p in runs],
+                      rotation=35, ha="right", fontsize=7)  # fmt: skip
+        low = min(r[key] for r in sel for key in ("psnr_captured_db", "psnr_held_out_db"))
+        ax.set_ylim(np.floor(low) - 2, None)
         ax.set_title(f"{scene}, {plan} plan", fontsize=9)
         ax.grid(axis="y", alpha=0.3)
     axes[0].set_ylabel("PSNR against the footprint truth (dB)")
-    axes[0].legend(fontsize=7, loc="lower left")
+    axes[0].legend(fontsize=7, loc="upper left")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
