@@ -102,3 +102,10 @@ def test_a_lamp_below_the_horizon_lights_nothing_and_is_flagged():
 
 def test_a_bonn_lab_is_not_placed():
     assert lamp_positions(RigConfig(kind="bonn", bonn={}), None) is None
+
+
+def test_a_calibration_of_lamps_this_rig_does_not_have_is_not_used():
+    elsewhere = CalibrationFile(lamps={"lampX": LampResult(position_mm=(0.0, 0.0, 500.0))})
+    positions = lamp_positions(RigConfig(), elsewhere, "another rig's session")
+    assert "lampX" not in positions.positions_mm
+    assert positions.source == "the rig config's lamp geometry (nominal)"
