@@ -27,6 +27,7 @@ terms off, the most demanding score) with the peak of the held-out truth.
 from __future__ import annotations
 
 import contextlib
+import itertools
 import tempfile
 from pathlib import Path
 
@@ -204,19 +205,22 @@ def _plan_rows(name: str, plan: str, sim: Simulator, size: int, runs) -> list[di
 
 
 def plot_budget(rows: list[dict], path: str | Path) -> None:
-    """The waterfall: one panel per (scene, plan), one group of bars per run and
+    """The waterfall: one panel per (plan, scene), one group of bars per run and
     processing (``corrected``: the near-lamp irradiance per texel divided out), PSNR
     at the captured pairs and at the held-out directions, at c and lossless."""
     from matplotlib.figure import Figure
 
-    panels = list(dict.fromkeys((r["scene"], r["plan"]) for r in rows))
-    fig = Figure(figsize=(5.5 * len(panels), 4.6))
-    axes = np.atleast_1d(fig.subplots(1, len(panels), sharey=True))
+    scenes = list(dict.fromkeys(r["scene"] for r in rows))
+    plans = list(dict.fromkeys(r["plan"] for r in rows))
+    fig = Figure(figsize=(5.5 * len(scenes), 4.2 * len(plans)))
+    axes = np.array(fig.subplots(len(plans), len(scenes), sharey=True, squeeze=False))
     series = (("psnr_captured_db", "lossless", "captured, lossless"),
               ("psnr_captured_db", COMPONENTS, f"captured, c = {COMPONENTS}"),
               ("psnr_held_out_db", "lossless", "held out, lossless"),
               ("psnr_held_out_db", COMPONENTS, f"held out, c = {COMPONENTS}"))  # fmt: skip
-    for ax, (scene, plan) in zip(axes, panels, strict=True):
+    low = min(r[key] for r in rows for key in ("psnr_captured_db", "psnr_held_out_db"))
+    for (i, plan), (j, scene) in itertools.product(enumerate(plans), enumerate(scenes)):
+        ax = axes[i, j]
         sel = [r for r in rows if (r["scene"], r["plan"]) == (scene, plan)]
         runs = list(dict.fromkeys((r["run"], r["processing"]) for r in sel))
         x = np.arange(len(runs))
@@ -228,11 +232,10 @@ def plot_budget(rows: list[dict], path: str | Path) -> None:
         short = {"raw": "raw"}  # the corrected processing's label is long
         ax.set_xticks(x, [f"{run}, {short.get(p, 'corrected')}" for run, p in runs],
                       rotation=35, ha="right", fontsize=7)  # fmt: skip
-        low = min(r[key] for r in sel for key in ("psnr_captured_db", "psnr_held_out_db"))
         ax.set_ylim(np.floor(low) - 2, None)
         ax.set_title(f"{scene}, {plan} plan", fontsize=9)
         ax.grid(axis="y", alpha=0.3)
-    axes[0].set_ylabel("PSNR against the footprint truth (dB)")
-    axes[0].legend(fontsize=7, loc="upper left")
+        ax.set_ylabel("PSNR against the footprint truth (dB)", fontsize=8)
+    axes[0, 0].legend(fontsize=7, loc="upper left")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
