@@ -5,9 +5,11 @@ simulated rig in virtual time (``run_local``), processed by the ``btf``
 stage (registration, per-view PCA), and the material is rendered on a flat
 quad at light and view directions that no plan captured. Each image is
 compared texel by texel with the simulator's noise-free BTF of the true
-sample at the same directions (``Simulator.btf_truth``, ray cast, never the
-rasteriser). The rows put the PSNR beside each plan's capture time from the
-session estimate (``rig plan --estimate``): what accuracy costs in time.
+sample at the same directions, averaged over each texel's footprint
+(``Simulator.btf_truth``, ray cast, never the rasteriser; as many rays per
+texel as the score needs, ``orchestrator.footprint``). The rows put the PSNR
+beside each plan's capture time from the session estimate (``rig plan
+--estimate``): what accuracy costs in time.
 
 It runs the simulator, the processing and the renderer side by side, so it
 lives on top of all three.
@@ -22,6 +24,7 @@ from pathlib import Path
 
 import numpy as np
 
+from orchestrator.footprint import converged_truth, truth_at
 from orchestrator.local import run_local
 from processing.btf import CompressedBTF, interpolate, psnr_db, reconstruct, rmse
 from processing.offline import BtfStage, run_stages
@@ -38,7 +41,22 @@ from sim.rig import SimulatedRig
 from sim.scene import Scene, scene_from_dict
 from sim.simulator import Simulator
 
-__all__ = ["HELD_OUT", "PLANS", "SCENES", "patient_cameras", "plot_bench", "run_bench"]
+__all__ = [
+    "HELD_OUT",
+    "PLANS",
+    "SCENES",
+    "captured_pairs",
+    "interpolated",
+    "irradiance_scale",
+    "measure",
+    "patient_cameras",
+    "plot_bench",
+    "process",
+    "reconstructed",
+    "record",
+    "run_bench",
+    "truncated",
+]
 
 #: The samples: the examples' bumps and weave, with sensor noise (a measurement,
 #: not the truth) and the weave's specular yarns.
@@ -122,8 +140,14 @@ def patient_cameras(config: RigConfig) -> RigConfig:
     return config.model_copy(update={"camera_arc": arc})
 
 
-def _measure(scene: Scene, plan_text: str, folder: Path, *, size: int, components: int):
+def measure(scene: Scene, plan_text: str, folder: Path, *, size: int, components: int):
     """Run the plan on the simulated rig, process its BTF; (material, rig config)."""
+    archive, config = record(scene, plan_text, folder)
+    return process(archive, size=size, components=components), config
+
+
+def record(scene: Scene, plan_text: str, folder: Path) -> tuple[Path, RigConfig]:
+    """Run the plan on the simulated rig in virtual time; (archive, rig config)."""
     plan_path, archive = folder / "plan.toml", folder / "session.zarr"
     plan_path.write_text(plan_text)
     clock = VirtualClock()
@@ -132,11 +156,16 @@ def _measure(scene: Scene, plan_text: str, folder: Path, *, size: int, component
         final = run_local(plan_path, config, archive=archive, clock=clock, on_fault="fail")
     if final.get("state") != "done":
         raise RigError(f"the simulated session of {plan_path} ended {final.get('state')}: {final}")
-    run_stages(archive, [BtfStage(size=size, components=components)], workers=1)
-    return read_material(archive), config
+    return archive, config
 
 
-def _truncated(btf: CompressedBTF, c: int) -> CompressedBTF:
+def process(archive: Path, *, size: int, components: int, raw: bool = False) -> Material:
+    """The archive's ``btf`` stage (``raw``: without the calibration's corrections)."""
+    run_stages(archive, [BtfStage(size=size, components=components, raw=raw)], workers=1)
+    return read_material(archive)
+
+
+def truncated(btf: CompressedBTF, c: int) -> CompressedBTF:
     """The first ``c`` components of a per-view PCA: the same model the btf stage
     makes with ``components=c`` (the components come in descending order of λ)."""
     return dataclasses.replace(
@@ -181,9 +210,15 @@ def irradiance_scale(scene: Scene, config: RigConfig) -> float:
     return irradiance / radiometry.full_scale_exposure
 
 
-def _truth(sim: Simulator, pairs, size: int) -> np.ndarray:
-    """(pairs, N, N, 3) noise-free BTF of the simulated sample at (view, light) pairs."""
-    return np.stack([sim.btf_truth(view, light, size) for view, light in pairs])
+def interpolated(btf: CompressedBTF, valid: np.ndarray, pairs) -> np.ndarray:
+    """(pairs, N, N, 3): ``processing.btf.interpolate`` over the valid view slots."""
+    reference = _valid_slots(btf, valid)
+    return np.stack([interpolate(reference, view_deg=v, light_deg=light) for v, light in pairs])
+
+
+def reconstructed(btf: CompressedBTF, pairs) -> np.ndarray:
+    """(pairs, N, N, 3): the model at (view slot, light) index pairs."""
+    return np.stack([reconstruct(btf, view=j, light=i) for j, i in pairs])
 
 
 def _gap_deg(held: np.ndarray, table_deg: np.ndarray) -> float:
@@ -198,7 +233,7 @@ def _nearest(table_deg: np.ndarray, query_deg) -> int:
     return int(np.argmin(angular_distance_deg(direction_vector(*table_deg.T), v)))
 
 
-def _captured_pairs(btf: CompressedBTF, valid: np.ndarray, held_out) -> list[tuple[int, int]]:
+def captured_pairs(btf: CompressedBTF, valid: np.ndarray, held_out) -> list[tuple[int, int]]:
     """(valid view slot, light) of the captured pair nearest each held-out one."""
     slots = np.flatnonzero(valid)
     return [(int(slots[_nearest(btf.view_dirs_deg[slots], v)]),
@@ -207,31 +242,35 @@ def _captured_pairs(btf: CompressedBTF, valid: np.ndarray, held_out) -> list[tup
 
 def _rows(name, plan, material, sims, scale, components, held_out, capture_s):
     btf, valid = material.btf, np.asarray(material.btf_slot_valid, bool)
-    own, other = (_truth(sim, held_out, material.size) for sim in sims)
-    peak = float(own.max())
-    captured = _captured_pairs(btf, valid, held_out)
-    at_captured = _truth(sims[0], [(btf.view_dirs_deg[j], btf.light_dirs_deg[i])
-                                   for j, i in captured], material.size)  # fmt: skip
+    captured = captured_pairs(btf, valid, held_out)
+    captured_dirs = [(btf.view_dirs_deg[j], btf.light_dirs_deg[i]) for j, i in captured]
+    # the truths converge on the largest c's scores; the smaller c's share them
+    full = truncated(btf, max(components))
+    own = converged_truth(sims[0], held_out, interpolated(full, valid, held_out) / scale)
+    peak = float(own.values.max())
+    at_captured = converged_truth(sims[0], captured_dirs, reconstructed(full, captured) / scale,
+                                  peak=peak)  # fmt: skip
+    other = truth_at(sims[1], held_out, material.size, own.rays)
     views = np.array([v for v, _ in held_out], float)
     lights = np.array([light for _, light in held_out], float)
     rows = []
     for c in components:
-        model = _truncated(btf, c)
+        model = truncated(btf, c)
         rendered = rendered_at(dataclasses.replace(material, btf=model), held_out) / scale
-        reference = _valid_slots(model, valid)
-        cpu = np.stack([interpolate(reference, view_deg=v, light_deg=light)
-                        for v, light in held_out]) / scale  # fmt: skip
-        measured = np.stack([reconstruct(model, view=j, light=i) for j, i in captured]) / scale
-        fit = float(np.sum(rendered * own) / np.sum(rendered * rendered))
+        cpu = interpolated(model, valid, held_out) / scale
+        measured = reconstructed(model, captured) / scale
+        fit = float(np.sum(rendered * own.values) / np.sum(rendered * rendered))
         rows.append({
             "scene": name, "plan": plan, "views": int(valid.sum()),
             "lights": len(btf.light_dirs_deg), "frames": int(valid.sum()) * len(btf.light_dirs_deg),
             "capture_s": round(capture_s, 1), "components": c,
-            "psnr_db": round(psnr_db(rmse(rendered, own), peak=peak), 2),
-            "psnr_cpu_db": round(psnr_db(rmse(cpu, own), peak=peak), 2),
-            "psnr_captured_db": round(psnr_db(rmse(measured, at_captured), peak=peak), 2),
+            "psnr_db": round(psnr_db(rmse(rendered, own.values), peak=peak), 2),
+            "psnr_cpu_db": round(psnr_db(rmse(cpu, own.values), peak=peak), 2),
+            "psnr_captured_db": round(psnr_db(rmse(measured, at_captured.values), peak=peak), 2),
             "render_vs_cpu": float(np.abs(rendered - cpu).max() / peak),
             "psnr_other_sample_db": round(psnr_db(rmse(rendered, other), peak=peak), 2),
+            "truth_rays": max(own.rays, at_captured.rays),
+            "truth_converged": own.converged and at_captured.converged,
             "scale_fit_ratio": round(1.0 / fit, 4),
             "view_gap_deg": round(_gap_deg(views, btf.view_dirs_deg[valid]), 1),
             "light_gap_deg": round(_gap_deg(lights, btf.light_dirs_deg), 1),
@@ -257,7 +296,10 @@ def run_bench(
     the *other* sample's truth: what an unrelated material scores),
     ``scale_fit_ratio`` (least-squares scale over the derived one, see
     :func:`irradiance_scale`), ``view_gap_deg`` / ``light_gap_deg`` (closest
-    approach of a held-out direction to a captured one).
+    approach of a held-out direction to a captured one), ``truth_rays`` (rays per
+    texel side of the footprint truth, :func:`orchestrator.footprint.converged_truth`
+    at the largest c) and ``truth_converged`` (doubling them changed both scores by
+    < 0.1 dB).
 
     ``quick``: 32² texels, the first two held-out pairs, c ∈ {2, 6}, the
     coarse plan; else 64² texels, all four pairs, c ∈ {2, 4, 8}, all plans.
@@ -280,7 +322,7 @@ def run_bench(
             for plan in plans:
                 text = plan_toml(plan)
                 with tempfile.TemporaryDirectory(prefix="rig-render-loop-") as tmp:
-                    material, config = _measure(
+                    material, config = measure(
                         loaded[name], text, Path(tmp), size=size, components=max(components)
                     )
                     capture_s = compile_plan(parse_plan(text), config).estimate.total_s

@@ -46,6 +46,7 @@ from sim.sensor import (
 )
 from sim.shading import SurfaceHits
 from sim.truth import (
+    FOOTPRINT_RAYS,
     TexelTruth,
     Truth,
     btf_truth,
@@ -304,15 +305,17 @@ class Simulator:
         with self._lock:
             return mdf_truth(self.model, view_dir, n)
 
-    def texel_truth(self, n: int) -> TexelTruth:
-        """Normals, albedo and height on the n×n texel grid (seen from above)."""
+    def texel_truth(self, n: int, *, rays: int = FOOTPRINT_RAYS) -> TexelTruth:
+        """Normals, albedo and height on the n×n texel grid (seen from above),
+        each texel the mean over its footprint of ``rays`` × ``rays`` rays."""
         with self._lock:
-            return texel_truth(self.model, n)
+            return texel_truth(self.model, n, rays=rays)
 
-    def btf_truth(self, view_dir, light_dir, n: int) -> np.ndarray:
-        """(n, n, 3) float32 BTF slice (radiance per unit distant irradiance)."""
+    def btf_truth(self, view_dir, light_dir, n: int, *, rays: int = FOOTPRINT_RAYS) -> np.ndarray:
+        """(n, n, 3) float32 BTF slice (radiance per unit distant irradiance),
+        each texel the mean over its footprint of ``rays`` × ``rays`` rays."""
         with self._lock:
-            return btf_truth(self.model, view_dir, light_dir, n)
+            return btf_truth(self.model, view_dir, light_dir, n, rays=rays)
 
     # -- stages -----------------------------------------------------------
     def _exposure(self, exposure_s: float | None) -> float:

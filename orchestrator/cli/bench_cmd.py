@@ -67,6 +67,7 @@ AREAS: dict[str, tuple[str, Callable]] = {
     "radiometry": ("orchestrator.radiometry_bench", _plain),
     "render": ("render.bench", _plain),
     "render-loop": ("orchestrator.render_loop", _plain),
+    "error-budget": ("orchestrator.error_budget", _plain),
     "silhouettes": ("orchestrator.silhouettes", _plain),
     "environment": ("render.env_bench", _plain),
 }
@@ -116,6 +117,10 @@ HELP = {
     "environment": "What environment lighting's accuracy costs in time: error of the "
     "visibility maps, their PCA of rotations and the partial environment maps against "
     "a brute-force sum, beside the time per frame as a ratio to a point-light frame.",
+    "error-budget": "The render loop's PSNR at captured and held-out directions with the "
+    "simulator's noise, near lamps and point-sampled pixels switched off one at a time and "
+    "together, each session processed raw and corrected, at c = 4 and lossless (coarse and "
+    "medium plans; --quick: the coarse plan at 32² texels).",
 }
 
 app = typer.Typer(

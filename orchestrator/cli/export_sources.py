@@ -92,7 +92,7 @@ def btf_source(archive_path: Path, *, from_material: bool, size: int) -> Iterato
                 captures = tuple((int(table.steps[view, i]), str(table.cameras[view, i]))
                                  for i in lights)  # fmt: skip
                 slot = BtfSlot(view, tuple(table.view_dirs_deg[view]), captures)
-                textures, flagged = slot_normtextures(archive, slot, size=size)
+                textures, flagged, _ = slot_normtextures(archive, slot, size=size)
                 lost = {f[1] for f in flagged}  # positions in captures
                 kept = iter(textures)
                 cache[view] = {i: next(kept) for k, i in enumerate(lights) if k not in lost}

@@ -97,7 +97,8 @@ def register(app: typer.Typer) -> None:
             typer.Option(
                 "--raw",
                 help="ps, btf: frames as recorded, without the calibration's response "
-                "linearisation and lamp flat fields",
+                "linearisation and lamp flat fields (btf: nor the near lamps' irradiance "
+                "per texel)",
             ),
         ] = False,
         flat_beyond_mm: Annotated[
@@ -127,8 +128,9 @@ def register(app: typer.Typer) -> None:
         Frames the session flagged as not recording their step's state (the laser
         tilt, the lamp, the axes) are listed; mdf leaves out those never re-captured.
         When the archive's calibration has them, ps and btf frames are linearised
-        by the camera's response curve and divided by their lamp's flat field
-        (--raw: not); the material records what was applied.
+        by the camera's response curve and divided by their lamp's flat field; btf
+        texels are divided by their near lamp's irradiance (calibrated or nominal
+        lamp positions). --raw: none of it; the material records what was applied.
         """
         quiet_dask_logs()
         from processing.offline import STAGES, run_stages

@@ -27,13 +27,18 @@ was measured at (``docs/btf.md``).
 from __future__ import annotations
 
 from collections import Counter
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
 from processing.btf import CompressedBTF, SlotTable, compress_view, view_slots
-from processing.offline.radiometry import FrameCorrections, frame_corrections
-from processing.offline.runner import StageSkipped, frame_camera
+from processing.offline.radiometry import (
+    FrameCorrections,
+    calibration_source,
+    frame_corrections,
+)
+from processing.offline.runner import StageSkipped, archive_calibration, frame_camera
+from processing.offline.texel_light import LampPositions, lamp_positions, texel_irradiance
 from processing.registration import register_capture
 from rig.archive import Archive
 from rig.config import RigConfig
@@ -79,11 +84,14 @@ class BtfStage:
         with Archive.open(archive_path, mode="r") as archive:
             config = RigConfig.model_validate(archive.rig_config)
             corrections = frame_corrections(archive, config, raw=self.raw)
-            textures, flagged = slot_normtextures(
-                archive, item, size=self.size, corrections=corrections
+            positions = None if self.raw else _positions(archive, config)
+            textures, flagged, dim = slot_normtextures(
+                archive, item, size=self.size, corrections=corrections, lamps=positions
             )
             lamps = [r.lamp for r in archive.step_table() if r.index in dict(item.captures)]
-        record = corrections.record(cameras=[c for _, c in item.captures], lamps=lamps)
+        record = _with_irradiance(
+            corrections.record(cameras=[c for _, c in item.captures], lamps=lamps), positions, dim
+        )
         if flagged:
             return {"slot": item, "flagged": flagged, "compressed": None, "radiometry": record}
         stack = np.stack(textures).astype(np.float32)
@@ -144,13 +152,21 @@ def slot_table(archive: Archive, *, gaps: bool = False) -> SlotTable:
 
 
 def slot_normtextures(
-    archive: Archive, item: BtfSlot, *, size: int, corrections: FrameCorrections | None = None
-) -> tuple[list[np.ndarray], list[tuple]]:
+    archive: Archive,
+    item: BtfSlot,
+    *,
+    size: int,
+    corrections: FrameCorrections | None = None,
+    lamps: LampPositions | None = None,
+) -> tuple[list[np.ndarray], list[tuple], dict[str, int]]:
     """The (size, size, C) float32 normtextures of a view slot, one per light, in
-    relative radiance per second of exposure; and the flagged captures.
+    relative radiance per second of exposure; the flagged captures; and lamp id →
+    texels it barely lights (divided by ``IRRADIANCE_FLOOR``).
 
     Camera frames are registered onto the texel grid, linearised and divided by
-    their lamp's flat field where ``corrections`` (default none) say so; an
+    their lamp's flat field where ``corrections`` (default none) say so, and by
+    each texel's near-lamp irradiance over the centre's where ``lamps`` (default
+    none) place the lamps (``processing.offline.texel_light``); an
     imported archive's frames already are normtextures
     (``rig.interchange.imported_normtextures``) and are only resampled to
     ``size`` (area averaging). A flagged capture is ``(slot, light, step,
@@ -160,12 +176,12 @@ def slot_normtextures(
     """
     corrections = FrameCorrections() if corrections is None else corrections
     records = {s.index: s for s in archive.step_table()}
-    textures, flagged = [], []
+    textures, flagged, dim = [], [], {}
     if imported_normtextures(archive.plan):
         for step, camera in item.captures:
             frame = archive.read_frame(step, camera, 0)
             textures.append(resample_texels(frame, size) / records[step].exposures_s[0])
-        return textures, flagged
+        return textures, flagged, dim
     config = RigConfig.model_validate(archive.rig_config)
     for light, (step, camera) in enumerate(item.captures):
         record = records[step]
@@ -181,11 +197,42 @@ def slot_normtextures(
         if not reg.valid:
             flagged.append((item.index, light, step, camera, reg.reason.name))
             continue
+        # with the lamps placed, the flat field divides out only what 1/r² does not explain
         texture = corrections.normtexture(
-            frame, reg, record, camera, config, lens=lens, size=size, lamp_model=False
+            frame, reg, record, camera, config, lens=lens, size=size, lamp_model=lamps is not None
         )
+        if lamps is not None:
+            ratio, floored = texel_irradiance(
+                lamps, config, record.lamp, sample_mm=config.holder.sample_mm, size=size,
+                arc_deg=record.actuators.get("arc_deg", 0.0), turntable_deg=turntable,
+            )  # fmt: skip
+            texture = texture / ratio[..., None]
+            if floored.any():
+                dim[record.lamp] = dim.get(record.lamp, 0) + int(floored.sum())
         textures.append((texture / record.exposures_s[0]).astype(np.float32))
-    return textures, flagged
+    return textures, flagged, dim
+
+
+def _positions(archive: Archive, config: RigConfig) -> LampPositions | None:
+    calibration = archive_calibration(archive)
+    source = "" if calibration is None else calibration_source(calibration, "lamps")
+    return lamp_positions(config, calibration, source)
+
+
+def _with_irradiance(
+    record: Radiometry, lamps: LampPositions | None, dim: dict[str, int]
+) -> Radiometry:
+    """The slot's record with the per-texel irradiance correction: its source, or why not."""
+    if lamps is None:
+        return replace(record, skipped=record.skipped | {
+            "irradiance": "no near lamp placed (directional lamps, a Bonn lab or --raw): "
+                          "the centre's irradiance for every texel"})  # fmt: skip
+    skipped = dict(record.skipped)
+    for lamp, count in dim.items():
+        skipped[f"irradiance {lamp}"] = (
+            f"{count} texel captures it barely lights (outside its cone): divided by the floor"
+        )
+    return replace(record, sources=record.sources | {"irradiance": lamps.source}, skipped=skipped)
 
 
 def _merged(records: list[Radiometry]) -> Radiometry:
@@ -207,7 +254,9 @@ def _units(archive: Archive, radiometry: Radiometry) -> str:
     else:
         values = "camera value over full scale (as recorded, not linearised)"
     flat = ", lamp fall-off divided out" if radiometry.flat_fielded else ""
-    return f"{values} per second of exposure{flat}"
+    near = ", near-lamp irradiance per texel divided out"
+    near = near if "irradiance" in radiometry.sources else ""
+    return f"{values} per second of exposure{flat}{near}"
 
 
 def resample_texels(frame: np.ndarray, size: int) -> np.ndarray:

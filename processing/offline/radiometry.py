@@ -26,6 +26,7 @@ import numpy as np
 from scipy import ndimage
 
 from processing.offline.runner import archive_calibration, calibrated_camera
+from processing.offline.texel_light import plane_irradiance
 from processing.registration import Registration, rectify
 from rig.archive import Archive, StepRecord
 from rig.calfile import CalibrationFile
@@ -47,6 +48,7 @@ __all__ = [
     "FLAT_MARGIN",
     "FLAT_SMOOTHING",
     "FrameCorrections",
+    "calibration_source",
     "frame_corrections",
     "point_falloff",
 ]
@@ -184,12 +186,12 @@ def frame_corrections(archive: Archive, config: RigConfig, *, raw: bool = False)
                 else "a response curve for a camera this rig does not have"
             )
     if curves:
-        sources["response"] = _source(calibration, "response")
+        sources["response"] = calibration_source(calibration, "response")
     else:
         skipped["response"] = "the calibration has no response curve: frames as recorded"
     maps, camera = _flat_field(archive, config, calibration, skipped)
     if maps is not None:
-        sources["flat_field"] = _source(calibration, "lamps")
+        sources["flat_field"] = calibration_source(calibration, "lamps")
     return FrameCorrections(
         curves, maps, camera, config.targets.white.height_mm, archive.calibration_version,
         sources, skipped,
@@ -214,13 +216,7 @@ def point_falloff(config: RigConfig, lamp: str, points: np.ndarray, z_mm: float)
     if config.lamp(lamp).kind == "directional":
         return np.ones(points.shape[:-1])
     source = lamp_position_mm(config, lamp, arc_deg=0.0, turntable_deg=0.0)
-
-    def irradiance(p):
-        to_lamp = source - p
-        r = np.linalg.norm(to_lamp, axis=-1)
-        return to_lamp[..., 2] / r**3
-
-    return irradiance(points) / irradiance(np.array([0.0, 0.0, z_mm]))
+    return plane_irradiance(source, points) / plane_irradiance(source, np.array([0.0, 0.0, z_mm]))
 
 
 def _bit_depth(config: RigConfig, camera: str) -> int | None:
@@ -230,7 +226,8 @@ def _bit_depth(config: RigConfig, camera: str) -> int | None:
         return None
 
 
-def _source(calibration: CalibrationFile, section: str) -> str:
+def calibration_source(calibration: CalibrationFile, section: str) -> str:
+    """The session and time a calibration section was measured, for the material."""
     provenance = getattr(calibration, f"{section}_provenance")
     if provenance is None:
         return "calibration file (no provenance recorded)"

@@ -32,7 +32,8 @@ class Radiometry:
     calibration_version : int
         The archive's calibration version the corrections came from (0: none).
     sources : dict[str, str]
-        ``"response"`` / ``"flat_field"`` → the calibration session and when it was measured.
+        ``"response"`` / ``"flat_field"`` → the calibration session and when it was measured;
+        ``"irradiance"`` → where the near lamps stood for the per-texel irradiance (btf).
     skipped : dict[str, str]
         What was left uncorrected → why.
     """

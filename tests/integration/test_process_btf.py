@@ -20,10 +20,13 @@ from processing.registration import register_capture
 from rig.archive import Archive
 from rig.clock import VirtualClock
 from rig.config import RigConfig
+from rig.geometry import texel_centers_mm
 from rig.interchange import read_image, srgb_decode, ubo2003_file, ubo2003_view_folder
+from rig.kinematics import lamp_position_mm
 from rig.material import btf_from_arrays
 from sim.rig import SimulatedRig
 from sim.scene import scene_from_dict
+from sim.shading import LightSource
 
 # Sessions, subprocesses or benches: the full tier only (make test), not make quick.
 pytestmark = pytest.mark.slow
@@ -76,7 +79,8 @@ def _registered(path, slot, light):
 
 
 def test_full_rank_pca_gives_back_every_registered_frame(archive):
-    (run,) = run_stages(archive, [BtfStage(size=SIZE, components=6)])
+    # raw: the registered frames as recorded (the near-lamp irradiance is tested below)
+    (run,) = run_stages(archive, [BtfStage(size=SIZE, components=6, raw=True)])
     assert run.summary == {"slots": 3, "flagged_frames": 0, "displaced_pairs": 0, "components": 6}
     arrays, attrs = _material(archive)
     assert arrays["slot_valid"].all() and attrs["flagged"] == []
@@ -92,11 +96,44 @@ def test_full_rank_pca_gives_back_every_registered_frame(archive):
 def test_fewer_components_cost_accuracy_not_validity(archive):
     errors = []
     for c in (1, 3):
-        run_stages(archive, [BtfStage(size=SIZE, components=c)])
+        run_stages(archive, [BtfStage(size=SIZE, components=c, raw=True)])
         model = btf_from_arrays(*_material(archive))
         want = _registered(archive, 1, 2)
         errors.append(np.sqrt(np.mean((reconstruct(model, view=1, light=2) - want) ** 2)))
     assert errors[0] > errors[1] > 0
+
+
+def _simulated_irradiance(path, slot, light):
+    """(SIZE, SIZE) E cos θ on the plane, texel over centre, of the capture's lamp (the
+    simulator's lamp model)."""
+    with Archive.open(path) as arch:
+        config = RigConfig.model_validate(arch.rig_config)
+        table = view_slots(arch.step_table())
+        step = int(table.steps[slot, light])
+        record = next(s for s in arch.step_table() if s.index == step)
+    position = lamp_position_mm(config, record.lamp, arc_deg=record.actuators["arc_deg"],
+                                turntable_deg=record.actuators["turntable_deg"])  # fmt: skip
+    xy = texel_centers_mm(config.holder.sample_mm, SIZE).reshape(-1, 2)
+    points = np.vstack([np.column_stack([xy, np.zeros(len(xy))]), [[0.0, 0.0, 0.0]]])
+    dirs, e = LightSource(position, "point", 1.0).incident(points)
+    e = e * dirs[:, 2]
+    return (e[:-1] / e[-1]).reshape(SIZE, SIZE)
+
+
+def test_each_texel_is_divided_by_its_near_lamp_irradiance_and_the_material_says_so(archive):
+    run_stages(archive, [BtfStage(size=SIZE, components=6)])
+    arrays, attrs = _material(archive)
+    model = btf_from_arrays(arrays, attrs)
+    radiometry = json.dumps(attrs)
+    assert "the rig config's lamp geometry (nominal)" in radiometry
+    assert "near-lamp irradiance per texel divided out" in radiometry
+    for slot, light in ((0, 0), (2, 4)):
+        want = _registered(archive, slot, light) / _simulated_irradiance(archive, slot, light)[
+            ..., None]  # fmt: skip
+        got = reconstruct(model, view=slot, light=light)
+        assert np.abs(got - want).max() <= 2e-3 * np.abs(want).max() + 1e-4
+    run_stages(archive, [BtfStage(size=SIZE, components=6, raw=True)])
+    assert "irradiance" in json.dumps(_material(archive)[1])  # skipped, and why
 
 
 def test_frames_whose_markers_are_too_small_are_flagged_never_warped(tmp_path):

@@ -3,17 +3,16 @@ processed and rendered at two (view, light) pairs no plan captured, against the
 simulator's noise-free truth (``orchestrator.render_loop``, quick).
 
 Thresholds. The coarse plan captures 5 views × 7 lights; the held-out
-directions lie 11–15° from the nearest captured one. Even at a captured pair
-the measurement is not the truth: the lamps stand 650 mm from the 100 mm
-sample, so across it the light direction spreads by ±4.4° and a flat
-surface's irradiance by −15…+17 % at θ = 45° (the truth assumes a distant
-light), and registration resamples the frames onto the texel grid; the
-material at the captured pairs nearest the held-out ones scores 21–23 dB.
-Interpolating 11–15° further costs about 1 dB more: 20 dB (an RMS error of
-10 % of the peak) is what this sampling must reach — it scores 22 dB. A
-material of another sample (the weave's truth, right units and brightness,
-wrong texture) scores near 7 dB: the 10 dB margin asked for below separates
-"this sample, coarsely sampled" from "some other material".
+directions lie 11–15° from the nearest captured one. The truth is the
+footprint truth (each texel the mean over its area, converged to < 0.1 dB),
+and the btf stage divides each texel by its near lamp's irradiance. At 64²
+texels the material at the captured pairs nearest the held-out ones scores
+32 dB on the bumps and interpolating 11–15° further costs 10 dB of it: 22 dB
+(docs/render.md, the error budget). 20 dB (an RMS error of 10 % of the peak)
+is what this sampling must reach. A material of another sample (the weave's
+truth, right units and brightness, wrong texture) scores near 8 dB: the 10 dB
+margin asked for below separates "this sample, coarsely sampled" from "some
+other material".
 """
 
 import numpy as np

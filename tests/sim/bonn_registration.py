@@ -122,12 +122,12 @@ def texture_rmse(sim, config, result, rotation, rail_deg, *, exposure_s, bit_dep
 def _true_texture(sim, config, view, light, exposure_s, bit_depth, supersample: int = 4):
     """(N, N, 3) DN: texel averages of ``btf_truth`` × irradiance × the camera's DN scale."""
     n, s = SIZE, supersample
-    fine = sim.simulator.btf_truth(view, light, n * s).astype(np.float64)
+    texels = sim.simulator.btf_truth(view, light, n, rays=s).astype(np.float64)
     radiometry = sim.scene.spec.radiometry
     lab = config.bonn
     irradiance = radiometry.intensity_w_sr * lab.lamp_intensity / (lab.lamp_distance_mm / 1e3) ** 2
     dn = irradiance * exposure_s / radiometry.full_scale_exposure
-    return fine.reshape(n, s, n, s, 3).mean((1, 3)) * dn * full_scale(bit_depth)
+    return texels * dn * full_scale(bit_depth)
 
 
 def main() -> None:

@@ -14,14 +14,14 @@ LOW_SIGMA_TEXELS = 8
 
 def texel_truth_over_footprints(scene, n: int, supersample: int = 4):
     """Ray-cast normals at the n² texel centres (n, n, 3), the ray-cast height (mm)
-    averaged over each texel's footprint from supersample² samples (n, n), and the
-    texel pitch (mm)."""
+    averaged over each texel's footprint from supersample² rays (n, n), and the texel
+    pitch (mm). The centres' normals are what a texel-sampled normal map holds: they
+    never show the yarns' sides (averaged over the footprint, they would)."""
     with Simulator(scene) as sim:
-        normals = sim.texel_truth(n).normals
-        fine = sim.texel_truth(n * supersample).height.astype(np.float64)
+        normals = sim.texel_truth(n, rays=1).normals
+        height = sim.texel_truth(n, rays=supersample).height.astype(np.float64)
         pitch_mm = sim.scene.rig.holder.sample_mm / n
-    footprint = fine.reshape(n, supersample, n, supersample).mean(axis=(1, 3))
-    return normals, footprint, pitch_mm
+    return normals, height, pitch_mm
 
 
 def less_plane(height) -> np.ndarray:

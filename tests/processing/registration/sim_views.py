@@ -137,11 +137,10 @@ class SimRegistration:
         if key not in self._truth:
             n, s = self.size, supersample
             # Lambertian and flat at z ≈ 0: the same for every view; frontal view.
-            fine = self._sim.btf_truth((0.0, 0.0), tuple(light_deg), n * s).astype(np.float64)
-            texels = fine.reshape(n, s, n, s, 3).mean((1, 3))
+            texels = self._sim.btf_truth((0.0, 0.0), tuple(light_deg), n, rays=s)
             radiometry = self.scene.spec.radiometry
             scale = dn_per_btf_unit(self.config, lamp, radiometry, radiometry.exposure_s)
-            self._truth[key] = texels * scale
+            self._truth[key] = texels.astype(np.float64) * scale
         return self._truth[key]
 
     def run(self, view_deg, light_deg=(0.0, 0.0)) -> ViewResult:

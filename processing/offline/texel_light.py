@@ -1,0 +1,124 @@
+"""Per-texel irradiance of a near lamp, divided out of the ``btf`` stage's normtextures.
+
+A BTF value is radiance per unit irradiance from a distant light in the slot's
+light direction. The btf stage stores every texel of a light's frame in units
+of the irradiance at the sample's centre (I / r², r the lamp's distance from
+the turntable centre). A lamp at r = 650 mm from a 100 mm sample gives a texel
+at distance r_t the irradiance I / r_t², from a direction turned by up to
+±4.4°: on the reference plane, cos θ_t / r_t² against cos θ / r², −15…+17 %
+across the sample at θ = 45°. This module divides that ratio (and a spot
+lamp's cut-off) out of each texel, from where the lamps stood (the arc-0°
+frame), turned to each step's recorded arc and turntable angles: exact for a
+flat texel, first order for a tilted one (whose cos θ turns by a different
+amount).
+
+Where the lamps stood comes from the archive's calibration
+(``rig calibrate lamps``: a near lamp's ``position_mm``) where it has one, else
+from the rig config's lamp geometry (the nominal light arc); the material
+records which. Directional lamps give every texel the same irradiance. What the
+turn of the light's direction does to a tilted texel's shading (or to a cast
+shadow) is not corrected: the texel keeps the slot's light direction.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from rig.calfile import CalibrationFile
+from rig.config import RigConfig
+from rig.geometry import texel_centers_mm
+from rig.kinematics import lamp_position_mm, rotate_z
+
+__all__ = [
+    "IRRADIANCE_FLOOR",
+    "LampPositions",
+    "lamp_positions",
+    "plane_irradiance",
+    "texel_irradiance",
+]
+
+#: A texel the lamp lights with less than this fraction of the centre's
+#: irradiance (outside a spot's cone, a lamp at the horizon) is divided by this
+#: floor, not by ~0.
+IRRADIANCE_FLOOR = 0.05
+
+
+@dataclass(frozen=True)
+class LampPositions:
+    """Where the rig's near lamps stood with the arc at 0°, for per-texel irradiance.
+
+    positions_mm : lamp id → (3,) float64 mm, arc-0° frame (point and spot lamps)
+    source : where they come from (the calibration session, or the rig config)
+    """
+
+    positions_mm: dict[str, np.ndarray]
+    source: str
+
+
+def plane_irradiance(source: np.ndarray, points: np.ndarray) -> np.ndarray:
+    """(…) cos θ / r² of a point lamp at ``source`` (3,) mm on the horizontal plane
+    at ``points`` (…, 3) mm, in 1/mm² (negative where the lamp is below the plane)."""
+    to_lamp = source - points
+    r = np.linalg.norm(to_lamp, axis=-1)
+    return to_lamp[..., 2] / r**3
+
+
+def lamp_positions(config: RigConfig, calibration: CalibrationFile | None, source: str = ""):
+    """The near lamps' arc-0° positions: calibrated where the calibration has a
+    lamp's ``position_mm`` (``source``: that session), the rig config's nominal
+    geometry for the rest; None
+    when the rig has no near lamp on an arc (a Bonn lab's lamp moves with the
+    plate: not modelled here)."""
+    near = [lamp for lamp in config.lamps if lamp.kind != "directional"]
+    if not near or config.kind == "bonn":
+        return None
+    calibrated = calibration.lamps if calibration is not None else {}
+    positions, origins = {}, set()
+    for lamp in near:
+        result = calibrated.get(lamp.id)
+        if result is not None and result.position_mm is not None:
+            positions[lamp.id] = np.asarray(result.position_mm, dtype=np.float64)
+            origins.add(f"calibrated lamp positions, {source}")
+        else:
+            positions[lamp.id] = lamp_position_mm(config, lamp.id, arc_deg=0.0, turntable_deg=0.0)
+            origins.add("the rig config's lamp geometry (nominal)")
+    return LampPositions(positions, "; ".join(sorted(origins)))
+
+
+def texel_irradiance(
+    positions: LampPositions,
+    config: RigConfig,
+    lamp: str,
+    *,
+    sample_mm: float,
+    size: int,
+    arc_deg: float,
+    turntable_deg: float,
+) -> tuple[np.ndarray, np.ndarray]:
+    """Irradiance on the texel grid over the sample centre's, for one step's lamp:
+    cos θ / r² on the reference plane z = 0 (:func:`plane_irradiance`), the lamp at
+    its arc-0° position turned by ``arc_deg − turntable_deg`` about the vertical axis.
+
+    Returns
+    -------
+    ratio : (size, size) float64, ≥ ``IRRADIANCE_FLOOR`` (1 for a directional lamp)
+    floored : (size, size) bool, texels the lamp barely lights (ratio floored)
+    """
+    if lamp not in positions.positions_mm:
+        return np.ones((size, size)), np.zeros((size, size), bool)
+    source = rotate_z(positions.positions_mm[lamp], arc_deg - turntable_deg)
+    points = np.concatenate([texel_centers_mm(sample_mm, size), np.zeros((size, size, 1))], -1)
+    centre = plane_irradiance(source, np.zeros(3))
+    if not centre > 0:  # the lamp at or below the horizon: it lights nothing
+        return np.full((size, size), IRRADIANCE_FLOOR), np.ones((size, size), bool)
+    ratio = plane_irradiance(source, points) / centre
+    spec = config.lamp(lamp)
+    if spec.kind == "spot":
+        to_lamp = source - points
+        axis = -source / np.linalg.norm(source)
+        cos_off = np.einsum("...j,j->...", -to_lamp, axis) / np.linalg.norm(to_lamp, axis=-1)
+        ratio = np.where(cos_off >= np.cos(np.deg2rad(spec.spot_cutoff_deg)), ratio, 0.0)
+    floored = ratio < IRRADIANCE_FLOOR
+    return np.maximum(ratio, IRRADIANCE_FLOOR), floored
