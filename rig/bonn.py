@@ -32,6 +32,7 @@ from rig.ur_kinematics import UR_MODELS, Pose, nearest_joints
 from rig.ur_kinematics import forward as ur_forward
 
 __all__ = [
+    "LAMPS_ON_ARC",
     "BonnPose",
     "arm_joints",
     "camera_direction",
@@ -49,6 +50,9 @@ __all__ = [
     "recorded_pose",
     "tilt_deg",
 ]
+
+#: The lab's lamp stands still while the arm turns the plate under it: no light arc.
+LAMPS_ON_ARC = False
 
 _LAMP = np.array([1.0, 0.0, 0.0])
 # A recorded rail position this close to an axis end is at it (a servo's read-back

@@ -23,6 +23,9 @@ __all__ = ["StepKinematics", "step_kinematics"]
 class StepKinematics(Protocol):
     """What a kind's module answers about a step from its recorded ``actuators``."""
 
+    #: Whether the lamps ride a light arc (their place follows from arc and turntable).
+    LAMPS_ON_ARC: bool
+
     def recorded_lamp_mm(
         self, config: RigConfig, lamp_id: str, actuators: Mapping[str, float]
     ) -> np.ndarray:

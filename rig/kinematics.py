@@ -27,6 +27,7 @@ from rig.errors import KinematicsError
 from rig.geometry import Sampling, angular_distance_deg, direction_angles, direction_vector
 
 __all__ = [
+    "LAMPS_ON_ARC",
     "RigPose",
     "displaced_by_deg",
     "forward",
@@ -39,6 +40,10 @@ __all__ = [
     "sampling_residuals",
     "wrap_into",
 ]
+
+#: The lamps sit on the light arc (the Wang rig) or a fixed ring (VirTex, arc 0°): a lamp's
+#: place over the sample follows from the arc and turntable angles alone.
+LAMPS_ON_ARC = True
 
 
 @dataclass(frozen=True)

@@ -29,6 +29,7 @@ import numpy as np
 from rig.calfile import CalibrationFile
 from rig.config import RigConfig
 from rig.geometry import texel_centers_mm
+from rig.kind_kinematics import step_kinematics
 from rig.kinematics import lamp_position_mm, rotate_z
 
 __all__ = [
@@ -72,7 +73,7 @@ def lamp_positions(config: RigConfig, calibration: CalibrationFile | None, sourc
     when the rig has no near lamp on an arc (a Bonn lab's lamp moves with the
     plate: not modelled here)."""
     near = [lamp for lamp in config.lamps if lamp.kind != "directional"]
-    if not near or config.kind == "bonn":
+    if not near or not step_kinematics(config).LAMPS_ON_ARC:
         return None
     calibrated = calibration.lamps if calibration is not None else {}
     positions, origins = {}, set()
