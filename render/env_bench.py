@@ -45,7 +45,7 @@ from render.environment.visibility import visibility_maps
 from render.lights import DirectionalLight
 from render.meshes import cloth, sphere
 from render.pem.median_cut import median_cut, render_median_cut
-from render.pem.partial_maps import PartialMaps, partial_maps, region_radiance
+from render.pem.regions import PartialMaps, partial_maps, region_radiance
 from render.pem.renderer import PemRenderer
 from render.points.renderer import Renderer
 from rig.geometry import direction_vector, nearest_directions

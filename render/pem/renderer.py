@@ -1,6 +1,6 @@
 """The GL renderer under partial environment maps: median-cut regions as extended lights.
 
-Each lit median-cut region of the environment (:func:`render.pem.partial_maps`)
+Each lit median-cut region of the environment (:func:`render.pem.regions`)
 is one light of the point-light :class:`render.Renderer`: its shadow map looks
 from the region's direction, and its percentage-closer kernel is widened to
 the penumbra an occluder ``occluder_mm`` above the receiver casts under a disc
@@ -33,7 +33,7 @@ import numpy as np
 
 from render._errors import RenderError
 from render.lights import MAX_LIGHTS, DirectionalLight
-from render.pem.partial_maps import PartialMaps, partial_maps
+from render.pem.regions import PartialMaps, partial_maps
 from render.points.renderer import Renderer
 
 __all__ = ["PemRenderer"]

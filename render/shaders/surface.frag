@@ -169,7 +169,7 @@ uniform float shininess;
 #endif
 
 #if PEM == 1
-// Partial environment maps (render/pem/partial_maps.py, render/pem/renderer.py): light l is a
+// Partial environment maps (render/pem/regions.py, render/pem/renderer.py): light l is a
 // median-cut region when it has texels. light_texels[l]: first and count of its
 // texels at the Lambert level, first and count at the level of the specular lobe;
 // entry i of pem_texels is texel 2i (direction) and 2i + 1 (light Σ L Δω) in row order.

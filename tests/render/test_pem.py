@@ -5,7 +5,8 @@ import pytest
 
 from render import RenderError
 from render.environment import EnvironmentMap, synthetic_environment
-from render.pem import (
+from render.pem.median_cut import median_cut_regions
+from render.pem.regions import (
     MAX_LOBE_TEXELS,
     blinn_half_width,
     lobe_level,
@@ -13,7 +14,6 @@ from render.pem import (
     pem_radiance,
     region_pyramid,
 )
-from render.pem.median_cut import median_cut_regions
 from rig.geometry import direction_vector
 
 GLOSSY = {"albedo": 0.0, "specular": 1.0, "shininess": 40.0}
