@@ -1,6 +1,6 @@
 """The GL renderer under partial environment maps: median-cut regions as extended lights.
 
-Each lit median-cut region of the environment (:func:`render.pem.regions`)
+Each lit median-cut region of the environment (:func:`render.pem.partial_maps`)
 is one light of the point-light :class:`render.Renderer`: its shadow map looks
 from the region's direction, and its percentage-closer kernel is widened to
 the penumbra an occluder ``occluder_mm`` above the receiver casts under a disc
