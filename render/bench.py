@@ -29,11 +29,12 @@ from pathlib import Path
 import moderngl
 import numpy as np
 
-from render._gl import gl_context, shader_source, vertex_array
 from render.camera import Camera
+from render.core.gl import gl_context, vertex_array
+from render.core.programs import shader_source
 from render.lights import PointLight
 from render.meshes import merged, plane, sphere, torus
-from render.renderer import Renderer
+from render.points.renderer import Renderer
 from rig.geometry import Sampling
 from rig.material import CompressedBTF, GlobalSVD, Material, Mdf
 

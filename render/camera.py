@@ -115,7 +115,7 @@ class Camera:
 
     def pixel_rays(self) -> tuple[np.ndarray, np.ndarray]:
         """Origins and unit directions of the rays through the pixel centres, as
-        :meth:`render.renderer.Renderer.render` lays out its image (row 0 at the top):
+        :meth:`render.points.renderer.Renderer.render` lays out its image (row 0 at the top):
         (H, W, 3) float64 each, scene units. A ray tracer that casts them sees what
         each pixel of the rendered image shows."""
         inverse = np.linalg.inv(self.view_matrix().astype(np.float64))

@@ -35,19 +35,19 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from render._env_transfer import environment_coefficients, texture_at_vertex
 from render.bench import _material as random_material
 from render.camera import Camera
-from render.env_pca import illumination_basis
-from render.env_renderer import EnvironmentRenderer
-from render.environment import synthetic_environment
+from render.environment._transfer import environment_coefficients, texture_at_vertex
+from render.environment.map import synthetic_environment
+from render.environment.pca import illumination_basis
+from render.environment.renderer import EnvironmentRenderer
+from render.environment.visibility import visibility_maps
 from render.lights import DirectionalLight
-from render.median_cut import median_cut, render_median_cut
 from render.meshes import cloth, sphere
-from render.pem import PartialMaps, partial_maps, region_radiance
-from render.pem_renderer import PemRenderer
-from render.renderer import Renderer
-from render.visibility import visibility_maps
+from render.pem.median_cut import median_cut, render_median_cut
+from render.pem.regions import PartialMaps, partial_maps, region_radiance
+from render.pem.renderer import PemRenderer
+from render.points.renderer import Renderer
 from rig.geometry import direction_vector, nearest_directions
 from rig.material import CompressedBTF, Material, PsView
 

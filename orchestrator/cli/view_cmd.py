@@ -148,7 +148,7 @@ def register(app: typer.Typer) -> None:
                 help="hemicube resolution n of the visibility maps (even; 3n² rays per "
                 "vertex); 8 is a faster preview, its sun's light patchier",
             ),
-        ] = 16,  # render.visibility.DEFAULT_RESOLUTION (render is imported only to draw)
+        ] = 16,  # render.environment.visibility.DEFAULT_RESOLUTION (imported only to draw)
         median_cut: Annotated[
             int, typer.Option(min=1, max=1024, help="lights of --env-method pem (a power of 2)")
         ] = 16,

@@ -1,6 +1,6 @@
 // Tangent frames and direction lookups shared by the surface and the MDF shaders
-// (prepended after the renderer's #version and #defines): blend a measured direction
-// table at a query exactly as rig.geometry does, from the grids of render/_lookup.py.
+// (included after the program's #version and #defines): blend a measured direction
+// table at a query exactly as rig.geometry does, from the grids of render/core/lookup.py.
 
 struct Blend { ivec4 idx; vec4 w; };
 
@@ -21,7 +21,7 @@ mat3 tangent_frame(vec3 n, vec4 tangent) {
     return transpose(mat3(t, b, n));
 }
 
-// ---- direction lookups (render/_lookup.py builds the candidate grids) ----
+// ---- direction lookups (render/core/lookup.py builds the candidate grids) ----
 
 ivec2 hemi_cell(vec3 d, int res) {
     vec3 a = abs(d);

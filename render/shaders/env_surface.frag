@@ -1,5 +1,6 @@
-// A compressed BTF under an environment (seed 000 §5.3, eq. (10)–(11)), prepended
-// by the renderer: #version and #defines COEF_WIDTH (texels per row of env_coef),
+#version 330
+// A compressed BTF under an environment (seed 000 §5.3, eq. (10)–(11)), with the
+// renderer's #defines COEF_WIDTH (texels per row of env_coef),
 // CHANNELS (1 grey, 3 RGB), PACKED (texture layers per view slot or, for a global
 // SVD, per light) and SVD_COMPONENTS (a global SVD's c; 0 for a per-view PCA).
 //
@@ -27,7 +28,7 @@ uniform float exposure;          // f
 uniform sampler2D env_coef;      // RGB: texel ((vertex·n_slots + slot)·(c + 1) + k)
 uniform int n_slots;             // view slots of the material (a global SVD: its lights)
 uniform int components;          // c (a global SVD: 0, one g per light)
-// The point-light renderer's packed BTF (render/_textures.py): a slot's images,
+// The point-light renderer's packed BTF (render/core/textures.py): a slot's images,
 // basis 0…c − 1 then the mean, CHANNELS values each, four values to a texel;
 // value v of slot j is component v % 4 of layer j·PACKED + v / 4.
 uniform sampler2DArray btf_images;

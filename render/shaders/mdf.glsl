@@ -1,4 +1,4 @@
-// The mesostructure distance function (render/mdf.py), prepended after directions.glsl:
+// The mesostructure distance function (render/points/mdf.py), included after directions.glsl:
 // D(x, y, v) in mm of the sample, one texture layer per view slot, blended over view
 // slots with the BTF's own rule (MDF_VIEW_METHOD 0 nearest-k / 1 barycentric,
 // MDF_VIEW_K neighbours, MDF_VIEW_CANDIDATES per lookup cell) and bilinear over texels.

@@ -1,5 +1,5 @@
-// Mesostructure-aware shadows and the ambient term (seed 001 §4.2), prepended after
-// mdf.glsl with #defines MDF_SHADOWS 0/1 and AMBIENT 0/1 (render/ambient.py).
+// Mesostructure-aware shadows and the ambient term (seed 001 §4.2), included after
+// mdf.glsl with #defines MDF_SHADOWS 0/1 and AMBIENT 0/1 (render/points/ambient.py).
 
 #if MDF_SHADOWS == 1
 uniform float mdf_scale;   // s: scene units per mm of the sample (tile_mm / sample_mm)

@@ -1,7 +1,7 @@
 // The glTF PBR fit of a material (rig.material.evaluate_pbr, line by line): metallic-
 // roughness with metallic 0, KHR_materials_specular, _sheen (Charlie lobe and visibility,
 // albedo scaling by the integrated table) and _anisotropy. Shared by the renderer's pbr
-// layer (prepended after #version) and the web viewer (rig export web).
+// layer (included by surface.frag) and the web viewer (rig export web).
 // pbr_maps layers (rig.material.pbr_layers): 0 base colour, roughness; 1 sheen colour,
 // sheen roughness; 2 normal, specular; 3 cos φ, sin φ, anisotropy, specular colour.
 uniform sampler2DArray pbr_maps;

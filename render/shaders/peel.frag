@@ -1,9 +1,13 @@
-// One step of a depth-peeling pass for mesostructure silhouettes (render/peel.py; seed
-// 001 §4.1, Fig. 7), after directions.glsl and mdf.glsl. BACK_FACES 1: the back faces
+#version 330
+// One step of a depth-peeling pass for mesostructure silhouettes (render/points/peel.py;
+// seed 001 §4.1, Fig. 7), with mdf.glsl's #defines. BACK_FACES 1: the back faces
 // of this layer (the ray leaves the object there) write (t_b, d_b) to peel_next;
 // BACK_FACES 0: the front faces of this layer keep their depth, and set the hit mask,
 // where the ray meets the mesostructure: t_f + d_f ≤ t_b − d_b. t is the distance
 // along the pixel's ray from the eye, d = texture_scale · D (mm of the scene).
+
+#include "directions.glsl"
+#include "mdf.glsl"
 
 in vec3 v_position;
 in vec3 v_normal;

@@ -1,6 +1,7 @@
-// The measured material under point and directional lights (prepended by the
-// renderer: #version, and #defines BTF_KIND 0 none / 1 pca / 2 svd, PS 0/1, PBR 0/1
-// (the fitted glTF material of pbr.glsl, prepended),
+#version 330
+// The measured material under point and directional lights (#defines from the
+// renderer: BTF_KIND 0 none / 1 pca / 2 svd, PS 0/1, PBR 0/1 (the fitted glTF
+// material of pbr.glsl), MDF 0/1 (mdf.glsl, mdf_shadow.glsl),
 // SHADOWS 0/1, MDF_SHADOWS 0/1, AMBIENT 0/1 (mdf_shadow.glsl), PEM 0/1 (lights
 // may be partial environment maps), N_LIGHTS (this
 // program's number of lights, ≥ 1); with a BTF
@@ -16,6 +17,16 @@
 // uniform control flow and may take its level of detail from the implicit
 // derivatives (cheaper than textureGrad with explicit ones).
 
+// Blend, safe_normalize, tangent_frame and the blend_* lookups.
+#include "directions.glsl"
+#if PBR == 1
+#include "pbr.glsl"
+#endif
+#if MDF == 1
+#include "mdf.glsl"
+#include "mdf_shadow.glsl"
+#endif
+
 in vec3 v_position;
 in vec3 v_normal;
 in vec4 v_tangent;
@@ -28,8 +39,6 @@ uniform bool orthographic;
 uniform float uv_scale;        // 1 / tile_mm: sample repeats per UV unit
 uniform vec4 light_place[N_LIGHTS];   // xyz position (w = 1) or direction to the light (w = 0)
 uniform vec3 light_emission[N_LIGHTS];
-
-// Blend, safe_normalize, tangent_frame and the blend_* lookups: directions.glsl, prepended.
 
 #if BTF_KIND > 0
 uniform sampler2DArray view_cells;
@@ -61,7 +70,7 @@ Blend blend_light(vec3 q) {
 #if BTF_KIND > 0
 // Per group (pca: a view slot, svd: a light) its images' values, CHANNELS per
 // texel each, packed four to a texel: value v of group g is component v % 4 of
-// layer g·PACKED + v / 4 (render/_textures.py).
+// layer g·PACKED + v / 4 (render/core/textures.py).
 uniform sampler2DArray btf_images;
 #endif
 
@@ -160,7 +169,7 @@ uniform float shininess;
 #endif
 
 #if PEM == 1
-// Partial environment maps (render/pem.py, render/pem_renderer.py): light l is a
+// Partial environment maps (render/pem/regions.py, render/pem/renderer.py): light l is a
 // median-cut region when it has texels. light_texels[l]: first and count of its
 // texels at the Lambert level, first and count at the level of the specular lobe;
 // entry i of pem_texels is texel 2i (direction) and 2i + 1 (light Σ L Δω) in row order.

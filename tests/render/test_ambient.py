@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from processing.btf import interpolate
-from render.ambient import ambient_term, light_solid_angles
+from render.points.ambient import ambient_term, light_solid_angles
 from rig.geometry import Sampling, direction_vector
 from rig.material import CompressedBTF
 from tests.render.conftest import LIGHTS, VIEWS, N

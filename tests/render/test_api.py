@@ -141,7 +141,7 @@ def test_the_back_of_a_surface_shows_the_material_turned_over(pca_model):
 
 
 def test_a_framebuffer_beyond_the_context_is_named_with_its_limit():
-    from render._gl import gl_context, image_framebuffer
+    from render.core.gl import gl_context, image_framebuffer
 
     ctx = gl_context()
     largest = min(ctx.info["GL_MAX_RENDERBUFFER_SIZE"], *ctx.info["GL_MAX_VIEWPORT_DIMS"])

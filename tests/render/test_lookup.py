@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from render import RenderError
-from render._lookup import MAX_CANDIDATES, build_lookup, hemi_octahedral_cell
+from render.core.lookup import MAX_CANDIDATES, build_lookup, hemi_octahedral_cell
 from rig.geometry import Sampling, barycentric_weights, nearest_directions
 
 

@@ -1,5 +1,5 @@
 """The MDF texture: its lookup on the GPU against the numpy reference, and the
-rules for unseen texels and grazing views (``render.mdf``)."""
+rules for unseen texels and grazing views (``render.points.mdf``)."""
 
 import moderngl
 import numpy as np
@@ -8,13 +8,16 @@ from hypothesis import given
 from hypothesis import strategies as st
 from hypothesis.extra.numpy import arrays
 
-from render._gl import gl_context, shader_source
-from render.mdf import GRAZING_DEG, mdf_reference, mdf_table, upload_mdf
+from render.core.gl import gl_context
+from render.core.programs import build_program
+from render.points.mdf import GRAZING_DEG, mdf_reference, mdf_table, upload_mdf
 from rig.geometry import direction_vector
 from rig.material import Mdf
 from tests.render.conftest import VIEWS, synthetic_mdf
 
-_LOOKUP_FRAG = """
+_LOOKUP_FRAG = """#version 330
+#include "directions.glsl"
+#include "mdf.glsl"
 uniform vec3 view_local;
 uniform vec2 st_scale;
 in vec2 v_st;
@@ -32,12 +35,7 @@ def gpu_lookup(table, view_local, *, method, size=48, st_scale=(1.3, 0.8)) -> np
     """(size, size) D from ``mdf_distance_mm`` over st ∈ [0, st_scale) on a full-screen quad."""
     ctx = gl_context()
     mdf = upload_mdf(ctx, table, view_method=method)
-    header = "#version 330\n" + "".join(f"#define {k} {v}\n" for k, v in mdf.defines().items())
-    program = ctx.program(
-        vertex_shader=_QUAD_VERT,
-        fragment_shader=header + shader_source("directions.glsl") + shader_source("mdf.glsl")
-        + _LOOKUP_FRAG,
-    )  # fmt: skip
+    program = build_program(ctx, _QUAD_VERT, _LOOKUP_FRAG, defines=mdf.defines())
     quad = ctx.buffer(np.array([-1, -1, 1, -1, -1, 1, 1, 1], np.float32))
     vao = ctx.vertex_array(program, [(quad, "2f", "in_xy")])
     colour = ctx.renderbuffer((size, size), 4, dtype="f4")

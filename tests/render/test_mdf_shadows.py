@@ -12,11 +12,11 @@ import numpy as np
 import pytest
 
 from render import Camera, DirectionalLight, Renderer, RenderError
-from render._gl import gl_context, mesh_buffers
-from render._shadows import ShadowMaps, light_camera
-from render.ambient import ambient_term
-from render.mdf import GRAZING_DEG
+from render.core.gl import gl_context, mesh_buffers
 from render.meshes import merged, plane, sphere
+from render.points._shadows import ShadowMaps, light_camera
+from render.points.ambient import ambient_term
+from render.points.mdf import GRAZING_DEG
 from render.texel_view import texel_camera
 from rig.geometry import direction_vector, nearest_directions
 from rig.material import Mdf

@@ -6,7 +6,7 @@ import pytest
 from processing.btf import interpolate
 from render import Camera, Renderer, RenderError
 from render.environment import EnvironmentMap, synthetic_environment
-from render.median_cut import environment_lights, median_cut, render_median_cut
+from render.pem.median_cut import environment_lights, median_cut, render_median_cut
 from rig.geometry import direction_angles, direction_vector
 from tests.render.conftest import SAMPLE_MM, N, material, tilted_quad
 

@@ -1,4 +1,4 @@
-"""Mesostructure silhouettes by depth peeling (``render.peel``) on the renderer's meshes."""
+"""Mesostructure silhouettes by depth peeling (``render.points.peel``) on the renderer's meshes."""
 
 import dataclasses
 import logging
@@ -8,7 +8,7 @@ import pytest
 
 from render import Camera, DirectionalLight, Renderer, RenderError
 from render.meshes import plane, sphere, torus
-from render.peel import MAX_PEEL, open_edges
+from render.points.peel import MAX_PEEL, open_edges
 from rig.material import Mdf
 from tests.render.conftest import SAMPLE_MM, material, synthetic_mdf
 
@@ -83,7 +83,7 @@ def test_open_mesh_is_drawn_without_silhouettes_and_warns(with_mdf, caplog):
     mesh = plane(size_mm=60.0, segments=4)
     camera = Camera.perspective((0, -120, 40), (0, 0, 0), fov_deg=40, size=SIZE)
     with (
-        caplog.at_level(logging.WARNING, logger="render.peel"),
+        caplog.at_level(logging.WARNING, logger="render.points.peel"),
         Renderer(with_mdf, mesh, mdf=True) as renderer,
     ):
         assert renderer.silhouettes is None
@@ -145,7 +145,7 @@ def test_constant_mdf_shrinks_a_sphere_to_the_analytic_outline(pca_model):
 def test_open_mesh_with_the_mdf_not_asked_for_only_informs(with_mdf, caplog):
     """The MDF that merely came with the material: an open mesh is no warning (an info line)."""
     with (
-        caplog.at_level(logging.INFO, logger="render.peel"),
+        caplog.at_level(logging.INFO, logger="render.points.peel"),
         Renderer(with_mdf, plane(size_mm=60.0, segments=4)) as renderer,
     ):
         assert renderer.silhouettes is None

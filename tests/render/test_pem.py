@@ -5,8 +5,8 @@ import pytest
 
 from render import RenderError
 from render.environment import EnvironmentMap, synthetic_environment
-from render.median_cut import median_cut_regions
-from render.pem import (
+from render.pem.median_cut import median_cut_regions
+from render.pem.regions import (
     MAX_LOBE_TEXELS,
     blinn_half_width,
     lobe_level,

@@ -14,10 +14,10 @@ import pytest
 
 from render import Camera, Renderer, RenderError
 from render.environment import EnvironmentMap, synthetic_environment
-from render.median_cut import render_median_cut
 from render.meshes import Mesh
 from render.pem import pem_radiance
-from render.pem_renderer import PemRenderer
+from render.pem.median_cut import render_median_cut
+from render.pem.renderer import PemRenderer
 from render.texel_view import texel_camera
 from rig.material import PsView
 from tests.render.conftest import SAMPLE_MM, N, material, ps_view, tilted_quad
@@ -59,7 +59,7 @@ def test_gl_equals_the_cpu_sum_of_the_partial_maps(name, shading):
 
 
 def test_a_btf_takes_each_region_whole_from_its_direction(pca_model):
-    """Under a BTF the regions are the median-cut lights (see render.pem_renderer)."""
+    """Under a BTF the regions are the median-cut lights (see render.pem.renderer)."""
     environment = synthetic_environment("studio", height=16)
     image = render_plane(environment, 16, btf=pca_model)
     mesh, _ = tilted_quad(VIEW_DEG)

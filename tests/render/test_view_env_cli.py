@@ -108,7 +108,7 @@ def test_vis_res_defaults_to_the_renderers_default():
     docs' sky figure and its accuracy table were made with), not the faster preview."""
     import typer
 
-    from render.visibility import DEFAULT_RESOLUTION
+    from render.environment.visibility import DEFAULT_RESOLUTION
 
     view = typer.main.get_command(app).commands["view"]
     vis_res = next(p for p in view.params if p.name == "vis_res")

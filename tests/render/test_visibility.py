@@ -4,8 +4,9 @@ import numpy as np
 import pytest
 
 from render import RenderError
+from render.core.hemisphere import hemicube
+from render.environment.visibility import visibility_maps
 from render.meshes import Mesh, plane, sphere
-from render.visibility import hemicube, visibility_maps
 from rig.geometry import Sampling, nearest_directions
 
 LIGHTS = Sampling.named("H1").vectors

@@ -1,16 +1,16 @@
 """A compressed BTF on a mesh under an HDR environment (seed 000 §5, seed 003).
 
 ``EnvironmentRenderer(material, mesh)`` casts every vertex's visibility map
-once (:mod:`render.visibility`); each environment (or rotation of it) becomes
-the per-vertex coefficients U (:mod:`render._env_transfer`, ``method=
+once (:mod:`render.environment.visibility`); each environment (or rotation of it) becomes
+the per-vertex coefficients U (:mod:`render.environment._transfer`, ``method=
 "visibility"``) or, with ``method="pca"``, U from the PCA of A sampled
-rotations (:mod:`render.env_pca`), so turning the environment is interactive.
+rotations (:mod:`render.environment.pca`), so turning the environment is interactive.
 The fragment shader blends U across each triangle, blends the view slots by
 the rule of ``rig.geometry`` and reconstructs the texture with the exposure f:
 a per-view PCA from its c + 1 coefficients per slot, a global SVD from the
 radiance g of every measured light direction (U = g) times the eigenmaps of
 that light, weighted by the blended view weights. The BTF textures are the
-point-light renderer's (``render._textures``).
+point-light renderer's (``render.core.textures``).
 """
 
 from __future__ import annotations
@@ -18,21 +18,23 @@ from __future__ import annotations
 import moderngl
 import numpy as np
 
-from render._env_transfer import check_btf, environment_coefficients
 from render._errors import RenderError
-from render._gl import gl_context, image_framebuffer, shader_source
-from render._textures import upload_btf
 from render.camera import Camera
-from render.env_pca import check_basis_size, illumination_basis
-from render.environment import EnvironmentMap
-from render.visibility import DEFAULT_RESOLUTION, visibility_maps
+from render.core.gl import gl_context, image_framebuffer
+from render.core.lookup import BLEND_METHODS
+from render.core.programs import build_program
+from render.core.textures import upload_btf
+from render.core.units import TextureUnits
+from render.environment._transfer import check_btf, environment_coefficients
+from render.environment.map import EnvironmentMap
+from render.environment.pca import check_basis_size, illumination_basis
+from render.environment.visibility import DEFAULT_RESOLUTION, visibility_maps
 from rig.geometry import spherical_triangulation
 from rig.material import GlobalSVD
 
 __all__ = ["ENV_METHODS", "EnvironmentRenderer"]
 
 ENV_METHODS = ("visibility", "pca")
-_VIEW_METHODS = ("nearest", "nearest4", "barycentric")
 _COEF_WIDTH = 4096
 
 
@@ -94,8 +96,8 @@ class EnvironmentRenderer:
             raise RenderError(f"method = {method!r}: valid are {ENV_METHODS}")
         if method == "pca":
             check_basis_size(rotations, components)
-        if view_method not in _VIEW_METHODS:
-            raise RenderError(f"view_method = {view_method!r}: valid are {_VIEW_METHODS}")
+        if view_method not in BLEND_METHODS:
+            raise RenderError(f"view_method = {view_method!r}: valid are {BLEND_METHODS}")
         tile = material.sample_mm if tile_mm is None else tile_mm
         if not (np.isfinite(tile) and tile > 0):
             raise RenderError(f"tile_mm = {tile_mm}: must be a positive number of mm")
@@ -122,25 +124,24 @@ class EnvironmentRenderer:
         view_table.filter = (moderngl.NEAREST, moderngl.NEAREST)
         self.vbo = self.ctx.buffer(_corner_buffer(mesh))
         self._owned += [view_table, self.vbo]
-        self.program = self.ctx.program(
-            vertex_shader=shader_source("env_surface.vert"),
-            fragment_shader=f"#version 330\n#define COEF_WIDTH {_COEF_WIDTH}\n"
-            f"#define CHANNELS {self.textures.channels}\n#define PACKED {self.textures.packed}\n"
-            f"#define SVD_COMPONENTS {self.textures.components if svd else 0}\n"
-            + shader_source("env_surface.frag"),
-        )
+        self.program = build_program(self.ctx, "env_surface.vert", "env_surface.frag", defines={
+            "COEF_WIDTH": _COEF_WIDTH, "CHANNELS": self.textures.channels,
+            "PACKED": self.textures.packed,
+            "SVD_COMPONENTS": self.textures.components if svd else 0,
+        })  # fmt: skip
         self.vao = self.ctx.vertex_array(self.program, [(
             self.vbo, "3f 3f 2f 4f 3f 3i",
             "in_position", "in_normal", "in_uv", "in_tangent", "in_corner", "in_ids",
         )])  # fmt: skip
-        self._units = [self.textures.images, view_table, self.textures.weights]
-        for unit, name in enumerate(("btf_images", "view_table", "btf_weights")):
-            if name in self.program:
-                self.program[name].value = unit
+        self.units = TextureUnits(self.ctx)
+        for name, texture in (("btf_images", self.textures.images), ("view_table", view_table),
+                              ("btf_weights", self.textures.weights)):  # fmt: skip
+            self.units.hold(name, texture)
+        self.units.point(self.program)
         # U's rows per vertex: per view slot c + 1 coefficients; a global SVD's one g per light.
         rows_per_vertex = len(self.btf.light_dirs_deg) if svd else len(self.btf.view_dirs_deg)
         uniforms = {
-            "env_coef": len(self._units), "n_slots": rows_per_vertex,
+            "n_slots": rows_per_vertex,
             "components": 0 if svd else self.btf.components, "view_rows": rows,
             "view_method": int(view_method == "barycentric"),
             "view_k": 1 if view_method == "nearest" else min(4, int(valid.sum())),
@@ -210,8 +211,8 @@ class EnvironmentRenderer:
                             ("exposure", float(environment.exposure))):  # fmt: skip
             if name in program:
                 program[name].value = value
-        for unit, texture in enumerate([*self._units, self._coef_texture]):
-            texture.use(location=unit)
+        self.units.bind_held()
+        self.units.use("env_coef", self._coef_texture, program)
         if camera.size not in self._fbo:
             self._fbo[camera.size] = image_framebuffer(self.ctx, camera.size)
         fbo = self._fbo[camera.size]

@@ -7,7 +7,7 @@ where the laser never saw it. The renderer keeps it as one float32 texture
 array, a layer per view slot (the view directions packed in the third
 dimension, seed 001 §5), read bilinearly over texels (repeating, like the
 BTF) and blended over view slots with the BTF's own neighbourhoods: the same
-:func:`render._lookup.build_lookup` candidate grids and the same shader
+:func:`render.core.lookup.build_lookup` candidate grids and the same shader
 functions (``shaders/directions.glsl``), so D at a view between slots mixes
 the slots the BTF mixes there, with the same weights.
 
@@ -41,8 +41,8 @@ import moderngl
 import numpy as np
 
 from render._errors import RenderError
-from render._lookup import DirectionLookup, build_lookup
-from render._textures import lookup_texture
+from render.core.lookup import DirectionLookup, build_lookup
+from render.core.textures import lookup_texture
 from rig.geometry import (
     angular_distance_deg,
     barycentric_weights,

@@ -1,4 +1,4 @@
-"""The process's one headless OpenGL context (EGL), shaders and mesh buffers.
+"""The process's one headless OpenGL context (EGL), its framebuffers and mesh buffers.
 
 Creating an EGL context costs tens of milliseconds and each holds driver
 threads, so the renderers of a process share one, made on first use: Mesa's
@@ -8,14 +8,13 @@ llvmpipe on a machine without a GPU, the GPU's driver where there is one.
 from __future__ import annotations
 
 from functools import cache
-from importlib.resources import files
 
 import moderngl
 import numpy as np
 
 from render._errors import RenderError
 
-__all__ = ["gl_context", "image_framebuffer", "mesh_buffers", "shader_source", "vertex_array"]
+__all__ = ["gl_context", "image_framebuffer", "mesh_buffers", "vertex_array"]
 
 _GL_VERSION = 330
 _ATTRIBUTES = (("in_position", 3), ("in_normal", 3), ("in_uv", 2), ("in_tangent", 4))
@@ -70,11 +69,6 @@ def image_framebuffer(ctx: moderngl.Context, size: tuple[int, int]) -> moderngl.
         f"image size {width}×{height}: this OpenGL context ({ctx.info['GL_RENDERER']}) cannot "
         f"draw it ({refused}); give a smaller image size"
     )
-
-
-def shader_source(name: str) -> str:
-    """The text of ``render/shaders/<name>``."""
-    return files("render").joinpath("shaders", name).read_text()
 
 
 def vertex_array(ctx, program, vbo, ibo) -> moderngl.VertexArray:

@@ -1,10 +1,10 @@
 """Partial environment maps: median-cut regions as extended, glossiness-filtered lights (seed 002).
 
-Every median-cut region (:func:`render.median_cut.median_cut_regions`) is its own
+Every median-cut region (:func:`render.pem.median_cut.median_cut_regions`) is its own
 partial environment map: the map's light Σ L Δω inside the region and nothing
 outside. Its MIP pyramid sums 2×2 texels of light (and their light-weighted mean
 direction), so level 0 is the region's pixels and the top level the region's
-single light — what :mod:`render.median_cut` draws. A surface's lobe reads the
+single light — what :mod:`render.pem.median_cut` draws. A surface's lobe reads the
 level whose texel spans the lobe's half-width at half maximum (seed 002 §3.2:
 a sharp lobe reads fine levels, a broad one coarse levels):
 
@@ -17,7 +17,7 @@ The region's light for that surface is the lobe-weighted sum over its texels at
 that level — the simplest faithful form of seed 002's filtered lookup: the colour
 and strength of a region depend on the glossiness, and the sum over regions
 weights each by its own visibility (eq. (5)). :func:`partial_maps` makes the
-table of texels the GL renderer (:mod:`render.pem_renderer`) reads and
+table of texels the GL renderer (:mod:`render.pem.renderer`) reads and
 :func:`pem_radiance` sums on the CPU. A region's soft shadow edge comes from
 its angular radius: √2 × the light-weighted RMS angle of its pixels from its
 direction, the radius of a uniform disc of that spread.
@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from render._errors import RenderError
-from render.median_cut import median_cut_regions
+from render.pem.median_cut import median_cut_regions
 
 __all__ = [
     "MAX_LOBE_TEXELS",
@@ -131,7 +131,7 @@ def partial_maps(environment, count: int, *, shininess: float | None = None,
 
     ``shininess`` (the Blinn–Phong exponent s > 0) adds the lobe's texels; ``None``:
     Lambert only. ``mip=False`` reads every region at its top level: the
-    directional lights of :mod:`render.median_cut`. The lobe's level is raised
+    directional lights of :mod:`render.pem.median_cut`. The lobe's level is raised
     until its texels over all regions are at most :data:`MAX_LOBE_TEXELS`.
     """
     if shininess is not None and not (np.isfinite(shininess) and shininess > 0):

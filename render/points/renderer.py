@@ -18,20 +18,28 @@ import moderngl
 import numpy as np
 
 from render._errors import RenderError
-from render._gl import gl_context, image_framebuffer, mesh_buffers, shader_source, vertex_array
-from render._lookup import build_lookup
-from render._mdf_shading import mdf_shading
-from render._shadows import ShadowMaps
-from render._textures import lookup_texture, upload_btf, upload_pbr, upload_ps
 from render.camera import Camera
+from render.core.gl import gl_context, image_framebuffer, mesh_buffers, vertex_array
+from render.core.lookup import build_lookup
+from render.core.programs import build_program
+from render.core.textures import (
+    BtfTextures,
+    PbrTextures,
+    PsTextures,
+    lookup_texture,
+    upload_btf,
+    upload_pbr,
+    upload_ps,
+)
+from render.core.units import TextureUnits
 from render.lights import MAX_LIGHTS, DirectionalLight, PointLight
-from render.peel import mdf_silhouettes
+from render.points._mdf_shading import MdfShading, mdf_shading
+from render.points._options import check_shading, checked_layers, checked_tile_mm
+from render.points._shadows import ShadowMaps
+from render.points.peel import mdf_silhouettes
 from rig.material import CompressedBTF, Material
 
 __all__ = ["MAX_LIGHTS", "Renderer"]
-
-_METHODS = ("nearest", "nearest4", "barycentric")
-_LAYERS = ("btf", "ps", "pbr")
 
 
 class Renderer:
@@ -65,7 +73,7 @@ class Renderer:
         Texels per side of each light's shadow map.
     mdf : bool or None
         Use the material's MDF (seed 001 §4); None: when the material holds
-        one. Mesostructure silhouettes by depth peeling (``render.peel``), and
+        one. Mesostructure silhouettes by depth peeling (``render.points.peel``), and
         mesostructure-aware shadows: tested where the view ray meets the
         mesostructure, p − s·D(x, y, v)·v (s = tile_mm / sample_mm), against
         shadow maps holding the mesostructure's base, shadowed points shaded
@@ -77,7 +85,7 @@ class Renderer:
         With the MDF: the fraction a ∈ [0, 1] of each light's irradiance that
         reaches the points it shadows as uniform skylight (radiance a·E/π),
         shading them by the ambient term L_a, the BTF integrated over all light
-        directions (``render.ambient``); 0: shadows are black.
+        directions (``render.points.ambient``); 0: shadows are black.
 
     Notes
     -----
@@ -86,7 +94,7 @@ class Renderer:
     a direction at an empty slot takes its valid neighbours.
     """
 
-    #: Shader features a subclass turns on (``render.pem_renderer``: PEM 1).
+    #: Shader features a subclass turns on (``render.pem.renderer``: PEM 1).
     _features: ClassVar[dict[str, int]] = {"PEM": 0}
 
     def __init__(
@@ -106,153 +114,81 @@ class Renderer:
         peel: int = 2,
         ambient: float = 0.2,
     ) -> None:
-        self.layers = self._check_layers(material, layers)
-        tile = material.sample_mm if tile_mm is None else tile_mm
-        if not (np.isfinite(tile) and tile > 0):
-            raise RenderError(f"tile_mm = {tile_mm}: must be a positive number of mm")
-        for name, method in (("light_method", light_method), ("view_method", view_method)):
-            if method not in _METHODS:
-                raise RenderError(f"{name} = {method!r}: valid are {_METHODS}")
-        if not (np.isfinite(specular) and specular >= 0 and np.isfinite(shininess)
-                and shininess > 0):  # fmt: skip
-            raise RenderError(
-                f"specular = {specular}, shininess = {shininess}: need specular ≥ 0, shininess > 0"
-            )
-        if not (np.isfinite(ambient) and 0 <= ambient <= 1):
-            raise RenderError(f"ambient = {ambient}: valid is a fraction 0 … 1 of each light")
-        asked_mdf = mdf is not None
+        self.layers = checked_layers(material, layers)
+        tile = checked_tile_mm(material, tile_mm)
+        check_shading(light_method=light_method, view_method=view_method, specular=specular,
+                      shininess=shininess, ambient=ambient)  # fmt: skip
         # the MDF's ambient term integrates the BTF: the PBR fit draws without it
-        mdf = material.mdf is not None and "pbr" not in self.layers if mdf is None else bool(mdf)
-        self.ctx = gl_context()
-        self.mesh = mesh
-        self._owned: list = []
-        positions = np.asarray(mesh.positions, np.float64)
-        lo, hi = positions.min(axis=0), positions.max(axis=0)
-        self.bounds_center = (lo + hi) / 2
-        self.bounds_radius = max(float(np.linalg.norm(hi - lo)) / 2, 1e-6)
+        with_mdf = material.mdf is not None and "pbr" not in self.layers if mdf is None else mdf
         btf = material.btf if "btf" in self.layers else None
-        self._defines = {
+        self.ctx = gl_context()
+        self.units = TextureUnits(self.ctx)
+        self.uv_scale = 1.0 / tile
+        self._static: dict[str, object] = {"uv_scale": self.uv_scale}
+        self._defines = self._base_defines(btf, shadows=shadows, mdf=bool(with_mdf))
+        self._programs: dict[int, tuple[moderngl.Program, moderngl.VertexArray]] = {}
+        self._framebuffers: dict[tuple[int, int], moderngl.Framebuffer] = {}
+        self._owned: list = []
+        self._upload_mesh(mesh)
+        self.btf_textures = (
+            None if btf is None
+            else self._upload_btf(btf, material.btf_slot_valid, light_method, view_method)
+        )  # fmt: skip
+        self.ps_textures = (
+            self._upload_ps(material.frontal_ps(), specular, shininess)
+            if "ps" in self.layers else None
+        )  # fmt: skip
+        self.pbr_textures = self._upload_pbr(material.pbr) if "pbr" in self.layers else None
+        self.mdf = (
+            self._upload_mdf(material, btf, light_method, view_method, ambient, tile)
+            if with_mdf else None
+        )  # fmt: skip
+        self.shadows = self._shadow_maps(shadow_size) if shadows else None
+        self.silhouettes = mdf_silhouettes(
+            self.ctx, mesh, self.vbo, self.ibo, self.mdf and self.mdf.texture, peel=peel,
+            texture_scale=tile / material.sample_mm, uv_scale=self.uv_scale,
+            asked=mdf is not None,
+        )  # fmt: skip
+        self._program(1)  # a shader this GL cannot compile fails here, not at the first frame
+
+    # ---- setup steps, in the order __init__ takes them ----
+
+    def _base_defines(self, btf, *, shadows: bool, mdf: bool) -> dict[str, int]:
+        """The surface shader's constants before the layers add theirs."""
+        return {
             "BTF_KIND": 0 if btf is None else (1 if isinstance(btf, CompressedBTF) else 2),
             "PS": int("ps" in self.layers),
             "PBR": int("pbr" in self.layers),
+            "MDF": int(mdf),
             "SHADOWS": int(bool(shadows)),
             "MDF_SHADOWS": int(mdf and shadows),
             "AMBIENT": 0,
             **self._features,
         }
-        self._programs: dict[int, tuple[moderngl.Program, moderngl.VertexArray]] = {}
-        self._static: dict[str, object] = {}
+
+    def _upload_mesh(self, mesh) -> None:
+        """The mesh's buffers, its bounding sphere, and the depth pre-pass's program."""
+        self.mesh = mesh
+        positions = np.asarray(mesh.positions, np.float64)
+        lo, hi = positions.min(axis=0), positions.max(axis=0)
+        self.bounds_center = (lo + hi) / 2
+        self.bounds_radius = max(float(np.linalg.norm(hi - lo)) / 2, 1e-6)
         self.vbo, self.ibo = mesh_buffers(self.ctx, mesh)
-        self._depth_program = self.ctx.program(
-            vertex_shader=shader_source("depth.vert"), fragment_shader=shader_source("depth.frag")
-        )
+        self._depth_program = build_program(self.ctx, "depth.vert", "depth.frag")
         self._depth_vao = vertex_array(self.ctx, self._depth_program, self.vbo, self.ibo)
         self._owned += [self.vbo, self.ibo, self._depth_program, self._depth_vao]
-        self._units: list = []
-        self.btf_textures = None
-        self.ps_textures = None
-        self.pbr_textures = None
-        self.uv_scale = 1.0 / float(tile)
-        self._set("uv_scale", self.uv_scale)
-        if btf is not None:
-            self._bind_btf(btf, material.btf_slot_valid, light_method, view_method)
-        if "ps" in self.layers:
-            self.ps_textures = upload_ps(self.ctx, material.frontal_ps())
-            self._bind("ps_albedo", self.ps_textures.albedo)
-            self._bind("ps_normals", self.ps_textures.normals)
-            self._set("specular", float(specular))
-            self._set("shininess", float(shininess))
-        if "pbr" in self.layers:
-            self.pbr_textures = upload_pbr(self.ctx, material.pbr)
-            self._bind("pbr_maps", self.pbr_textures.maps)
-            self._bind("sheen_lut", self.pbr_textures.sheen)
-            self._set("pbr_white", float(material.pbr.attrs.get("white", 1.0)))
-        self.mdf = None
-        if mdf:
-            self.mdf = mdf_shading(self.ctx, material, btf, view_method=view_method,
-                                   light_method=light_method, ambient=ambient,
-                                   tile_mm=float(tile))  # fmt: skip
-            for name, texture in self.mdf.textures().items():
-                self._bind(name, texture)
-            for name, value in self.mdf.uniforms.items():
-                self._set(name, value)
-            self._defines.update(self.mdf.defines())
-        base_depth = 0.0 if self.mdf is None else self.mdf.base_depth
-        self.shadows = (
-            ShadowMaps(self.ctx, self.vbo, self.ibo, size=shadow_size, base_depth=base_depth)
-            if shadows else None
-        )  # fmt: skip
-        self._framebuffers: dict[tuple[int, int], moderngl.Framebuffer] = {}
-        self.silhouettes = mdf_silhouettes(
-            self.ctx, mesh, self.vbo, self.ibo, self.mdf and self.mdf.texture, peel=peel,
-            texture_scale=float(tile) / material.sample_mm, uv_scale=self.uv_scale,
-            asked=asked_mdf,
-        )  # fmt: skip
-        self._program(1)  # a shader this GL cannot compile fails here, not at the first frame
 
-    @staticmethod
-    def _check_layers(material, layers) -> tuple[str, ...]:
-        parts = (("btf", material.btf), ("ps", material.frontal_ps()), ("pbr", material.pbr))
-        held = tuple(name for name, part in parts if part is not None)
-        # by default the measurement itself; the PBR fit when it is all there is
-        measured = tuple(name for name in held if name != "pbr")
-        wanted = (measured or held) if layers is None else tuple(layers)
-        unknown = [name for name in wanted if name not in _LAYERS]
-        if unknown:
-            raise RenderError(f"layers {unknown}: valid are {_LAYERS}")
-        if "pbr" in wanted and len(wanted) > 1:
-            raise RenderError(
-                f"layers {list(wanted)}: the PBR fit stands for the BTF and the PS maps; "
-                "render it alone (layers=('pbr',))"
-            )
-        missing = [name for name in wanted if name not in held]
-        if missing or not wanted:
-            raise RenderError(
-                f"material {str(material.source)!r} holds {list(held) or 'nothing to render'}; "
-                f"cannot render layers {missing or list(wanted)}"
-            )
-        return wanted
+    def _attach(self, textures: dict, uniforms: dict | None = None,
+                defines: dict | None = None) -> None:  # fmt: skip
+        """A layer's textures held on their samplers' units, and its uniforms and shader
+        constants, for every surface program."""
+        for name, texture in textures.items():
+            self.units.hold(name, texture)
+        self._static.update(uniforms or {})
+        self._defines.update(defines or {})
 
-    def _set(self, name: str, value) -> None:
-        """A uniform that stays for every frame (set on each program as it is made)."""
-        self._static[name] = value
-
-    def _bind(self, name: str, texture) -> None:
-        """A texture that stays bound to sampler ``name`` on its own texture unit."""
-        self._units.append(texture)
-        self._set(name, len(self._units) - 1)
-
-    def _program(self, n_lights: int) -> tuple[moderngl.Program, moderngl.VertexArray]:
-        """The surface program for ``n_lights`` ≥ 1 lights, compiled on first use.
-
-        The number of lights is a constant of the shader, so its per-light
-        arrays stay in registers (a software rasteriser runs twice as fast).
-        """
-        if n_lights not in self._programs:
-            defines = {**self._defines, "N_LIGHTS": n_lights}
-            header = "#version 330\n" + "".join(f"#define {k} {v}\n" for k, v in defines.items())
-            header += shader_source("directions.glsl")
-            if "pbr" in self.layers:
-                header += shader_source("pbr.glsl")
-            if self.mdf is not None:
-                header += shader_source("mdf.glsl") + shader_source("mdf_shadow.glsl")
-            try:
-                program = self.ctx.program(
-                    vertex_shader=shader_source("surface.vert"),
-                    fragment_shader=header + shader_source("surface.frag"),
-                )
-            except moderngl.Error as err:
-                raise RenderError(f"the surface shader does not compile on this GL: {err}") from err
-            for name, value in self._static.items():
-                if name in program:
-                    program[name].value = value
-            self._programs[n_lights] = (
-                program,
-                vertex_array(self.ctx, program, self.vbo, self.ibo),
-            )
-        return self._programs[n_lights]
-
-    def _bind_btf(self, btf, slot_valid, light_method: str, view_method: str) -> None:
+    def _upload_btf(self, btf, slot_valid, light_method: str, view_method: str) -> BtfTextures:
+        """The BTF's textures and the lookups of its valid view slots and its lights."""
         valid = np.ones(len(btf.view_dirs_deg), bool) if slot_valid is None else slot_valid
         valid = np.asarray(valid, bool)
         if valid.shape != (len(btf.view_dirs_deg),) or not valid.any():
@@ -261,7 +197,6 @@ class Renderer:
                 f"expected ({len(btf.view_dirs_deg)},) with at least one valid view slot"
             )
         textures = upload_btf(self.ctx, btf)
-        self.btf_textures = textures
         for role, table, method, index in (
             ("view", btf.view_vectors[valid], view_method, np.flatnonzero(valid)),
             ("light", btf.light_vectors, light_method, None),
@@ -269,16 +204,68 @@ class Renderer:
             lookup = build_lookup(table, method, index=index)
             cells = lookup_texture(self.ctx, lookup)
             self._owned.append(cells)
-            self._bind(f"{role}_cells", cells)
             # Constants of the shader: its loops have fixed lengths and no branch on the method.
-            self._defines[f"{role.upper()}_METHOD"] = lookup.code
-            self._defines[f"{role.upper()}_K"] = lookup.k
-            self._defines[f"{role.upper()}_CANDIDATES"] = lookup.length
-        self._set("n_table_lights", textures.n_lights)
-        self._defines.update(COMPONENTS=textures.components, CHANNELS=textures.channels,
-                             PACKED=textures.packed)  # fmt: skip
-        self._bind("btf_weights", textures.weights)
-        self._bind("btf_images", textures.images)
+            prefix = role.upper()
+            self._attach({f"{role}_cells": cells}, defines={
+                f"{prefix}_METHOD": lookup.code, f"{prefix}_K": lookup.k,
+                f"{prefix}_CANDIDATES": lookup.length,
+            })  # fmt: skip
+        self._attach(
+            {"btf_weights": textures.weights, "btf_images": textures.images},
+            {"n_table_lights": textures.n_lights},
+            {"COMPONENTS": textures.components, "CHANNELS": textures.channels,
+             "PACKED": textures.packed},
+        )  # fmt: skip
+        return textures
+
+    def _upload_ps(self, view, specular: float, shininess: float) -> PsTextures:
+        """The photometric-stereo maps and the Blinn–Phong lobe of the PS layer."""
+        textures = upload_ps(self.ctx, view)
+        self._attach({"ps_albedo": textures.albedo, "ps_normals": textures.normals},
+                     {"specular": float(specular), "shininess": float(shininess)})  # fmt: skip
+        return textures
+
+    def _upload_pbr(self, maps) -> PbrTextures:
+        """The PBR fit's maps and its sheen table."""
+        textures = upload_pbr(self.ctx, maps)
+        self._attach({"pbr_maps": textures.maps, "sheen_lut": textures.sheen},
+                     {"pbr_white": float(maps.attrs.get("white", 1.0))})  # fmt: skip
+        return textures
+
+    def _upload_mdf(self, material, btf, light_method: str, view_method: str, ambient: float,
+                    tile_mm: float) -> MdfShading:  # fmt: skip
+        """The MDF, its shadow uniforms and the ambient term (``render.points._mdf_shading``)."""
+        shading = mdf_shading(self.ctx, material, btf, view_method=view_method,
+                              light_method=light_method, ambient=ambient,
+                              tile_mm=tile_mm)  # fmt: skip
+        self._attach(shading.textures(), shading.uniforms, shading.defines())
+        return shading
+
+    def _shadow_maps(self, size: int) -> ShadowMaps:
+        """The shadow-map atlas, at the mesostructure's base where the MDF is drawn."""
+        base_depth = 0.0 if self.mdf is None else self.mdf.base_depth
+        return ShadowMaps(self.ctx, self.vbo, self.ibo, size=size, base_depth=base_depth)
+
+    # ---- drawing ----
+
+    def _program(self, n_lights: int) -> tuple[moderngl.Program, moderngl.VertexArray]:
+        """The surface program for ``n_lights`` ≥ 1 lights, compiled on first use.
+
+        The number of lights is a constant of the shader, so its per-light
+        arrays stay in registers (a software rasteriser runs twice as fast).
+        """
+        if n_lights not in self._programs:
+            program = build_program(self.ctx, "surface.vert", "surface.frag",
+                                    defines={**self._defines, "N_LIGHTS": n_lights})  # fmt: skip
+            self.units.point(program)
+            for name, value in self._static.items():
+                if name in program:
+                    program[name].value = value
+            self._programs[n_lights] = (
+                program,
+                vertex_array(self.ctx, program, self.vbo, self.ibo),
+            )
+        return self._programs[n_lights]
 
     def _framebuffer(self, size: tuple[int, int]) -> moderngl.Framebuffer:
         if size not in self._framebuffers:
@@ -338,8 +325,8 @@ class Renderer:
         program["light_emission"].write(emission.tobytes())
         if self.shadows is not None:
             self.shadows.draw(lights, self.bounds_center, self.bounds_radius)
-            self.shadows.bind(program, unit=len(self._units))
-        self._bind_lights(program, lights, unit=len(self._units) + 1)
+            self.shadows.bind(program, self.units)
+        self._bind_lights(program, lights, self.units)
         near, far = camera.depth_range(self.bounds_center, self.bounds_radius)
         view_proj = camera.projection_matrix(near, far) @ camera.view_matrix()
         view_proj = view_proj.T.astype(np.float32).tobytes()
@@ -349,8 +336,7 @@ class Renderer:
             if name in program:
                 program[name].value = value
         fbo = self._depth_pass(camera, view_proj)
-        for unit, texture in enumerate(self._units):
-            texture.use(location=unit)
+        self.units.bind_held()
         fbo.use()
         # Shade only what the depth pass left in front (depth equal): where the mesh
         # folds over itself each pixel runs the costly shader once, not per layer.
@@ -365,10 +351,7 @@ class Renderer:
         fbo.use()
         fbo.clear(0.0, 0.0, 0.0, 0.0, depth=1.0)
         if self.silhouettes is not None:
-            # Texture units above the surface program's, the shadow atlas's and the one
-            # a subclass binds for its lights (_bind_lights).
-            self.silhouettes.draw(camera, view_proj, fbo.depth_attachment,
-                                  unit=len(self._units) + 2)  # fmt: skip
+            self.silhouettes.draw(camera, view_proj, fbo.depth_attachment, self.units)
             return fbo
         self.ctx.enable_only(moderngl.DEPTH_TEST)
         self._depth_program["view_proj"].write(view_proj)
@@ -386,8 +369,8 @@ class Renderer:
         depth = np.frombuffer(fbo.read(components=1, attachment=-1, dtype="f4"), np.float32)
         return np.ascontiguousarray(depth.reshape(camera.size[1], camera.size[0])[::-1] < 1.0)
 
-    def _bind_lights(self, program: moderngl.Program, lights: list, *, unit: int) -> None:
-        """A subclass's per-frame uniforms of its ``lights`` and its texture on ``unit``."""
+    def _bind_lights(self, program: moderngl.Program, lights: list, units: TextureUnits) -> None:
+        """A subclass's per-frame uniforms of its ``lights`` and its textures (on ``units``)."""
 
     def release(self) -> None:
         """Free the GPU objects (the shared context stays)."""

@@ -1,6 +1,6 @@
 """PCA of illumination: the environment's coefficients for any rotation (seed 000 §5.4).
 
-The coefficient vector U of an environment (:mod:`render._env_transfer`)
+The coefficient vector U of an environment (:mod:`render.environment._transfer`)
 changes slowly as the environment turns about the vertical axis. U is computed
 for A rotations δ_a = a · 360°/A; their first e eigen-weight-sets W_k (the
 right singular vectors of the A × D matrix, uncentred, as the seed) give
@@ -16,8 +16,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from render._env_transfer import environment_coefficients
 from render._errors import RenderError
+from render.environment._transfer import environment_coefficients
 
 __all__ = ["IlluminationBasis", "check_basis_size", "illumination_basis"]
 

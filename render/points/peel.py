@@ -38,8 +38,10 @@ import moderngl
 import numpy as np
 
 from render._errors import RenderError
-from render._gl import shader_source, vertex_array
-from render.mdf import MdfTexture
+from render.core.gl import vertex_array
+from render.core.programs import build_program
+from render.core.units import TextureUnits
+from render.points.mdf import MdfTexture
 
 __all__ = ["MAX_PEEL", "SilhouettePeel", "mdf_silhouettes", "open_edges"]
 
@@ -91,7 +93,7 @@ class SilhouettePeel:
     ----------
     ctx : moderngl.Context
     vbo, ibo : moderngl.Buffer
-        The mesh buffers (``render._gl.mesh_buffers``).
+        The mesh buffers (``render.core.gl.mesh_buffers``).
     mdf : MdfTexture
         The renderer's (it releases it).
     passes : int
@@ -105,39 +107,32 @@ class SilhouettePeel:
     def __init__(self, ctx, vbo, ibo, mdf: MdfTexture, *, passes: int, texture_scale: float,
                  uv_scale: float) -> None:  # fmt: skip
         self.ctx, self.mdf, self.passes = ctx, mdf, int(passes)
-        header = "#version 330\n" + "".join(f"#define {k} {v}\n" for k, v in mdf.defines().items())
-        common = shader_source("directions.glsl") + shader_source("mdf.glsl")
         self.programs = {}
         for back in (1, 0):
-            program = ctx.program(
-                vertex_shader=shader_source("surface.vert"),
-                fragment_shader=header + f"#define BACK_FACES {back}\n" + common
-                + shader_source("peel.frag"),
-            )  # fmt: skip
+            program = build_program(
+                ctx, "surface.vert", "peel.frag", defines={**mdf.defines(), "BACK_FACES": back}
+            )
             program["texture_scale"].value = float(texture_scale)
             program["uv_scale"].value = float(uv_scale)
             self.programs[back] = (program, vertex_array(ctx, program, vbo, ibo))
         self._buffers: dict[tuple[int, tuple[int, int]], _Buffers] = {}
 
-    def draw(self, camera, view_proj: bytes, depth, *, unit: int) -> None:
+    def draw(self, camera, view_proj: bytes, depth, units: TextureUnits) -> None:
         """Fill the depth renderbuffer ``depth`` (of ``camera.size``) with the front
-        faces whose rays meet the mesostructure; 1.0 elsewhere. Texture units
-        ``unit`` … ``unit + 3`` are used (those above the caller's own)."""
+        faces whose rays meet the mesostructure; 1.0 elsewhere. The textures go on
+        the units of their samplers in ``units`` (the renderer's)."""
         key = (depth.glo, camera.size)
         if key not in self._buffers:
             self._buffers[key] = _Buffers(self.ctx, camera.size, depth)
         buffers = self._buffers[key]
-        for back, (program, _) in self.programs.items():
-            last = "hit_mask" if back else "peel_next"
-            names = ("mdf_distance", "mdf_view_cells", "peel_now", last)
-            for offset, name in enumerate(names):
-                program[name].value = unit + offset
+        for program, _ in self.programs.values():
             program["view_proj"].write(view_proj)
             program["orthographic"].value = camera.fov_deg is None
             program["eye"].value = tuple(camera.eye)
             program["toward_camera"].value = tuple(-camera.forward)
-        self.mdf.distance.use(location=unit)
-        self.mdf.view_cells.use(location=unit + 1)
+        back_faces, front_faces = self.programs[1][0], self.programs[0][0]
+        units.use("mdf_distance", self.mdf.distance, back_faces, front_faces)
+        units.use("mdf_view_cells", self.mdf.view_cells, back_faces, front_faces)
         ctx = self.ctx
         buffers.back[0].use()
         buffers.back[0].clear(-_NONE, 0.0, 0.0, 0.0)  # before the first layer
@@ -147,13 +142,13 @@ class SilhouettePeel:
         ctx.depth_func = "<"
         for k in range(self.passes):
             now, nxt = buffers.peel[k % 2], buffers.back[(k + 1) % 2]
-            now.use(location=unit + 2)
-            buffers.mask.use(location=unit + 3)
+            units.use("peel_now", now, back_faces, front_faces)
+            units.use("hit_mask", buffers.mask, back_faces)
             nxt.use()
             nxt.clear(_NONE, 0.0, 0.0, 0.0, depth=1.0)
             ctx.cull_face = "front"
             self.programs[1][1].render(moderngl.TRIANGLES)
-            buffers.peel[(k + 1) % 2].use(location=unit + 3)
+            units.use("peel_next", buffers.peel[(k + 1) % 2], front_faces)
             buffers.front.use()
             ctx.cull_face = "back"
             self.programs[0][1].render(moderngl.TRIANGLES)

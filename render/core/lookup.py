@@ -36,8 +36,16 @@ import numpy as np
 from render._errors import RenderError
 from rig.geometry import angular_distance_deg, spherical_triangulation
 
-__all__ = ["MAX_CANDIDATES", "DirectionLookup", "build_lookup", "hemi_octahedral_cell"]
+__all__ = [
+    "BLEND_METHODS",
+    "MAX_CANDIDATES",
+    "DirectionLookup",
+    "build_lookup",
+    "hemi_octahedral_cell",
+]
 
+#: How measured directions are blended at a query (``processing.btf.interpolate``).
+BLEND_METHODS = ("nearest", "nearest4", "barycentric")
 #: Longest candidate list a lookup may have (the shader's loop length).
 MAX_CANDIDATES = 16
 # Nearest-4 lists: H1 9 candidates at 64² and at 128² (27 view slots: 10, 9); 256² would save

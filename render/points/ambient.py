@@ -13,7 +13,7 @@ radiance (a white Lambertian texel of albedo ρ gives L_a = ρ).
 
 Between the measured lights the integrand is the renderer's own light
 interpolation (``light_method``), so L_a is what the point-light path would
-show under a dense hemicube of directional lights (``render.visibility``'s
+show under a dense hemicube of directional lights (``render.core.hemisphere``'s
 texel directions and exact solid angles). By linearity that collapses to one
 weight per measured light,
 
@@ -29,8 +29,8 @@ import moderngl
 import numpy as np
 
 from render._errors import RenderError
-from render._textures import material_sampling
-from render.visibility import hemicube, light_table
+from render.core.hemisphere import hemicube, light_table
+from render.core.textures import material_sampling
 from rig.material import CompressedBTF, GlobalSVD
 
 __all__ = ["ambient_term", "light_solid_angles", "upload_ambient"]

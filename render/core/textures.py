@@ -14,7 +14,7 @@ import moderngl
 import numpy as np
 
 from render._errors import RenderError
-from render._lookup import DirectionLookup
+from render.core.lookup import DirectionLookup
 from rig.material import GlobalSVD, PbrMaps, pbr_layers, sheen_albedo
 
 __all__ = [

@@ -33,8 +33,8 @@ import numpy as np
 
 from render._errors import RenderError
 from render.lights import MAX_LIGHTS, DirectionalLight
-from render.pem import PartialMaps, partial_maps
-from render.renderer import Renderer
+from render.pem.regions import PartialMaps, partial_maps
+from render.points.renderer import Renderer
 
 __all__ = ["PemRenderer"]
 
@@ -60,7 +60,7 @@ class PemRenderer(Renderer):
         penumbra is sized for (see the module). A tenth of the mesh's size by default.
     mip : bool
         False reads every region at its top level: the directional lights of
-        :mod:`render.median_cut` (for comparison).
+        :mod:`render.pem.median_cut` (for comparison).
     """
 
     _features: ClassVar[dict[str, int]] = {"PEM": 1}
@@ -126,7 +126,7 @@ class PemRenderer(Renderer):
             image = drawn if image is None else image + drawn
         return image
 
-    def _bind_lights(self, program, lights, *, unit: int) -> None:
+    def _bind_lights(self, program, lights, units) -> None:
         texels, spread = self._pass or (
             np.zeros((len(lights), 4), np.int32),
             np.zeros(len(lights), np.float32),
@@ -135,9 +135,8 @@ class PemRenderer(Renderer):
             program["light_texels"].write(texels.tobytes())
         if "light_spread" in program:
             program["light_spread"].write(spread.tobytes())
-        if "pem_texels" in program and self._table is not None:
-            program["pem_texels"].value = unit
-            self._table.use(location=unit)
+        if self._table is not None:
+            units.use("pem_texels", self._table, program)
 
     def release(self) -> None:
         if self._table is not None:

@@ -10,8 +10,8 @@ import moderngl
 import numpy as np
 
 from render._errors import RenderError
-from render.ambient import upload_ambient
-from render.mdf import GRAZING_DEG, MdfTexture, mdf_table, upload_mdf
+from render.points.ambient import upload_ambient
+from render.points.mdf import GRAZING_DEG, MdfTexture, mdf_table, upload_mdf
 
 __all__ = ["MdfShading", "mdf_shading"]
 

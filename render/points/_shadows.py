@@ -18,10 +18,12 @@ import moderngl
 import numpy as np
 
 from render._errors import RenderError
-from render._gl import shader_source, vertex_array
 from render.camera import Camera
+from render.core.gl import vertex_array
+from render.core.programs import build_program
+from render.core.units import TextureUnits
 from render.lights import PointLight
-from render.mdf import GRAZING_DEG
+from render.points.mdf import GRAZING_DEG
 
 __all__ = ["ShadowMaps", "light_camera"]
 
@@ -55,9 +57,7 @@ class ShadowMaps:
         self.ctx, self.size, self.base_depth = ctx, int(size), float(base_depth)
         shaders = ("shadow_mdf.vert", "shadow_mdf.frag") if base_depth > 0 else (
             "depth.vert", "depth.frag")  # fmt: skip
-        self.program = ctx.program(
-            vertex_shader=shader_source(shaders[0]), fragment_shader=shader_source(shaders[1])
-        )
+        self.program = build_program(ctx, *shaders)
         if base_depth > 0:
             self.program["base_depth"].value = self.base_depth
             self.program["max_slant"].value = 1.0 / np.cos(np.deg2rad(GRAZING_DEG))
@@ -111,15 +111,15 @@ class ShadowMaps:
         self.view_proj = np.array(matrices, np.float32)
         self.texel_mm = np.array(texel, np.float32)
 
-    def bind(self, program: moderngl.Program, *, unit: int) -> None:
-        """Set the surface program's shadow uniforms; the atlas on texture ``unit``."""
+    def bind(self, program: moderngl.Program, units: TextureUnits) -> None:
+        """Set the surface program's shadow uniforms; the atlas on its sampler
+        ``shadow_maps``'s unit of ``units``."""
         n = len(self.view_proj)
         program["light_view_proj"].write(np.transpose(self.view_proj, (0, 2, 1)).tobytes())
         program["shadow_offset"].write(self.texel_mm.tobytes())
         program["shadow_tiles"].value = n
         program["shadow_size"].value = float(self.size)
-        program["shadow_maps"].value = unit
-        self.atlas.use(location=unit)
+        units.use("shadow_maps", self.atlas, program)
 
     def _release_atlas(self) -> None:
         if self.fbo is not None:
