@@ -57,18 +57,18 @@ def _btf(module, quick: bool) -> list[dict]:
 # area → (module, how to call its run_bench); imported when its command runs
 AREAS: dict[str, tuple[str, Callable]] = {
     "archive": ("rig.archive.bench", _archive),
-    "daemon": ("orchestrator.daemon_bench", _plain),
-    "process": ("orchestrator.process_bench", _process),
+    "daemon": ("studies.daemon_overhead", _plain),
+    "process": ("studies.process_scaling", _process),
     "sim": ("sim.bench", _plain),
     "ps": ("processing.photometric.bench", _ps),
     "btf": ("processing.btf.bench", _btf),
     "mdf": ("processing.mdf.bench", _plain),
-    "calibration": ("orchestrator.calibration_bench", _plain),
-    "radiometry": ("orchestrator.radiometry_bench", _plain),
+    "calibration": ("studies.calibration_error", _plain),
+    "radiometry": ("studies.radiometry", _plain),
     "render": ("render.bench", _plain),
-    "render-loop": ("orchestrator.render_loop", _plain),
-    "error-budget": ("orchestrator.error_budget", _plain),
-    "silhouettes": ("orchestrator.silhouettes", _plain),
+    "render-loop": ("studies.render_loop", _plain),
+    "error-budget": ("studies.error_budget", _plain),
+    "silhouettes": ("studies.silhouettes", _plain),
     "environment": ("render.env_bench", _plain),
 }
 

@@ -4,7 +4,7 @@ A bumps sample seen through a gamma-2.2 camera (``response``) with ``vignetting`
 lit by the rig's near lamps; the response curves (Debevec & Malik from wedge
 brackets) and the flat fields (white target) come from calibration sessions of the
 same simulated rig, and the daemon copies them into the sample's archive
-(``orchestrator.radiometry_bench``, ``rig bench radiometry``). Margins: with the
+(``studies.radiometry``, ``rig bench radiometry``). Margins: with the
 corrections the PS mean angular error is under half of the raw one, the albedo
 contrast of the checker's two materials within 1 % of the truth (raw: > 10 % off,
 gamma compresses it), the BTF's relative RMSE under 60 % of the raw one.
@@ -17,11 +17,11 @@ import pytest
 from typer.testing import CliRunner
 
 from orchestrator.cli import app
-from orchestrator.radiometry_bench import QUICK, measure, record
 from processing.offline.radiometry import frame_corrections
 from rig.archive import Archive, FrameFormat
 from rig.config import RigConfig, default_rig_config
 from rig.material import archive_flat_field_path, read_material
+from studies.radiometry import QUICK, measure, record
 
 # Sessions, subprocesses or benches: the full tier only (make test), not make quick.
 pytestmark = pytest.mark.slow

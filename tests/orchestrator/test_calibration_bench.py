@@ -2,7 +2,7 @@
 
 import pytest
 
-from orchestrator.calibration_bench import run_bench
+from studies.calibration_error import run_bench
 
 # Sessions, subprocesses or benches: the full tier only (make test), not make quick.
 pytestmark = pytest.mark.slow

@@ -3,11 +3,11 @@
 import numpy as np
 import pytest
 
-from orchestrator.error_budget import CONFIGS, TERMS, plot_budget, scene_without
 from rig.errors import RigError
 from sim.model import SceneModel
 from sim.scene import scene_from_dict
 from sim.world import WorldSnapshot
+from studies.error_budget import CONFIGS, TERMS, plot_budget, scene_without
 
 
 def _lights(off):

@@ -1,11 +1,11 @@
-"""The footprint truth a comparison converged on (``orchestrator.footprint``)."""
+"""The footprint truth a comparison converged on (``studies.footprint``)."""
 
 import numpy as np
 import pytest
 
-from orchestrator.footprint import converged_truth, truth_at
 from processing.btf import psnr_db, rmse
 from sim import Simulator
+from studies.footprint import converged_truth, truth_at
 from tests.sim.sim_scenes import small_scene
 
 PAIRS = (((22.0, 75.0), (38.0, 200.0)), ((40.0, 20.0), (38.0, 320.0)))

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from orchestrator.mdf_shadows import ShadowScene, relief_mdf, run_check
 from rig.geometry import texel_centers_mm
+from studies.mdf_shadows import ShadowScene, relief_mdf, run_check
 
 # Simulated sessions, rendered targets or fits of seconds each: make test only, not make quick.
 pytestmark = pytest.mark.slow

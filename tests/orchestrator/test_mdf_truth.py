@@ -3,9 +3,9 @@
 import numpy as np
 import trimesh
 
-from orchestrator.mdf_truth import ray_cast_mdf
 from processing.mdf import Reason
 from rig.geometry import texel_centers_mm
+from studies.mdf_truth import ray_cast_mdf
 
 
 def test_a_floor_1_mm_down_gives_1_over_cos_theta_and_unseen_past_its_edge():

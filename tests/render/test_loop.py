@@ -1,6 +1,6 @@
 """The loop closed against the simulator: the bumps measured on the coarsest plan,
 processed and rendered at two (view, light) pairs no plan captured, against the
-simulator's noise-free truth (``orchestrator.render_loop``, quick).
+simulator's noise-free truth (``studies.render_loop``, quick).
 
 Thresholds. The coarse plan captures 5 views × 7 lights; the held-out
 directions lie 11–15° from the nearest captured one. The truth is the
@@ -18,11 +18,11 @@ other material".
 import numpy as np
 import pytest
 
-from orchestrator.render_loop import SCENES, plot_bench, run_bench
 from render import DirectionalLight, Renderer
 from render.texel_view import texel_camera, texel_quad
 from sim.scene import scene_from_dict
 from sim.simulator import Simulator
+from studies.render_loop import SCENES, plot_bench, run_bench
 from tests.render.conftest import SAMPLE_MM, N, material, ps_view
 
 # Sessions, subprocesses or benches: the full tier only (make test), not make quick.

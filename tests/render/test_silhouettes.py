@@ -1,4 +1,4 @@
-"""MDF silhouettes against the ray-cast truth (``orchestrator.silhouettes``), at 128².
+"""MDF silhouettes against the ray-cast truth (``studies.silhouettes``), at 128².
 
 Measured at 128² with a 32² MDF (docs/render.md has 256² and 64²): the bumps on
 the torus gain 0.026 in IoU with two peeling passes (0.953 → 0.979), the error
@@ -11,7 +11,7 @@ MDF's effect (or pairing the wrong faces) fails them.
 import numpy as np
 import pytest
 
-from orchestrator.silhouettes import _shell, run_silhouettes, scores
+from studies.silhouettes import _shell, run_silhouettes, scores
 
 # Simulated sessions, rendered targets or fits of seconds each: make test only, not make quick.
 pytestmark = pytest.mark.slow

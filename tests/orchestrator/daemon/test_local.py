@@ -2,9 +2,9 @@
 
 import pytest
 
-from orchestrator.daemon_bench import run_bench
 from orchestrator.local import run_local
 from rig.archive import Archive
+from studies.daemon_overhead import run_bench
 from tests.orchestrator.daemon.conftest import TINY_PLAN
 from tests.orchestrator.daemon.soft import soft_devices
 

@@ -1,6 +1,6 @@
 """``rig bench error-budget``: the render loop's error, term by term.
 
-The loop of :mod:`orchestrator.render_loop` (a simulated sample measured
+The loop of :mod:`studies.render_loop` (a simulated sample measured
 through the daemon, processed by the ``btf`` stage, interpolated at held-out
 directions) is run with the simulator's error terms switched off one at a time
 and all together. A term is switched off in the *scene*, never in processing:
@@ -20,7 +20,7 @@ per-texel near-lamp irradiance (each session processed as it is, and
 per-view PCA at c against all its components, lossless) and interpolation
 (the material at held-out directions against the captured pairs nearest
 them). Everything is scored against the footprint truth
-(:func:`orchestrator.footprint.converged_truth`, converged on the run with all
+(:func:`studies.footprint.converged_truth`, converged on the run with all
 terms off, the most demanding score) with the peak of the held-out truth.
 """
 
@@ -33,8 +33,14 @@ from pathlib import Path
 
 import numpy as np
 
-from orchestrator.footprint import converged_truth, truth_at
-from orchestrator.render_loop import (
+from processing.btf import psnr_db, rmse
+from rig.config import RigConfig
+from rig.errors import RigError
+from rig.plan import parse_plan
+from sim.scene import scene_from_dict
+from sim.simulator import Simulator
+from studies.footprint import converged_truth, truth_at
+from studies.render_loop import (
     HELD_OUT,
     PLANS,
     SCENES,
@@ -47,12 +53,6 @@ from orchestrator.render_loop import (
     record,
     truncated,
 )
-from processing.btf import psnr_db, rmse
-from rig.config import RigConfig
-from rig.errors import RigError
-from rig.plan import parse_plan
-from sim.scene import scene_from_dict
-from sim.simulator import Simulator
 
 __all__ = ["CONFIGS", "TERMS", "plot_budget", "run_bench", "scene_without"]
 
@@ -151,9 +151,9 @@ def run_bench(
     near-lamp ``irradiance per texel`` divided out), ``components`` (c, or every component:
     ``lossless``), ``psnr_captured_db`` (the material at the captured pairs
     nearest the held-out ones against the truth there), ``psnr_held_out_db``
-    (interpolated at :data:`~orchestrator.render_loop.HELD_OUT`),
+    (interpolated at :data:`~studies.render_loop.HELD_OUT`),
     ``scale_fit_captured`` / ``scale_fit_held_out`` (the least-squares scale over
-    the derived one, :func:`~orchestrator.render_loop.irradiance_scale`, at the
+    the derived one, :func:`~studies.render_loop.irradiance_scale`, at the
     captured and the held-out pairs), ``truth_rays`` / ``truth_change_db`` (the
     footprint truth's rays per texel side, and how far the last doubling moved the
     scores of the all-off run: converged below 0.1 dB).

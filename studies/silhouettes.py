@@ -31,7 +31,6 @@ from pathlib import Path
 import numpy as np
 import trimesh
 
-from orchestrator.mdf_truth import ray_cast_mdf
 from processing.btf import compress_btf
 from processing.btf.synthetic import SyntheticBTF
 from render import Camera, DirectionalLight, Renderer
@@ -42,6 +41,7 @@ from rig.material import Material, Mdf
 from sim.samples import generator
 from sim.samples.heightfields import BumpsParams
 from sim.samples.weave import WeaveParams
+from studies.mdf_truth import ray_cast_mdf
 
 __all__ = [
     "SHAPES",

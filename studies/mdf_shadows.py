@@ -31,7 +31,6 @@ import numpy as np
 import trimesh
 from scipy import ndimage
 
-from orchestrator.mdf_truth import ray_cast_mdf
 from render import Camera, DirectionalLight, Renderer
 from render.meshes import Mesh, merged, plane, sphere
 from render.output import write_png
@@ -39,6 +38,7 @@ from rig.geometry import Sampling, direction_vector
 from rig.material import CompressedBTF, Material, Mdf
 from sim.samples import generator
 from sim.samples.heightfields import BumpsParams
+from studies.mdf_truth import ray_cast_mdf
 
 __all__ = [
     "ShadowScene",
@@ -118,7 +118,7 @@ def relief_mesh(height, *, sample_mm: float, scale: float, extent_mm: float, ste
 
 
 def relief_mdf(height, view_dirs_deg, *, sample_mm: float, n: int, step_mm: float) -> Mdf:
-    """The exact MDF of a periodic height field (``orchestrator.mdf_truth``), its relief
+    """The exact MDF of a periodic height field (``studies.mdf_truth``), its relief
     meshed at ``step_mm`` and tiled 3 × 3 so slanted rays find the neighbours' relief."""
     tiles = relief_mesh(height, sample_mm=sample_mm, scale=1.0, extent_mm=3 * sample_mm,
                         step_mm=step_mm)  # fmt: skip

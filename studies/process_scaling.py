@@ -34,7 +34,6 @@ from pathlib import Path
 from typing import Any
 
 from orchestrator.local import run_local
-from orchestrator.render_loop import SCENES, patient_cameras
 from processing.offline import PsStage, Stage, run_stages
 from rig.archive import Archive
 from rig.clock import VirtualClock
@@ -42,6 +41,7 @@ from rig.errors import RigError
 from rig.material import read_material
 from sim.rig import SimulatedRig
 from sim.scene import scene_from_dict
+from studies.render_loop import SCENES, patient_cameras
 
 __all__ = ["record_session", "run_bench"]
 

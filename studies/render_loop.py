@@ -7,7 +7,7 @@ quad at light and view directions that no plan captured. Each image is
 compared texel by texel with the simulator's noise-free BTF of the true
 sample at the same directions, averaged over each texel's footprint
 (``Simulator.btf_truth``, ray cast, never the rasteriser; as many rays per
-texel as the score needs, ``orchestrator.footprint``). The rows put the PSNR
+texel as the score needs, ``studies.footprint``). The rows put the PSNR
 beside each plan's capture time from the session estimate (``rig plan
 --estimate``): what accuracy costs in time.
 
@@ -24,7 +24,6 @@ from pathlib import Path
 
 import numpy as np
 
-from orchestrator.footprint import converged_truth, truth_at
 from orchestrator.local import run_local
 from processing.btf import CompressedBTF, interpolate, psnr_db, reconstruct, rmse
 from processing.offline import BtfStage, run_stages
@@ -40,6 +39,7 @@ from rig.schedule import compile_plan
 from sim.rig import SimulatedRig
 from sim.scene import Scene, scene_from_dict
 from sim.simulator import Simulator
+from studies.footprint import converged_truth, truth_at
 
 __all__ = [
     "HELD_OUT",
@@ -297,7 +297,7 @@ def run_bench(
     ``scale_fit_ratio`` (least-squares scale over the derived one, see
     :func:`irradiance_scale`), ``view_gap_deg`` / ``light_gap_deg`` (closest
     approach of a held-out direction to a captured one), ``truth_rays`` (rays per
-    texel side of the footprint truth, :func:`orchestrator.footprint.converged_truth`
+    texel side of the footprint truth, :func:`studies.footprint.converged_truth`
     at the largest c) and ``truth_converged`` (doubling them changed both scores by
     < 0.1 dB).
 
