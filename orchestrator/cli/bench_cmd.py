@@ -56,20 +56,20 @@ def _btf(module, quick: bool) -> list[dict]:
 
 # area → (module, how to call its run_bench); imported when its command runs
 AREAS: dict[str, tuple[str, Callable]] = {
-    "archive": ("rig.archive.bench", _archive),
+    "archive": ("studies.archive_write", _archive),
     "daemon": ("studies.daemon_overhead", _plain),
     "process": ("studies.process_scaling", _process),
-    "sim": ("sim.bench", _plain),
-    "ps": ("processing.photometric.bench", _ps),
-    "btf": ("processing.btf.bench", _btf),
-    "mdf": ("processing.mdf.bench", _plain),
+    "sim": ("studies.sim_effects", _plain),
+    "ps": ("studies.ps_cost", _ps),
+    "btf": ("studies.btf_compression", _btf),
+    "mdf": ("studies.mdf_cost", _plain),
     "calibration": ("studies.calibration_error", _plain),
     "radiometry": ("studies.radiometry", _plain),
-    "render": ("render.bench", _plain),
+    "render": ("studies.render_speed", _plain),
     "render-loop": ("studies.render_loop", _plain),
     "error-budget": ("studies.error_budget", _plain),
     "silhouettes": ("studies.silhouettes", _plain),
-    "environment": ("render.env_bench", _plain),
+    "environment": ("studies.environment", _plain),
 }
 
 # what each area measures and what its table prints (its command's help)

@@ -21,14 +21,14 @@ import trimesh
 from processing.btf import direction_weights, interpolate
 from render import Camera, RenderError
 from render._env_transfer import environment_coefficients, light_radiance, texture_at_vertex
-from render.bench import _material as random_material
-from render.env_bench import brute_force_texture
 from render.env_pca import illumination_basis
 from render.env_renderer import EnvironmentRenderer
 from render.environment import EnvironmentMap, synthetic_environment
 from render.meshes import Mesh, cloth, sphere
 from render.visibility import visibility_maps
 from rig.geometry import direction_angles, direction_vector, nearest_directions, texel_centers_mm
+from studies.environment import brute_force_texture
+from studies.render_speed import _material as random_material
 from tests.render.conftest import SAMPLE_MM, N, material, ps_view, tilted_quad
 
 VIEW_DEG = (30.0, 40.0)

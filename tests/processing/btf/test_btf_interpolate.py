@@ -13,10 +13,10 @@ from processing.btf import (
     reconstruct,
     rmse,
 )
-from processing.btf.bench import plot_bench, run_bench
 from processing.btf.synthetic import SyntheticBTF
 from rig.geometry import Sampling
 from rig.material import MaterialError, btf_from_arrays, btf_to_arrays
+from studies.btf_compression import plot_bench, run_bench
 
 N = 12
 H2 = Sampling.named("H2").directions

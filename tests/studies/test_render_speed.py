@@ -5,7 +5,7 @@ import os
 
 import pytest
 
-from render.bench import run_bench
+from studies.render_speed import run_bench
 
 # Sessions, subprocesses or benches: the full tier only (make test), not make quick.
 pytestmark = pytest.mark.slow

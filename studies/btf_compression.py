@@ -12,10 +12,16 @@ import tracemalloc
 
 import numpy as np
 
-from processing.btf._compress import compress_btf, compress_global_svd
-from processing.btf._interpolate import direction_weights, reconstruct
-from processing.btf._pca import compress_view, compress_view_svd
-from processing.btf._quality import psnr_db, rmse
+from processing.btf import (
+    compress_btf,
+    compress_global_svd,
+    compress_view,
+    compress_view_svd,
+    direction_weights,
+    psnr_db,
+    reconstruct,
+    rmse,
+)
 from processing.btf.synthetic import SyntheticBTF
 from rig.geometry import Sampling
 

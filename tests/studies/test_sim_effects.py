@@ -4,9 +4,9 @@ import itertools
 
 import pytest
 
-import sim.bench
-from sim.bench import run_bench
+import studies.sim_effects
 from sim.simulator import Simulator
+from studies.sim_effects import run_bench
 
 # Sessions, subprocesses or benches: the full tier only (make test), not make quick.
 pytestmark = pytest.mark.slow
@@ -28,7 +28,7 @@ def test_ratios_are_each_case_over_its_interleaved_baseline(monkeypatch):
             cost_ms += 500  # a cold first frame, which the bench must leave out
         now["s"] += cost_ms / 1000
 
-    monkeypatch.setattr(sim.bench, "perf_counter", lambda: now["s"])
+    monkeypatch.setattr(studies.sim_effects, "perf_counter", lambda: now["s"])
     monkeypatch.setattr(Simulator, "render_state", render_state)
     rows = run_bench(sizes=(32,), effects=EFFECTS, runs=3)
     got = {r["effects"]: r for r in rows}

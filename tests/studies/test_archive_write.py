@@ -6,8 +6,8 @@ import numpy as np
 import pytest
 
 from rig.archive import Archive, FrameFormat, StepRecord
-from rig.archive.bench import TARGET_MB_S, frame_pool, laser_scan_mb_s, run_bench
 from rig.config import default_rig_config
+from studies.archive_write import TARGET_MB_S, frame_pool, laser_scan_mb_s, run_bench
 
 # Sessions, subprocesses or benches: the full tier only (make test), not make quick.
 pytestmark = pytest.mark.slow

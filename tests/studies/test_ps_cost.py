@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from processing.photometric import DistantLights, solve
-from processing.photometric.bench import lamp_layout, run_bench
+from studies.ps_cost import lamp_layout, run_bench
 
 # Sessions, subprocesses or benches: the full tier only (make test), not make quick.
 pytestmark = pytest.mark.slow

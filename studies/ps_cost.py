@@ -26,9 +26,14 @@ from collections.abc import Callable
 
 import numpy as np
 
-from ._integrate import integrate_normals
-from ._lights import DistantLights, NearLights, PixelGrid
-from ._solve import METHODS, solve
+from processing.photometric import (
+    METHODS,
+    DistantLights,
+    NearLights,
+    PixelGrid,
+    integrate_normals,
+    solve,
+)
 
 LAMP_COUNTS = (3, 4, 6, 12, 24, None)  # None: all lamps
 #: Accuracy scenarios: Lambertian with noise (σ = 0.005, attached shadows

@@ -4,8 +4,8 @@ import numpy as np
 import pytest
 
 from processing.mdf import PEAK_METHODS, SpaceTimeTracker
-from processing.mdf.bench import capture_time_s, run_bench
 from rig.config import default_rig_config
+from studies.mdf_cost import capture_time_s, run_bench
 
 # Sessions, subprocesses or benches: the full tier only (make test), not make quick.
 pytestmark = pytest.mark.slow

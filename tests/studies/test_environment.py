@@ -4,7 +4,7 @@ import math
 
 import pytest
 
-from render.env_bench import run_bench
+from studies.environment import run_bench
 
 # Sessions, subprocesses or benches: the full tier only (make test), not make quick.
 pytestmark = pytest.mark.slow

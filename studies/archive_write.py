@@ -30,8 +30,7 @@ from pathlib import Path
 
 import numpy as np
 
-from rig.archive._records import FrameFormat, StepRecord
-from rig.archive.archive import Archive
+from rig.archive import Archive, FrameFormat, StepRecord
 from rig.config import RigConfig, default_rig_config
 
 __all__ = ["TARGET_MB_S", "frame_pool", "laser_scan_mb_s", "run_bench"]

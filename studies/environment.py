@@ -36,7 +36,6 @@ import numpy as np
 import trimesh
 
 from render._env_transfer import environment_coefficients, texture_at_vertex
-from render.bench import _material as random_material
 from render.camera import Camera
 from render.env_pca import illumination_basis
 from render.env_renderer import EnvironmentRenderer
@@ -50,6 +49,7 @@ from render.renderer import Renderer
 from render.visibility import visibility_maps
 from rig.geometry import direction_vector, nearest_directions
 from rig.material import CompressedBTF, Material, PsView
+from studies.render_speed import _material as random_material
 
 __all__ = ["brute_force_texture", "run_bench"]
 
