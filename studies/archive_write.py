@@ -23,6 +23,7 @@ from __future__ import annotations
 
 import os
 import shutil
+import tempfile
 import time
 from collections.abc import Callable
 from functools import partial
@@ -33,7 +34,7 @@ import numpy as np
 from rig.archive import Archive, FrameFormat, StepRecord
 from rig.config import RigConfig, default_rig_config
 
-__all__ = ["TARGET_MB_S", "frame_pool", "laser_scan_mb_s", "run_bench"]
+__all__ = ["TARGET_MB_S", "frame_pool", "laser_scan_mb_s", "run"]
 
 
 def laser_scan_mb_s(config: RigConfig) -> float:
@@ -167,11 +168,12 @@ def _cases(pools, n_steps: int, workers: int) -> list[tuple[str, str, bool, Call
     return [(name, c, fs, partial(write, n_steps=n_steps)) for name, c, fs, write in cases]
 
 
-def run_bench(
-    out_dir: str | os.PathLike,
+def run(
+    quick: bool = False,
     *,
-    n_steps: int = 32,
-    repeats: int = 3,
+    out_dir: str | os.PathLike | None = None,
+    n_steps: int | None = None,
+    repeats: int | None = None,
     cameras: int = 8,
     height: int = 768,
     width: int = 1024,
@@ -182,6 +184,8 @@ def run_bench(
     Every method writes ``n_steps`` steps of ``cameras`` frames; the methods
     take turns, ``repeats`` times, and each row reports the median run (disk
     speed on shared machines drifts, so interleaving keeps the comparison fair).
+    ``quick``: 8 steps, once (else 32 steps, 3 times); ``out_dir``: where the writes
+    go (a temporary folder by default).
 
     Each row: ``name``, ``content``, ``fsync``, ``mb_s`` (raw frame MB/s,
     median), ``mb_s_min`` / ``mb_s_max``, ``fraction_of_target`` (of
@@ -189,7 +193,15 @@ def run_bench(
     ``fsync`` setting in the same repetition) and ``compression`` (raw / stored
     bytes, archive rows). Everything written under ``out_dir`` is removed again.
     """
-    out_dir = Path(out_dir)
+    n_steps = n_steps or (8 if quick else 32)
+    repeats = repeats or (1 if quick else 3)
+    if out_dir is None:
+        with tempfile.TemporaryDirectory(prefix="rig-bench-") as tmp:
+            return _rows(Path(tmp), n_steps, repeats, cameras, height, width, workers)
+    return _rows(Path(out_dir), n_steps, repeats, cameras, height, width, workers)
+
+
+def _rows(out_dir: Path, n_steps, repeats, cameras, height, width, workers) -> list[dict]:
     workers = workers or min(8, os.cpu_count() or 1)
     contents = ("texture", "noise", "flat")
     pools = {c: frame_pool(c, cameras=cameras, height=height, width=width) for c in contents}

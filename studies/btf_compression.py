@@ -25,7 +25,7 @@ from processing.btf import (
 from processing.btf.synthetic import SyntheticBTF
 from rig.geometry import Sampling
 
-__all__ = ["plot_bench", "run_bench"]
+__all__ = ["plot", "run"]
 
 
 def _best_of(repeats: int, fn) -> tuple[float, object]:
@@ -60,20 +60,23 @@ def _held_out_lights(sampling: Sampling, every: int) -> np.ndarray:
     return inner[::every]
 
 
-def run_bench(
+def run(
+    quick: bool = False,
     *,
-    size: int = 64,
+    size: int | None = None,
     components: tuple[int, ...] = (1, 2, 4, 8, 16, 32),
     svd_components: tuple[int, ...] = (4, 16),
-    speed_size: int = 256,
-    memory_size: int = 256,
+    speed_size: int | None = None,
+    memory_size: int | None = None,
     held_out_every: int = 4,
-    repeats: int = 3,
+    repeats: int | None = None,
 ) -> list[dict]:
     """Rows of the BTF benchmark table (each a dict with a ``"row"`` kind).
 
     Parameters
     ----------
+    quick : bool
+        The sizes and repeats not given: 32, 64, 64 and 1 (else 64, 256, 256 and 3).
     size : int
         Normtexture size for the accuracy rows (81 × 81 images of size²).
     components : tuple of int
@@ -99,6 +102,10 @@ def run_bench(
         gram_s, numpy_svd_s, speedup, rmse of both; ``row = "memory"``:
         peak_mib, output_mib, input_mib.
     """
+    size = size or (32 if quick else 64)
+    speed_size = speed_size or (64 if quick else 256)
+    memory_size = (64 if quick else 256) if memory_size is None else memory_size
+    repeats = repeats or (1 if quick else 3)
     h2 = Sampling.named("H2")
     dirs = h2.directions
     source = SyntheticBTF(size, dirs, dirs)
@@ -186,8 +193,8 @@ def run_bench(
     return rows
 
 
-def plot_bench(rows: list[dict], path) -> None:
-    """Write the accuracy–storage–time plot of ``docs/btf.md`` (PNG) from :func:`run_bench` rows.
+def plot(rows: list[dict], path) -> None:
+    """Write the accuracy–storage–time plot of ``docs/btf.md`` (PNG) from :func:`run` rows.
 
     Left: RMSE against the storage ratio for the per-view PCA (c labelled) and
     the global SVD; right: RMSE at held-out lights per interpolation method.

@@ -21,10 +21,10 @@ from rig.schedule import compile_plan
 from sim.calibration import target_scene
 from sim.simulator import Simulator
 
-__all__ = ["run_bench"]
+__all__ = ["run"]
 
 
-def run_bench(*, quick: bool = False) -> list[dict]:
+def run(quick: bool = False) -> list[dict]:
     """``rig bench calibration``: error against the simulator's truth, and the
     capture time each costs on the rig, against the number of board poses (per
     camera) and of laser target heights.

@@ -30,7 +30,7 @@ from rig.plan import load_plan
 from rig.schedule import compile_plan
 from rig.timing import motion_s, shots_s
 
-__all__ = ["run_bench"]
+__all__ = ["run"]
 
 _PLAN = """
 [sample]
@@ -129,7 +129,7 @@ def _session(plan_text: str, *, workers: int, root: Path) -> dict:
     }
 
 
-def run_bench(quick: bool = False) -> list[dict]:
+def run(quick: bool = False) -> list[dict]:
     """Rows: per session size and worker count, the daemon's overhead and throughput.
 
     ``overhead_fraction`` = wall time of the session / modelled hardware time

@@ -51,7 +51,7 @@ from rig.geometry import direction_vector, nearest_directions
 from rig.material import CompressedBTF, Material, PsView
 from studies.render_speed import _material as random_material
 
-__all__ = ["brute_force_texture", "run_bench"]
+__all__ = ["brute_force_texture", "run"]
 
 _VIEW_DEG = (30.0, 40.0)
 _LOBE = {"specular": 0.5, "shininess": 40.0}
@@ -194,7 +194,7 @@ def _timed(call):
     return value, time.perf_counter() - start
 
 
-def run_bench(*, quick: bool = False) -> list[dict]:
+def run(quick: bool = False) -> list[dict]:
     """Rows ``row`` = visibility | pca | median_cut | pem | vertices (see the module)."""
     material = random_material("pca", 6, 32)  # 27 view slots × H1's 81 lights, c = 6
     btf: CompressedBTF = material.btf

@@ -54,7 +54,7 @@ from studies.render_loop import (
     truncated,
 )
 
-__all__ = ["CONFIGS", "TERMS", "plot_budget", "run_bench", "scene_without"]
+__all__ = ["CONFIGS", "TERMS", "plot", "run", "scene_without"]
 
 #: The simulator's error terms, each as the scene change that switches it off.
 TERMS: dict[str, str] = {
@@ -137,8 +137,8 @@ def _converged(material, sim, scale):
     return at_rays(own, HELD_OUT), at_rays(at, dirs), rays, change
 
 
-def run_bench(
-    *, quick: bool = False, scenes: tuple[str, ...] = tuple(SCENES),
+def run(
+    quick: bool = False, *, scenes: tuple[str, ...] = tuple(SCENES),
     plans: tuple[str, ...] | None = None, runs: tuple[tuple[str, ...], ...] = CONFIGS,
 ) -> list[dict]:  # fmt: skip
     """``quick``: 32² texels, the coarse plan; else 64² texels, the coarse and
@@ -204,7 +204,7 @@ def _plan_rows(name: str, plan: str, sim: Simulator, size: int, runs) -> list[di
     return rows
 
 
-def plot_budget(rows: list[dict], path: str | Path) -> None:
+def plot(rows: list[dict], path: str | Path) -> None:
     """The waterfall: one panel per (plan, scene), one group of bars per run and
     processing (``corrected``: the near-lamp irradiance per texel divided out), PSNR
     at the captured pairs and at the held-out directions, at c and lossless."""

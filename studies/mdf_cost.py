@@ -1,6 +1,6 @@
 """``rig bench mdf``: what MDF accuracy costs in capture and compute time.
 
-:func:`run_bench` returns table rows (dicts) of four kinds:
+:func:`run` returns table rows (dicts) of four kinds:
 
 ``read``
     The floors: one pass over a 1024×768 uint8 sequence (a running
@@ -55,7 +55,7 @@ from processing.mdf.synthetic import (
 from rig.config import RigConfig, default_rig_config
 from rig.geometry import texel_centers_mm
 
-__all__ = ["capture_time_s", "run_bench"]
+__all__ = ["capture_time_s", "run"]
 
 LOCATION_COUNTS = (1, 5, 13, 26)
 STEP_FACTORS = (0.25, 0.5, 1.0, 2.0)  # × the rig's sweep speed / frame rate
@@ -75,9 +75,9 @@ def capture_time_s(config: RigConfig, *, locations: int, step_deg: float) -> flo
     return locations * frames / laser.frame_rate_hz + moves
 
 
-def run_bench(
-    *,
+def run(
     quick: bool = False,
+    *,
     camera_id: str = "cam2",
     scale: float = 0.25,
     texels: int = 64,

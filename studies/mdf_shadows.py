@@ -41,10 +41,12 @@ from sim.samples.heightfields import BumpsParams
 from studies.mdf_truth import ray_cast_mdf
 
 __all__ = [
+    "QUICK_SCENE",
     "ShadowScene",
     "TruthShadow",
     "relief_mdf",
     "relief_mesh",
+    "run",
     "run_check",
     "scene_mesh",
     "truth_shadow",
@@ -232,6 +234,16 @@ def run_check(scene: ShadowScene | None = None, *, views=None) -> dict:
             "pixels": int(scored.sum()), "band_pixels": int(band.sum()),
         })  # fmt: skip
     return {"rows": rows, **images}
+
+
+#: ``--quick``: the check at a quarter of the pixels, the relief meshed at 0.2 mm.
+QUICK_SCENE = ShadowScene(size=128, band_px=5, relief_step_mm=0.2)
+
+
+def run(quick: bool = False) -> list[dict]:
+    """``rig bench mdf-shadows``: the rows of :func:`run_check` (``mdf`` off and on),
+    on :data:`QUICK_SCENE` when ``quick``, else on the 256² scene."""
+    return run_check(QUICK_SCENE if quick else ShadowScene())["rows"]
 
 
 def write_figure(path, check: dict) -> Path:

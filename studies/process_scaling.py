@@ -43,7 +43,7 @@ from sim.rig import SimulatedRig
 from sim.scene import scene_from_dict
 from studies.render_loop import SCENES, patient_cameras
 
-__all__ = ["record_session", "run_bench"]
+__all__ = ["record_session", "run"]
 
 
 def record_session(folder: Path, *, views: int, lamps: int) -> Path:
@@ -114,25 +114,25 @@ def _cluster(kind: str, workers: int) -> Iterator[dict]:
 
 def _run(archive: Path, *, size: int, workers: int, options: dict) -> dict:
     wall = time.perf_counter()
-    (run,) = run_stages(archive, [_Timed(PsStage(size=size))], **options)
+    (stage_run,) = run_stages(archive, [_Timed(PsStage(size=size))], **options)
     wall = time.perf_counter() - wall
-    compute_s = run.summary["compute_s"]
+    compute_s = stage_run.summary["compute_s"]
     return {
         "size": size,
         "workers": workers,
-        "items": run.items,
+        "items": stage_run.items,
         "written": len(read_material(archive).ps),
         "wall_s": wall,
-        "items_per_s": run.items / wall,
-        "cpu_s_per_item": run.summary["compute_cpu_s"] / run.items,
+        "items_per_s": stage_run.items / wall,
+        "cpu_s_per_item": stage_run.summary["compute_cpu_s"] / stage_run.items,
         "compute_share": compute_s / (workers * wall),
-        "cpu_per_compute": run.summary["compute_cpu_s"] / compute_s,
+        "cpu_per_compute": stage_run.summary["compute_cpu_s"] / compute_s,
     }
 
 
-def run_bench(
-    *,
+def run(
     quick: bool = False,
+    *,
     sizes: tuple[int, ...] | None = None,
     workers: tuple[int, ...] | None = None,
     clusters: tuple[str, ...] = CLUSTERS,

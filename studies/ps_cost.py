@@ -1,6 +1,6 @@
 """``rig bench ps``: what photometric accuracy costs in time.
 
-:func:`run_bench` returns table rows (dicts) of three kinds:
+:func:`run` returns table rows (dicts) of three kinds:
 
 ``read``
     The floors, timed interleaved with the solves: one pass over the float32
@@ -34,6 +34,9 @@ from processing.photometric import (
     integrate_normals,
     solve,
 )
+from rig.config import default_rig_config
+from rig.plan import parse_plan
+from rig.schedule import compile_plan
 
 LAMP_COUNTS = (3, 4, 6, 12, 24, None)  # None: all lamps
 #: Accuracy scenarios: Lambertian with noise (σ = 0.005, attached shadows
@@ -44,21 +47,33 @@ SCENARIOS = ("noise", "shadows+specular+noise")
 MASK_FRACTION = 0.05
 
 
-def run_bench(
+def default_capture_time_s(lamps: int) -> float:
+    """Seconds a photometric-stereo set of ``lamps`` lamps at θ = 45° takes on the
+    default rig (the plan's estimate)."""
+    plan = parse_plan(
+        f'[sample]\nname = "bench"\n[captures.ps]\nlights = {{theta_deg = 45, count = {lamps}}}'
+    )
+    return compile_plan(plan, default_rig_config()).estimate.total_s
+
+
+def run(
+    quick: bool = False,
     *,
     n_lights: int = 96,
-    size_px: int = 1024,
+    size_px: int | None = None,
     robust_rows: int = 64,
-    accuracy_px: int = 128,
+    accuracy_px: int | None = None,
     lamp_counts=LAMP_COUNTS,
-    repeats: int = 3,
-    capture_time_s: Callable[[int], float] | None = None,
+    repeats: int | None = None,
+    capture_time_s: Callable[[int], float] = default_capture_time_s,
     seed: int = 0,
 ) -> list[dict]:
     """Time the solvers and integrators and measure accuracy against lamp count.
 
     Parameters
     ----------
+    quick : bool
+        The sizes and repeats not given: 256², 64² and 1 (else 1024², 128² and 3).
     n_lights, size_px : int
         The timed stack is (n_lights, size_px, size_px) float32.
     robust_rows : int
@@ -70,10 +85,13 @@ def run_bench(
         Lamp counts for the accuracy rows (None: all ``n_lights``).
     repeats : int
         Best-of repeats for each timing.
-    capture_time_s : callable, optional
-        ``capture_time_s(n_lamps) -> seconds`` to fill the column of that
-        name (e.g. from ``rig plan --estimate``); None leaves it empty.
+    capture_time_s : callable
+        ``capture_time_s(n_lamps) -> seconds`` fills the column of that name
+        (by default the estimate of such a capture on the default rig).
     """
+    size_px = size_px or (256 if quick else 1024)
+    accuracy_px = accuracy_px or (64 if quick else 128)
+    repeats = repeats or (1 if quick else 3)
     rng = np.random.default_rng(seed)
     stack = rng.random((n_lights, size_px, size_px), dtype=np.float32)
     lights = DistantLights(lamp_layout(n_lights))
@@ -232,7 +250,7 @@ def _accuracy_rows(n_lights, side, lamp_counts, capture_time_s, rng) -> list[dic
                         "n_lamps": n,
                         "mean_angular_error_deg": float(err.mean()) if err.size else None,
                         "valid_fraction": float(result.valid.mean()),
-                        "capture_time_s": capture_time_s(n) if capture_time_s else None,
+                        "capture_time_s": capture_time_s(n),
                     }
                 )
     return rows

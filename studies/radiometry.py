@@ -19,7 +19,7 @@ from pathlib import Path
 
 import numpy as np
 
-__all__ = ["FULL", "QUICK", "measure", "record", "run_bench"]
+__all__ = ["FULL", "QUICK", "measure", "record", "run"]
 
 _PLAN = """
 [sample]
@@ -38,7 +38,7 @@ _CAMERAS = ("cam0", "cam2")
 _BUMPS = Path(__file__).resolve().parents[1] / "examples" / "scenes" / "bumps.toml"
 
 
-def run_bench(*, quick: bool = False) -> list[dict]:
+def run(quick: bool = False) -> list[dict]:
     """Rows: the sample with the effects, processed ``raw`` and ``corrected``, and the
     same sample without them (``no effects``: what the stages reach when the camera is
     linear and nothing vignettes). Columns: PS mean and 95th-percentile angular error

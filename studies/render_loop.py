@@ -50,11 +50,11 @@ __all__ = [
     "irradiance_scale",
     "measure",
     "patient_cameras",
-    "plot_bench",
+    "plot",
     "process",
     "reconstructed",
     "record",
-    "run_bench",
+    "run",
     "truncated",
 ]
 
@@ -278,9 +278,9 @@ def _rows(name, plan, material, sims, scale, components, held_out, capture_s):
     return rows
 
 
-def run_bench(
-    *,
+def run(
     quick: bool = False,
+    *,
     scenes: tuple[str, ...] = tuple(SCENES),
     plans: tuple[str, ...] | None = None,
 ) -> list[dict]:
@@ -332,7 +332,7 @@ def run_bench(
     return rows
 
 
-def plot_bench(rows: list[dict], path: str | Path) -> None:
+def plot(rows: list[dict], path: str | Path) -> None:
     """PSNR at the held-out directions against the plan's capture time, one line
     per c, one panel per scene; dashed: the material at the captured pairs nearest
     the held-out ones (the measurement's floor), dotted: the other sample's score."""

@@ -37,7 +37,7 @@ from render.renderer import Renderer
 from rig.geometry import Sampling
 from rig.material import CompressedBTF, GlobalSVD, Material, Mdf
 
-__all__ = ["run_bench"]
+__all__ = ["run"]
 
 _SIZE = (800, 600)
 _SLOTS = {"nearest": 1, "barycentric": 3, "nearest4": 4}
@@ -158,7 +158,7 @@ class _PlainQuad:
             obj.release()
 
 
-def run_bench(*, quick: bool = False, size: tuple[int, int] = _SIZE) -> list[dict]:
+def run(quick: bool = False, *, size: tuple[int, int] = _SIZE) -> list[dict]:
     """Rows: ``kind``, ``components``, ``view_slots``, ``fps``, ``ratio_to_plain``
     (fps over the plain quad's), ``plain_fps``, ``cpu_ms`` (CPU time per frame, see
     ``_timing``), ``plain_cpu_ms``, ``size``, ``gl_renderer``; then the ``mdf`` rows:

@@ -46,7 +46,7 @@ from studies.mdf_truth import ray_cast_mdf
 __all__ = [
     "SHAPES",
     "SilhouetteCase",
-    "run_bench",
+    "run",
     "run_silhouettes",
     "sample_mdf",
     "scores",
@@ -265,7 +265,7 @@ def write_figure(path, cases: list[SilhouetteCase]) -> Path:
     return write_png(path, np.vstack(rows))
 
 
-def run_bench(*, quick: bool = False) -> list[dict]:
+def run(quick: bool = False) -> list[dict]:
     """``rig bench silhouettes``: rows ``sample``, ``shape``, ``mdf``, ``peel`` (0 without
     the MDF), ``iou``, ``band_px`` (see the module). ``quick``: the bumps on the torus at
     128², one and two passes; else both samples on both shapes at 256², 1–3 passes."""

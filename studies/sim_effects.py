@@ -16,7 +16,7 @@ from time import perf_counter
 from sim.scene import EFFECTS, scene_from_dict
 from sim.simulator import Simulator
 
-__all__ = ["run_bench"]
+__all__ = ["run"]
 
 _SPECULAR = {"model": "phong", "ks": 0.2, "exponent": 30.0}
 
@@ -59,12 +59,12 @@ def _paired(base: Simulator, sim: Simulator, runs: int, *, new_view: bool, first
     return statistics.median(t_case[1:]) * 1000, statistics.median(t_base[1:]) * 1000
 
 
-def run_bench(
+def run(
+    quick: bool = False,
     *,
     sizes: tuple[int, ...] = (256, 1024),
     effects: tuple[str, ...] = EFFECTS,
     runs: int = 5,
-    quick: bool = False,
     interreflection_spp: int = 4,
 ) -> list[dict]:
     """Time per frame for each effect alone and all together, per image size.

@@ -7,7 +7,7 @@ import pytest
 
 from rig.archive import Archive, FrameFormat, StepRecord
 from rig.config import default_rig_config
-from studies.archive_write import TARGET_MB_S, frame_pool, laser_scan_mb_s, run_bench
+from studies.archive_write import TARGET_MB_S, frame_pool, laser_scan_mb_s, run
 
 # Sessions, subprocesses or benches: the full tier only (make test), not make quick.
 pytestmark = pytest.mark.slow
@@ -51,8 +51,8 @@ def test_append_step(benchmark, tmp_path):
         np.testing.assert_array_equal(archive.read_frame(n - 1, "cam3"), frames[3])
 
 
-def test_run_bench_rows(tmp_path):
-    rows = run_bench(tmp_path, n_steps=2, repeats=1, cameras=2, height=32, width=48, workers=2)
+def test_run_rows(tmp_path):
+    rows = run(out_dir=tmp_path, n_steps=2, repeats=1, cameras=2, height=32, width=48, workers=2)
     assert {r["name"] for r in rows} >= {"raw write (baseline)", "archive, zstd-1, 2 threads"}
     for row in rows:
         # a rate rounded to 0.1 MB/s: a tiny write on a loaded machine may round to 0

@@ -2,7 +2,7 @@
 
 import pytest
 
-from studies.calibration_error import run_bench
+from studies.calibration_error import run
 
 # Sessions, subprocesses or benches: the full tier only (make test), not make quick.
 pytestmark = pytest.mark.slow
@@ -10,7 +10,7 @@ pytestmark = pytest.mark.slow
 
 @pytest.fixture(scope="module")
 def rows():
-    return run_bench(quick=True)
+    return run(quick=True)
 
 
 def test_camera_rows_per_pose_count_within_truth(rows):

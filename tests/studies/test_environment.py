@@ -4,14 +4,14 @@ import math
 
 import pytest
 
-from studies.environment import run_bench
+from studies.environment import run
 
 # Sessions, subprocesses or benches: the full tier only (make test), not make quick.
 pytestmark = pytest.mark.slow
 
 
 def test_environment_bench_rows():
-    rows = run_bench(quick=True)
+    rows = run(quick=True)
     vis = [r for r in rows if r["row"] == "visibility"]
     assert [r["vis_res"] for r in vis] == [2, 4, 8]
     assert vis[-1]["max_error"] < vis[0]["max_error"] / 4

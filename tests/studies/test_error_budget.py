@@ -7,7 +7,7 @@ from rig.errors import RigError
 from sim.model import SceneModel
 from sim.scene import scene_from_dict
 from sim.world import WorldSnapshot
-from studies.error_budget import CONFIGS, TERMS, plot_budget, scene_without
+from studies.error_budget import CONFIGS, TERMS, plot, scene_without
 
 
 def _lights(off):
@@ -55,5 +55,5 @@ def test_the_waterfall_is_drawn(tmp_path):
              "psnr_captured_db": 30.0 + k, "psnr_held_out_db": 22.0 + k}
             for s in ("bumps", "weave") for k, run in enumerate(("all terms on", "all terms off"))
             for p in ("raw", "irradiance per texel") for c in (4, "lossless")]  # fmt: skip
-    plot_budget(rows, tmp_path / "budget.png")
+    plot(rows, tmp_path / "budget.png")
     assert (tmp_path / "budget.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

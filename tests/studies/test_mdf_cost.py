@@ -5,7 +5,7 @@ import pytest
 
 from processing.mdf import PEAK_METHODS, SpaceTimeTracker
 from rig.config import default_rig_config
-from studies.mdf_cost import capture_time_s, run_bench
+from studies.mdf_cost import capture_time_s, run
 
 # Sessions, subprocesses or benches: the full tier only (make test), not make quick.
 pytestmark = pytest.mark.slow
@@ -23,7 +23,7 @@ def test_capture_time_from_the_rig_config():
 
 
 def test_quick_bench_rows():
-    rows = run_bench(quick=True)
+    rows = run(quick=True)
     kinds = [r["kind"] for r in rows]
     assert kinds.count("read") == 2
     tracked = [r for r in rows if r["kind"] == "space_time"]

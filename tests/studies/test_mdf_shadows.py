@@ -4,13 +4,13 @@ import numpy as np
 import pytest
 
 from rig.geometry import texel_centers_mm
-from studies.mdf_shadows import ShadowScene, relief_mdf, run_check
+from studies.mdf_shadows import QUICK_SCENE, relief_mdf, run_check
 
 # Simulated sessions, rendered targets or fits of seconds each: make test only, not make quick.
 pytestmark = pytest.mark.slow
 
 # 128² pixels, the relief meshed at 0.2 mm: the check of docs/render.md at a quarter of the pixels.
-SCENE = ShadowScene(size=128, band_px=5, relief_step_mm=0.2)
+SCENE = QUICK_SCENE
 
 
 def test_ray_cast_mdf_is_the_height_field_seen_from_above():

@@ -4,14 +4,14 @@ import pytest
 from typer.testing import CliRunner
 
 from orchestrator.cli import app
-from studies.process_scaling import run_bench
+from studies.process_scaling import run
 
 # Sessions, subprocesses or benches: the full tier only (make test), not make quick.
 pytestmark = pytest.mark.slow
 
 
 def test_rows_count_the_views_processed_and_speedup_is_against_one_worker():
-    rows = run_bench(
+    rows = run(
         sizes=(32,), workers=(2, 1), clusters=("threads",), views=3, lamps=3, repeats=1
     )
     assert [(r["cluster"], r["size"], r["workers"]) for r in rows] == [
@@ -28,7 +28,7 @@ def test_rows_count_the_views_processed_and_speedup_is_against_one_worker():
 
 def test_an_unknown_cluster_kind_is_named_with_the_valid_ones():
     with pytest.raises(ValueError, match=r"\['fibers'\].*threads.*processes"):
-        run_bench(clusters=("threads", "fibers"))
+        run(clusters=("threads", "fibers"))
 
 
 def test_help_says_what_is_measured():

@@ -4,14 +4,14 @@ import numpy as np
 import pytest
 
 from processing.photometric import DistantLights, solve
-from studies.ps_cost import lamp_layout, run_bench
+from studies.ps_cost import lamp_layout, run
 
 # Sessions, subprocesses or benches: the full tier only (make test), not make quick.
 pytestmark = pytest.mark.slow
 
 
-def test_run_bench_rows_on_a_small_stack():
-    rows = run_bench(
+def test_run_rows_on_a_small_stack():
+    rows = run(
         n_lights=12,
         size_px=64,
         robust_rows=16,

@@ -22,7 +22,7 @@ from render import DirectionalLight, Renderer
 from render.texel_view import texel_camera, texel_quad
 from sim.scene import scene_from_dict
 from sim.simulator import Simulator
-from studies.render_loop import SCENES, plot_bench, run_bench
+from studies.render_loop import SCENES, plot, run
 from tests.render.conftest import SAMPLE_MM, N, material, ps_view
 
 # Sessions, subprocesses or benches: the full tier only (make test), not make quick.
@@ -35,7 +35,7 @@ FLOAT16_EPS = 2.0**-11
 
 @pytest.fixture(scope="module")
 def rows():
-    return run_bench(quick=True, scenes=("bumps",))
+    return run(quick=True, scenes=("bumps",))
 
 
 def test_coarse_plan_renders_the_unmeasured_directions_of_the_true_sample(rows):
@@ -60,7 +60,7 @@ def test_units_follow_from_the_radiometry(rows):
 
 
 def test_the_plot_is_written(rows, tmp_path):
-    plot_bench(rows, tmp_path / "loop.png")
+    plot(rows, tmp_path / "loop.png")
     assert (tmp_path / "loop.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 

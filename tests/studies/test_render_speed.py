@@ -5,7 +5,7 @@ import os
 
 import pytest
 
-from studies.render_speed import run_bench
+from studies.render_speed import run
 
 # Sessions, subprocesses or benches: the full tier only (make test), not make quick.
 pytestmark = pytest.mark.slow
@@ -13,7 +13,7 @@ pytestmark = pytest.mark.slow
 
 @pytest.fixture(scope="module")
 def bench_rows():
-    return run_bench(quick=True, size=(64, 48))
+    return run(quick=True, size=(64, 48))
 
 
 def test_bench_rows_give_speed_as_a_ratio_to_the_plain_quad(bench_rows):

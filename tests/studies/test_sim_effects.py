@@ -6,7 +6,7 @@ import pytest
 
 import studies.sim_effects
 from sim.simulator import Simulator
-from studies.sim_effects import run_bench
+from studies.sim_effects import run
 
 # Sessions, subprocesses or benches: the full tier only (make test), not make quick.
 pytestmark = pytest.mark.slow
@@ -30,7 +30,7 @@ def test_ratios_are_each_case_over_its_interleaved_baseline(monkeypatch):
 
     monkeypatch.setattr(studies.sim_effects, "perf_counter", lambda: now["s"])
     monkeypatch.setattr(Simulator, "render_state", render_state)
-    rows = run_bench(sizes=(32,), effects=EFFECTS, runs=3)
+    rows = run(sizes=(32,), effects=EFFECTS, runs=3)
     got = {r["effects"]: r for r in rows}
     assert list(got) == ["lambert (baseline)", "shadows", "noise", "shadows+noise"]
     expected = {  # effects: (frame_ms, relit_ms)
@@ -47,7 +47,7 @@ def test_ratios_are_each_case_over_its_interleaved_baseline(monkeypatch):
         assert row["relit_ratio"] == pytest.approx(relit_ms / 2)
 
 
-def test_run_bench_renders_real_frames():
-    rows = run_bench(sizes=(64,), effects=("shadows",), runs=1)
+def test_run_renders_real_frames():
+    rows = run(sizes=(64,), effects=("shadows",), runs=1)
     assert [r["effects"] for r in rows] == ["lambert (baseline)", "shadows"]
     assert all(r["frame_ms"] > 0 and r["relit_ms"] > 0 for r in rows)
