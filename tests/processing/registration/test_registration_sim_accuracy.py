@@ -14,7 +14,7 @@ import pytest
 
 from processing.registration import Reason, register_frame
 from sim import Simulator
-from tests.processing.registration.sim_views import SimRegistration, registration_scene
+from studies.registration_views import SimRegistration, registration_scene
 
 # Simulated sessions, rendered targets or fits of seconds each: make test only, not make quick.
 pytestmark = pytest.mark.slow

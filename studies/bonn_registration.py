@@ -8,7 +8,7 @@ server's frame of the world state is registered with ``register_frame`` and comp
 ``Simulator.btf_truth`` of the pair (ray cast) on the texel grid: mean marker reprojection,
 corner error against the Bonn camera model's projection, texture RMSE.
 
-Run as ``python -m tests.sim.bonn_registration`` for the table (one row per pair).
+Run as ``python -m studies.bonn_registration`` for the table (one row per pair).
 """
 
 from __future__ import annotations

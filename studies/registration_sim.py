@@ -17,7 +17,7 @@ from pathlib import Path
 import numpy as np
 from matplotlib.figure import Figure
 
-from tests.processing.registration.sim_views import SimRegistration, h1_views
+from studies.registration_views import SimRegistration, h1_views
 
 
 def measure(*, scale: float = 0.5, oversample: int = 3, size: int = 64) -> list[dict]:

@@ -30,7 +30,7 @@ from rig.archive import Archive
 from rig.clock import VirtualClock
 from rig.geometry import Sampling, angular_distance_deg, direction_vector
 from sim.rig import SimulatedRig
-from tests.sim.bonn_registration import SIZE, bonn_scene, texture_rmse
+from studies.bonn_registration import SIZE, bonn_scene, texture_rmse
 
 _PROGRESS_EVERY = 100  # steps between progress lines
 ARM_POLL_S = 0.1
