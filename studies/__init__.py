@@ -7,6 +7,11 @@ name ``rig bench`` gives them. The studies sit above the orchestrator (some run 
 sessions through it) and below its command line; nothing below imports them.
 """
 
+from pathlib import Path
+
 from studies.registry import STUDIES, Study, study
 
-__all__ = ["STUDIES", "Study", "study"]
+__all__ = ["EXAMPLE_SCENES", "STUDIES", "Study", "study"]
+
+#: The example scenes the studies simulate (``examples/scenes`` of the repository).
+EXAMPLE_SCENES = Path(__file__).resolve().parents[1] / "examples" / "scenes"

@@ -3,20 +3,18 @@
 captured exactly once, every frame registered and compared with the simulator's truth
 (docs/btf.md).
 
-Run as ``python -m tests.integration.bonn_h1 [--views N] [--scale S] [--supersample K]
-[--truth-every M] [--measure-only] [--rows PATH] OUT_DIR``: ``--views`` keeps the first N of
-H1's views (all 81 lights each) for a shorter run; ``--scale`` and ``--supersample`` set the
-render resolution; every M-th step's normtexture is compared with ``Simulator.btf_truth``;
-``--measure-only`` measures the archive already in OUT_DIR (a run finished with ``rig
-resume``). Frames whose markers give no valid homography are registered from the arm's
-reported tool pose and the rail (``Reason.FROM_RIG_POSE``) and counted apart. The rows go to
-``--rows`` (default OUT_DIR/rows.json).
+``rig bench bonn-h1`` (hours; ``--quick``: the first view's 81 pairs), or :func:`run` with
+its options: fewer views, the render resolution, a folder to keep the archive in, or
+measuring an archive a resumed run finished. Frames whose markers give no valid homography
+are registered from the arm's reported tool pose and the rail (``Reason.FROM_RIG_POSE``)
+and counted apart.
 """
 
 from __future__ import annotations
 
-import argparse
 import json
+import logging
+import tempfile
 import time
 from collections import defaultdict
 from pathlib import Path
@@ -31,6 +29,10 @@ from rig.clock import VirtualClock
 from rig.geometry import Sampling, angular_distance_deg, direction_vector
 from sim.rig import SimulatedRig
 from studies.bonn_registration import SIZE, bonn_scene, texture_rmse
+
+__all__ = ["run"]
+
+log = logging.getLogger(__name__)
 
 _PROGRESS_EVERY = 100  # steps between progress lines
 ARM_POLL_S = 0.1
@@ -53,20 +55,20 @@ def _nearest(directions, direction) -> int:
 
 
 def _progress(start: float, clock: VirtualClock):
+    """Logs the daemon's control address, state changes and every 100th step: the full
+    session takes hours, and ``rig resume --connect`` needs the address."""
+
     def on_event(event: dict) -> None:
         topic = event.get("topic")
         if topic == "daemon":
-            print(f"daemon control {event['control']} (rig resume --connect)", flush=True)
+            log.info("daemon control %s (rig resume --connect)", event["control"])
         elif topic == "state":
-            print(f"state {event.get('from')} -> {event.get('to')}", flush=True)
+            log.info("state %s -> %s", event.get("from"), event.get("to"))
         elif topic == "progress" and (
             event["step"] % _PROGRESS_EVERY == 0 or event["step"] == event["steps"]
         ):
-            print(
-                f"step {event['step']}/{event['steps']}: {time.perf_counter() - start:.0f} s "
-                f"here, {clock.now():.0f} s of rig time",
-                flush=True,
-            )
+            log.info("step %d/%d: %.0f s here, %.0f s of rig time", event["step"],
+                     event["steps"], time.perf_counter() - start, clock.now())  # fmt: skip
 
     return on_event
 
@@ -100,67 +102,70 @@ def _measure(sim, views, h1, archive_path: Path, truth_every: int) -> list[dict]
     return rows
 
 
-def _report(rows: list[dict], views, h1) -> None:
-    seen = {(r["view"], r["light"]) for r in rows}
-    reproj = np.array([r["reproj_px"] for r in rows if r["source"] == "markers"])
-    n_pose = sum(r["source"] == "pose" for r in rows)
-    print(f"steps {len(rows)}, distinct pairs {len(seen)} of {len(views) * len(h1)}, "
-          f"registered from the markers {len(reproj)}, from the pose {n_pose}, not registered "
-          f"{len(rows) - len(reproj) - n_pose}")  # fmt: skip
-    print(f"mean marker reprojection {reproj.mean():.3f} px (p95 "
-          f"{np.percentile(reproj, 95):.3f}, max {reproj.max():.3f})")  # fmt: skip
+def _ring_row(theta, group: list[dict]) -> dict:
+    """One row of the table: the steps of one view ring (or all, ``theta`` "all")."""
+    reproj = [g["reproj_px"] for g in group if g["source"] == "markers"]
+    row = {
+        "view_theta": theta,
+        "steps": len(group),
+        "pairs": len({(g["view"], g["light"]) for g in group}),
+        "from_markers": len(reproj),
+        "from_pose": sum(g["source"] == "pose" for g in group),
+        "reproj_px_mean": float(np.mean(reproj)) if reproj else None,
+        "reproj_px_p95": float(np.percentile(reproj, 95)) if reproj else None,
+        "reproj_px_max": float(np.max(reproj)) if reproj else None,
+    }
     for source in ("markers", "pose"):
-        rmse = np.array([r["rmse"] for r in rows if r["source"] == source and r["rmse"]])
-        if len(rmse):
-            print(f"texture RMSE from the {source} {100 * rmse.mean():.2f} % (p95 "
-                  f"{100 * np.percentile(rmse, 95):.2f}, max {100 * rmse.max():.2f}) over "
-                  f"{len(rmse)} steps")  # fmt: skip
-    by_theta = defaultdict(list)
-    for r in rows:
-        by_theta[views[r["view"]][0]].append(r)
-    print("| view θ | steps | from markers | from pose | reproj. px mean | reproj. px max | "
-          "texture RMSE % markers (steps) | texture RMSE % pose (steps) |\n"
-          "|---|---|---|---|---|---|---|---|")  # fmt: skip
-    for theta in sorted(by_theta):
-        group = by_theta[theta]
-        r = [g["reproj_px"] for g in group if g["source"] == "markers"]
-        reproj = f"{np.mean(r):.3f} | {np.max(r):.3f}" if r else "– | –"
-        cells = []
-        for source in ("markers", "pose"):
-            e = [100 * g["rmse"] for g in group if g["source"] == source and g["rmse"] is not None]
-            cells.append(f"{np.mean(e):.2f} ({len(e)})" if e else "– (0)")
-        n_pose = sum(g["source"] == "pose" for g in group)
-        print(f"| {theta:.0f}° | {len(group)} | {len(r)} | {n_pose} | {reproj} | "
-              f"{cells[0]} | {cells[1]} |")  # fmt: skip
+        rmse = [100 * g["rmse"] for g in group if g["source"] == source and g["rmse"] is not None]
+        row[f"rmse_pct_{source}"] = float(np.mean(rmse)) if rmse else None
+        row[f"rmse_steps_{source}"] = len(rmse)
+    return row
 
 
-def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    parser.add_argument("out", type=Path)
-    parser.add_argument("--views", type=int, default=81)
-    parser.add_argument("--scale", type=float, default=0.5, help="render scale of the camera")
-    parser.add_argument("--supersample", type=int, default=1, help="area samples per pixel side")
-    parser.add_argument("--truth-every", type=int, default=9, help="texture RMSE every M steps")
-    parser.add_argument(
-        "--measure-only", action="store_true", help="measure the archive in OUT_DIR, no session"
-    )
-    parser.add_argument("--rows", type=Path, help="where the rows go (OUT_DIR/rows.json)")
-    args = parser.parse_args()
+def run(
+    quick: bool = False,
+    *,
+    views: int | None = None,
+    scale: float = 0.5,
+    supersample: int = 1,
+    truth_every: int = 9,
+    out_dir: Path | None = None,
+    measure_only: bool = False,
+) -> list[dict]:
+    """One row per view ring θ and one over all steps (``view_theta`` "all"): steps,
+    distinct (view, light) pairs, frames registered from the markers and from the pose,
+    marker reprojection (px: mean, 95th percentile, max), texture RMSE (% of the truth's
+    mean) of each source and the steps it was measured on.
+
+    ``views``: the first N of H1's views, all 81 lights each (``quick``: 1; else all
+    81). ``scale``, ``supersample``: the render resolution; every ``truth_every``-th
+    step's normtexture is compared with ``Simulator.btf_truth``. ``out_dir``: where the
+    plan, the archive (``s.zarr``) and the per-step rows (``rows.json``) stay (a
+    temporary folder by default); ``measure_only``: measure the archive already there (a
+    run finished with ``rig resume``).
+    """
+    if out_dir is None:
+        if measure_only:
+            raise ValueError("measure_only needs out_dir: the folder of the recorded archive")
+        with tempfile.TemporaryDirectory(prefix="rig-bench-bonn-h1-") as tmp:
+            return run(quick, views=views, scale=scale, supersample=supersample,
+                       truth_every=truth_every, out_dir=Path(tmp))  # fmt: skip
     h1 = [tuple(map(float, d)) for d in Sampling.named("H1").directions]
-    views = h1[: args.views]
-    if not args.measure_only:
-        args.out.mkdir(parents=True, exist_ok=True)
-        (args.out / "plan.toml").write_text(_plan(views))
+    chosen = h1[: views or (1 if quick else len(h1))]
+    if not measure_only:
+        out_dir.mkdir(parents=True, exist_ok=True)
+        (out_dir / "plan.toml").write_text(_plan(chosen))
     clock = VirtualClock()
     start = time.perf_counter()
-    scene = bonn_scene(scale=args.scale, supersample=args.supersample)
-    with SimulatedRig(scene, clock=clock) as sim:
-        if not args.measure_only:
-            _session(sim, args.out, clock, start)
-        rows = _measure(sim, views, h1, args.out / "s.zarr", args.truth_every)
-    (args.rows or args.out / "rows.json").write_text(json.dumps(rows))
-    _report(rows, views, h1)
-    print(f"total {time.perf_counter() - start:.0f} s", flush=True)
+    with SimulatedRig(bonn_scene(scale=scale, supersample=supersample), clock=clock) as sim:
+        if not measure_only:
+            _session(sim, out_dir, clock, start)
+        steps = _measure(sim, chosen, h1, out_dir / "s.zarr", truth_every)
+    (out_dir / "rows.json").write_text(json.dumps(steps))
+    by_theta = defaultdict(list)
+    for step in steps:
+        by_theta[chosen[step["view"]][0]].append(step)
+    return [*(_ring_row(t, by_theta[t]) for t in sorted(by_theta)), _ring_row("all", steps)]
 
 
 def _session(sim, out: Path, clock: VirtualClock, start: float) -> None:
@@ -175,10 +180,7 @@ def _session(sim, out: Path, clock: VirtualClock, start: float) -> None:
         out / "plan.toml", config, archive=out / "s.zarr", clock=clock,
         on_event=_progress(start, clock), on_fault="fail",
     )  # fmt: skip
-    session_s = time.perf_counter() - start
-    print(f"session {final['state']}: {session_s:.0f} s here, {clock.now():.0f} s of rig "
-          f"time, {sim.cameras.frames_exposed} frames exposed", flush=True)  # fmt: skip
-
-
-if __name__ == "__main__":
-    main()
+    if final["state"] != "done":
+        raise RuntimeError(f"the simulated H1 session ended {final['state']}")
+    log.info("session done: %.0f s here, %.0f s of rig time, %d frames exposed",
+             time.perf_counter() - start, clock.now(), sim.cameras.frames_exposed)  # fmt: skip

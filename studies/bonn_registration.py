@@ -1,6 +1,6 @@
 """Registration on the simulated Bonn lab against the simulator's truth (docs/btf.md).
 
-The scene of ``tests/processing/registration/sim_views.py`` (flat Lambertian sample 0.01 mm
+The scene of ``studies/registration_views.py`` (flat Lambertian sample 0.01 mm
 below the plate, smooth albedo, frames rendered with 3 × 3 area sampling) on the Bonn lab:
 its one lamp directional. For each (view, light) pair the real drivers turn the plate with
 the arm and move the camera along the rail against the simulated lab's peers; the camera
@@ -8,7 +8,7 @@ server's frame of the world state is registered with ``register_frame`` and comp
 ``Simulator.btf_truth`` of the pair (ray cast) on the texel grid: mean marker reprojection,
 corner error against the Bonn camera model's projection, texture RMSE.
 
-Run as ``python -m studies.bonn_registration`` for the table (one row per pair).
+``rig bench bonn-registration`` prints the table (one row per pair).
 """
 
 from __future__ import annotations
@@ -23,6 +23,8 @@ from rig.devices import Retry
 from sim import scene_from_dict
 from sim.rig import SimulatedRig
 from sim.sensor import full_scale
+
+__all__ = ["PAIRS", "SIZE", "bonn_scene", "measure", "run", "texture_rmse"]
 
 SIZE = 64
 PAIRS = (
@@ -130,22 +132,18 @@ def _true_texture(sim, config, view, light, exposure_s, bit_depth, supersample: 
     return texels * dn * full_scale(bit_depth)
 
 
-def main() -> None:
-    rows = measure()
-    print("| view θ, φ | light θ, φ | rail ° | tilt ° | markers | reproj. px | "
-          "corner vs model px | texture RMSE % |\n|---|---|---|---|---|---|---|---|")  # fmt: skip
-    for r in rows:
-        print(
-            f"| {r['view'][0]:.0f}°, {r['view'][1]:.0f}° | {r['light'][0]:.0f}°, "
-            f"{r['light'][1]:.0f}° | {r['rail_deg']:.1f} | {r['tilt_deg']:.1f} | {r['markers']} | "
-            f"{r['reproj_px']:.3f} | {r['corner_px']:.3f} | {100 * r['rmse']:.2f} |"
-        )
-    print(
-        f"mean reprojection {np.mean([r['reproj_px'] for r in rows]):.3f} px, corner error "
-        f"{np.mean([r['corner_px'] for r in rows]):.3f} px, texture RMSE "
-        f"{100 * np.mean([r['rmse'] for r in rows]):.2f} %"
-    )
-
-
-if __name__ == "__main__":
-    main()
+def run(quick: bool = False) -> list[dict]:
+    """The table of docs/btf.md: one row per pair (:data:`PAIRS`; ``quick``: the first
+    three), the view and light (θ, φ degrees), rail and tilt (degrees), markers found,
+    mean marker reprojection and corner error against the Bonn camera model (px) and
+    the texture RMSE (% of the truth's mean)."""
+    return [
+        {
+            "view": f"{r['view'][0]:.0f}°, {r['view'][1]:.0f}°",
+            "light": f"{r['light'][0]:.0f}°, {r['light'][1]:.0f}°",
+            "rail_deg": r["rail_deg"], "tilt_deg": r["tilt_deg"], "markers": r["markers"],
+            "reproj_px": r["reproj_px"], "corner_px": r["corner_px"],
+            "rmse_pct": None if r["rmse"] is None else 100 * r["rmse"],
+        }
+        for r in measure(PAIRS[:3] if quick else PAIRS)
+    ]  # fmt: skip

@@ -11,6 +11,7 @@ import time
 import tracemalloc
 
 import numpy as np
+from matplotlib.figure import Figure
 
 from processing.btf import (
     compress_btf,
@@ -199,8 +200,6 @@ def plot(rows: list[dict], path) -> None:
     Left: RMSE against the storage ratio for the per-view PCA (c labelled) and
     the global SVD; right: RMSE at held-out lights per interpolation method.
     """
-    from matplotlib.figure import Figure
-
     fig = Figure(figsize=(10, 3.8))
     ax0, ax1 = fig.subplots(1, 2, gridspec_kw={"width_ratios": [2, 1]})
     for kind, marker, label in (("pca", "o-", "per-view PCA"), ("svd", "s--", "global SVD")):

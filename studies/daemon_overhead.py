@@ -1,7 +1,7 @@
 """How much the daemon itself costs: overhead per step and frames/s through the pipeline.
 
 A session runs through the real daemon, sockets, archive and stats workers,
-against ``_ModelledRig``: a bench harness that spends exactly the modelled
+against ``ModelledRig``: a harness that spends exactly the modelled
 hardware time (moves, settle, lamp warm-up, exposure + readout: the
 :mod:`rig.timing` model that ``rig.schedule.estimate`` uses) on a
 ``VirtualClock`` and hands out constant frames. Everything the wall clock then
@@ -30,7 +30,7 @@ from rig.plan import load_plan
 from rig.schedule import compile_plan
 from rig.timing import motion_s, shots_s
 
-__all__ = ["run"]
+__all__ = ["ModelledRig", "modelled_devices", "run"]
 
 _PLAN = """
 [sample]
@@ -45,8 +45,8 @@ scale = {scale}
 """
 
 
-class _ModelledRig:
-    """The hardware's modelled time on a virtual clock, constant frames (bench only)."""
+class ModelledRig:
+    """The hardware's modelled time on a virtual clock, constant frames (studies only)."""
 
     def __init__(self, config: RigConfig, *, clock: VirtualClock, scale: float, laser: bool):
         self.config, self.clock, self.scale = config, clock, scale
@@ -93,17 +93,19 @@ class _ModelledRig:
         pass
 
 
+def modelled_devices(config: RigConfig, *, clock: VirtualClock, scale: float, laser: bool):
+    """A device factory of the daemon (``DeviceFactory``): a :class:`ModelledRig`."""
+    return ModelledRig(config, clock=clock, scale=scale, laser=laser)
+
+
 def _session(plan_text: str, *, workers: int, root: Path) -> dict:
     config = default_rig_config()
     clock = VirtualClock()
     plan = root / "plan.toml"
     plan.write_text(plan_text)
 
-    def devices(config, *, clock, scale, laser):
-        return _ModelledRig(config, clock=clock, scale=scale, laser=laser)
-
     settings = DaemonSettings(port=0, status_interval_s=0.5, drain_timeout_s=60.0)
-    daemon = daemon_thread(config, settings=settings, devices=devices, clock=clock)
+    daemon = daemon_thread(config, settings=settings, devices=modelled_devices, clock=clock)
     with daemon as endpoints, worker_threads(endpoints, "stats", workers):
         deadline = time.monotonic() + 10
         while workers and client.status(connect=endpoints)["workers"] < workers:

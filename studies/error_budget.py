@@ -32,6 +32,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+from matplotlib.figure import Figure
 
 from processing.btf import psnr_db, rmse
 from rig.config import RigConfig
@@ -208,8 +209,6 @@ def plot(rows: list[dict], path: str | Path) -> None:
     """The waterfall: one panel per (plan, scene), one group of bars per run and
     processing (``corrected``: the near-lamp irradiance per texel divided out), PSNR
     at the captured pairs and at the held-out directions, at c and lossless."""
-    from matplotlib.figure import Figure
-
     scenes = list(dict.fromkeys(r["scene"] for r in rows))
     plans = list(dict.fromkeys(r["plan"] for r in rows))
     fig = Figure(figsize=(5.5 * len(scenes), 4.2 * len(plans)))

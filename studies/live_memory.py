@@ -1,14 +1,12 @@
 """Peak memory of a session with a ``register`` worker, by session length (tracemalloc).
 
-Daemon, one worker and soft devices in one process, on virtual time; the peak
-of Python allocations over the whole session. Run from the repository root::
-
-    python -m tests.orchestrator.daemon.live_memory 500 1000 2000
+Daemon, one worker and the modelled rig of :mod:`studies.daemon_overhead` (its hardware
+time on a virtual clock, constant frames) in one process; the peak of Python allocations
+over the whole session (docs/daemon.md, ``rig bench live-memory``).
 """
 
 from __future__ import annotations
 
-import sys
 import tempfile
 import time
 import tracemalloc
@@ -17,7 +15,12 @@ from pathlib import Path
 from orchestrator.local import run_local
 from rig.clock import VirtualClock
 from rig.config import default_rig_config
-from tests.orchestrator.daemon.soft import SoftRig, soft_devices
+from studies.daemon_overhead import modelled_devices
+
+__all__ = ["FRAMES", "run", "session_peak"]
+
+#: session lengths in frames (``--quick``: the first two)
+FRAMES = (200, 496, 1000, 2000)
 
 #: 4 cameras × 2 exposures = 8 frames per lamp; the lamp count sets the length.
 PLAN = """
@@ -37,13 +40,13 @@ def session_peak(frames: int, root: Path) -> dict:
     """Run a session of ``frames`` frames (a multiple of 8); its peak memory and counts."""
     plan = root / f"plan-{frames}.toml"
     plan.write_text(PLAN.format(lamps=frames // 8))
-    rig = SoftRig(default_rig_config(), VirtualClock())
+    clock = VirtualClock()
     tracemalloc.start()
     wall = time.perf_counter()
     try:
         final = run_local(
-            plan, None, archive=root / f"s-{frames}.zarr", workers=1, stages="register",
-            devices=soft_devices(rig), clock=rig.clock,
+            plan, default_rig_config(), archive=root / f"s-{frames}.zarr", workers=1,
+            stages="register", devices=modelled_devices, clock=clock,
         )  # fmt: skip
         peak = tracemalloc.get_traced_memory()[1]
     finally:
@@ -56,9 +59,8 @@ def session_peak(frames: int, root: Path) -> dict:
     }
 
 
-if __name__ == "__main__":
-    with tempfile.TemporaryDirectory() as tmp:
-        for n in map(int, sys.argv[1:]):
-            row = session_peak(n, Path(tmp))
-            print(" | ".join(f"{k} {v:.1f}" if isinstance(v, float) else f"{k} {v}"
-                             for k, v in row.items()), flush=True)  # fmt: skip
+def run(quick: bool = False) -> list[dict]:
+    """One row per session length (:data:`FRAMES`): frames captured and processed, the
+    peak of Python allocations (MB) and the wall time."""
+    with tempfile.TemporaryDirectory(prefix="rig-bench-live-memory-") as tmp:
+        return [session_peak(n, Path(tmp)) for n in (FRAMES[:2] if quick else FRAMES)]

@@ -18,6 +18,23 @@ import tomllib
 from pathlib import Path
 
 import numpy as np
+from scipy import ndimage
+
+from calibration import flat_fields
+from calibration.plans import response_plan, white_plan
+from calibration.sessions import calibrate_responses
+from orchestrator.local import run_local
+from processing.btf import reconstruct
+from processing.offline import BtfStage, PsStage, run_stages
+from rig.archive import Archive
+from rig.calfile import CalibrationFile, Provenance, ResponseResult, write_calibration
+from rig.clock import VirtualClock
+from rig.material import FlatFieldMaps, read_btf, read_material, write_flat_field
+from sim import Simulator
+from sim.calibration import target_scene
+from sim.rig import SimulatedRig
+from sim.scene import scene_from_dict
+from studies import EXAMPLE_SCENES
 
 __all__ = ["FULL", "QUICK", "measure", "record", "run"]
 
@@ -35,7 +52,7 @@ exposure_s = 0.05
 """
 #: the zenith camera (ps, btf at θ = 0, the white target) and the 30° one (btf)
 _CAMERAS = ("cam0", "cam2")
-_BUMPS = Path(__file__).resolve().parents[1] / "examples" / "scenes" / "bumps.toml"
+_BUMPS = EXAMPLE_SCENES / "bumps.toml"
 
 
 def run(quick: bool = False) -> list[dict]:
@@ -78,11 +95,6 @@ def measure(
 ) -> dict:
     """``ps`` and ``btf`` over ``archive`` (``raw``: without corrections), and their
     errors against the truth of the scene it was recorded from (one row)."""
-    from processing.offline import BtfStage, PsStage, run_stages
-    from rig.archive import Archive
-    from rig.material import read_btf, read_material
-    from sim import Simulator
-
     stages = [
         PsStage(size=size, raw=raw),
         BtfStage(size=size, components=btf_lights, raw=raw),  # full rank: no PCA error
@@ -102,8 +114,6 @@ def measure(
 
 
 def _sample_scene(scale: float, effects):
-    from sim.scene import scene_from_dict
-
     data = tomllib.loads(_BUMPS.read_text())
     data["render"] = {"scale": scale, "supersample": 2}
     data["effects"] = list(effects)
@@ -111,10 +121,6 @@ def _sample_scene(scale: float, effects):
 
 
 def _session(plan_text: str, scene, archive: Path, config_update: dict | None = None) -> Path:
-    from orchestrator.local import run_local
-    from rig.clock import VirtualClock
-    from sim.rig import SimulatedRig
-
     plan = archive.with_suffix(".plan.toml")
     plan.write_text(plan_text)
     clock = VirtualClock()
@@ -128,14 +134,6 @@ def _session(plan_text: str, scene, archive: Path, config_update: dict | None = 
 
 def _calibrate(workdir: Path, scene, scale: float) -> Path:
     """The calibration file with the response curve and the flat fields."""
-    from calibration import flat_fields
-    from calibration.plans import response_plan, white_plan
-    from calibration.sessions import calibrate_responses
-    from rig.archive import Archive
-    from rig.calfile import CalibrationFile, Provenance, ResponseResult, write_calibration
-    from rig.material import FlatFieldMaps, write_flat_field
-    from sim.calibration import target_scene
-
     config = scene.rig
     response = {}
     for camera in _CAMERAS:
@@ -179,8 +177,6 @@ def _ps_errors(view, truth) -> dict:
     """Angular error; albedo over the truth within one material (its spread: how
     uniform) and the measured contrast of the checker's two materials against the
     true one (0.8 / 0.5: how linear)."""
-    from scipy import ndimage
-
     valid = view.valid
     cos = np.clip(np.sum(view.normals * truth.normals, axis=-1), -1.0, 1.0)
     err = np.degrees(np.arccos(cos))[valid]
@@ -205,8 +201,6 @@ def _ps_errors(view, truth) -> dict:
 def _btf_error(btf, sim, size: int) -> float:
     """RMSE over the mean of the ray-cast BTF, of every measured (slot, light), after
     one least-squares scale (the lamps' power and exposure are not known)."""
-    from processing.btf import reconstruct
-
     model = btf.model
     measured, true = [], []
     for j, view in enumerate(model.view_dirs_deg):

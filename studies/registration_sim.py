@@ -1,17 +1,13 @@
 """The registration table of ``docs/btf.md``: every H1 view up to θ = 75° in the simulator.
 
-Run from the repository root (about 2 minutes on 2 cores)::
-
-    .venv/bin/python -m tests.processing.registration.registration_sim_table docs/img
-
-It prints the markdown table and summary and writes ``registration_h1.png``
-into the given folder. The same measurement, on six views, is
-``test_registration_sim_accuracy.py``.
+``rig bench registration-sim --plot docs/img/registration_h1.png`` (about 2 minutes on 2
+cores) prints the rows and draws the figure; :func:`summary` and :func:`markdown` make the
+docs' two tables of them. The same measurement on the six views of
+:data:`QUICK_VIEWS` is ``--quick``, and the claims of ``test_registration_sim_accuracy.py``.
 """
 
 from __future__ import annotations
 
-import sys
 from pathlib import Path
 
 import numpy as np
@@ -19,15 +15,25 @@ from matplotlib.figure import Figure
 
 from studies.registration_views import SimRegistration, h1_views
 
+__all__ = ["QUICK_VIEWS", "markdown", "plot", "run", "summary"]
 
-def measure(*, scale: float = 0.5, oversample: int = 3, size: int = 64) -> list[dict]:
-    """One row per H1 view (θ ≤ 75°): anti-aliased and point-sampled frames."""
+#: One view per H1 ring up to 68°, two at 68° (the sparsest marker view, φ = 270°:
+#: the far markers are the most foreshortened, 4–6 of them are found).
+QUICK_VIEWS = ((0.0, 0.0), (17.0, 60.0), (34.0, 150.0), (51.0, 220.0), (68.0, 18.0), (68.0, 270.0))
+
+
+def run(
+    quick: bool = False, *, scale: float = 0.5, oversample: int = 3, size: int = 64
+) -> list[dict]:
+    """One row per H1 view (θ ≤ 75°; ``quick``: :data:`QUICK_VIEWS`): anti-aliased and
+    point-sampled frames."""
+    views = QUICK_VIEWS if quick else h1_views()
     rows = []
     with (
         SimRegistration(scale=scale, oversample=oversample, size=size) as smooth,
         SimRegistration(scale=scale, oversample=1, size=size) as point,
     ):
-        for view in h1_views():
+        for view in views:
             r = smooth.run(view)
             p = point.run(view)
             rows.append({
@@ -47,6 +53,7 @@ def measure(*, scale: float = 0.5, oversample: int = 3, size: int = 64) -> list[
 
 
 def markdown(rows: list[dict]) -> str:
+    """The per-view table of docs/btf.md."""
     head = (
         "| view θ, φ | camera (θ) | markers | reproj. px | corner vs truth px | "
         "noisy reproj. px | texture RMSE % | noisy % | noise alone % | point-sampled corner px |\n"
@@ -63,6 +70,7 @@ def markdown(rows: list[dict]) -> str:
 
 
 def summary(rows: list[dict]) -> str:
+    """The per-ring table of docs/btf.md and its closing line over all views."""
     out = []
     thetas = sorted({r["theta"] for r in rows})
     for theta in thetas:
@@ -93,6 +101,7 @@ def summary(rows: list[dict]) -> str:
 
 
 def plot(rows: list[dict], path: Path) -> None:
+    """Corner error and texture RMSE against the view θ (PNG)."""
     theta = np.array([r["theta"] for r in rows])
     jitter = np.array([r["phi"] for r in rows]) / 360.0 * 4 - 2
     fig = Figure(figsize=(10, 3.8))
@@ -118,14 +127,3 @@ def plot(rows: list[dict], path: Path) -> None:
     ax1.legend(fontsize=7)
     fig.tight_layout()
     fig.savefig(path, dpi=110)
-
-
-def main(argv: list[str]) -> None:
-    out = Path(argv[0]) if argv else Path("docs/img")
-    rows = measure()
-    plot(rows, out / "registration_h1.png")
-    sys.stdout.write(summary(rows) + "\n\n" + markdown(rows) + "\n")
-
-
-if __name__ == "__main__":
-    main(sys.argv[1:])

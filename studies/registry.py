@@ -194,6 +194,75 @@ STUDIES: tuple[Study, ...] = (
             " beside the time per frame as a ratio to a point-light frame."
         ),
     ),
+    Study(
+        name="ps-kinds",
+        module="ps_kinds",
+        summary="Normal error of photometric stereo per rig kind",
+        description=(
+            "Photometric stereo on each rig kind against the simulator's ray-cast truth: "
+            "sessions of the VirTex stage (3 and 6 lamps) and the Wang rig (12 lamps) through "
+            "the daemon and the real drivers, processed with the robust solver; prints the "
+            "mean and 95th-percentile normal error, the valid fraction and each session's "
+            "rig time, without effects and with shadows and noise."
+        ),
+    ),
+    Study(
+        name="mdf-sim",
+        module="mdf_sim",
+        summary="MDF height error against laser locations",
+        description=(
+            "MDF accuracy end to end against the simulator's ray-cast truth: scan sessions "
+            "with 1, 5, 13 and 26 laser locations through the daemon and the real drivers, "
+            "processed on 128² texels; prints the median and 95th-percentile height error, "
+            "the coverage and each session's rig time, per example scene."
+        ),
+    ),
+    Study(
+        name="registration-sim",
+        module="registration_sim",
+        summary="Registration of every H1 view against the truth",
+        description=(
+            "Registration of simulated frames at every H1 view up to θ = 75° against the "
+            "simulator's truth: markers found, reprojection and corner error against the true "
+            "projection, texture RMSE of clean and noisy frames against the ray-cast BTF, "
+            "anti-aliased and point-sampled (--quick: six views)."
+        ),
+        figure=True,
+    ),
+    Study(
+        name="bonn-registration",
+        module="bonn_registration",
+        summary="Registration on the simulated Bonn lab",
+        description=(
+            "Registration on the simulated Bonn lab against the simulator's truth: for six "
+            "(view, light) pairs the real drivers pose the arm and the rail, the frame is "
+            "registered and compared with the ray-cast BTF; prints markers, reprojection, "
+            "corner error against the lab's camera model and texture RMSE per pair."
+        ),
+    ),
+    Study(
+        name="bonn-h1",
+        module="bonn_h1",
+        summary="A full H1 session on the simulated Bonn lab",
+        description=(
+            "A full H1 BTF session on the simulated Bonn lab through the daemon and the real "
+            "drivers, every pair captured once and every frame registered (from the markers, "
+            "else from the arm's pose) and compared with the simulator's truth; prints per "
+            "view ring the steps, the registrations by source, the marker reprojection and "
+            "the texture RMSE (hours; --quick: the first view's 81 pairs)."
+        ),
+    ),
+    Study(
+        name="live-memory",
+        module="live_memory",
+        summary="Peak memory of a session against its length",
+        description=(
+            "Peak memory of a session with a live register worker against its length: "
+            "daemon, worker and a modelled rig in one process on virtual time; prints per "
+            "session of 200 to 2,000 frames the frames processed, the peak of Python "
+            "allocations (MB) and the wall time (--quick: 200 and 496 frames)."
+        ),
+    ),
 )
 
 

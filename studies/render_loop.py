@@ -23,6 +23,7 @@ import tempfile
 from pathlib import Path
 
 import numpy as np
+from matplotlib.figure import Figure
 
 from orchestrator.local import run_local
 from processing.btf import CompressedBTF, interpolate, psnr_db, reconstruct, rmse
@@ -336,8 +337,6 @@ def plot(rows: list[dict], path: str | Path) -> None:
     """PSNR at the held-out directions against the plan's capture time, one line
     per c, one panel per scene; dashed: the material at the captured pairs nearest
     the held-out ones (the measurement's floor), dotted: the other sample's score."""
-    from matplotlib.figure import Figure
-
     scenes = list(dict.fromkeys(r["scene"] for r in rows))
     fig = Figure(figsize=(5 * len(scenes), 3.8))
     axes = np.atleast_1d(fig.subplots(1, len(scenes), sharey=True))

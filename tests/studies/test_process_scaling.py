@@ -11,9 +11,7 @@ pytestmark = pytest.mark.slow
 
 
 def test_rows_count_the_views_processed_and_speedup_is_against_one_worker():
-    rows = run(
-        sizes=(32,), workers=(2, 1), clusters=("threads",), views=3, lamps=3, repeats=1
-    )
+    rows = run(sizes=(32,), workers=(2, 1), clusters=("threads",), views=3, lamps=3, repeats=1)
     assert [(r["cluster"], r["size"], r["workers"]) for r in rows] == [
         ("threads", 32, 1),
         ("threads", 32, 2),
