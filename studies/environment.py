@@ -49,7 +49,7 @@ from render.renderer import Renderer
 from render.visibility import visibility_maps
 from rig.geometry import direction_vector, nearest_directions
 from rig.material import CompressedBTF, Material, PsView
-from studies.render_speed import _material as random_material
+from studies.render_speed import random_material
 
 __all__ = ["brute_force_texture", "run"]
 

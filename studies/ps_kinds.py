@@ -71,7 +71,7 @@ def ps_session(kind: str, lamps: int, effects, out: Path) -> dict:
 
 
 def run(quick: bool = False) -> list[dict]:
-    """One row per session: ``kind``, ``lamps``, ``effects``, mean and 95th-percentile
+    """One row per session: ``rig`` (its kind), ``lamps``, ``effects``, mean and 95th-percentile
     angular error (degrees), the valid fraction, the session's rig time and the wall time
     of session and processing. ``quick``: the VirTex sessions without effects."""
     runs = [(kind, lamps, ()) for kind, lamps in RUNS if kind == "virtex"] if quick else [
@@ -83,7 +83,7 @@ def run(quick: bool = False) -> list[dict]:
             wall = time.perf_counter()
             row = ps_session(kind, lamps, effects, Path(tmp) / f"{i}")
             rows.append({
-                "kind": kind, "lamps": lamps, "effects": ", ".join(effects) or "none",
+                "rig": kind, "lamps": lamps, "effects": ", ".join(effects) or "none",
                 "mean_deg": row["mean_deg"], "p95_deg": row["p95_deg"], "valid": row["valid"],
                 "session_s": row["session_s"], "wall_s": time.perf_counter() - wall,
             })  # fmt: skip

@@ -37,13 +37,13 @@ from render.renderer import Renderer
 from rig.geometry import Sampling
 from rig.material import CompressedBTF, GlobalSVD, Material, Mdf
 
-__all__ = ["run"]
+__all__ = ["random_material", "run"]
 
 _SIZE = (800, 600)
 _SLOTS = {"nearest": 1, "barycentric": 3, "nearest4": 4}
 
 
-def _material(kind: str, components: int, size: int) -> Material:
+def random_material(kind: str, components: int, size: int) -> Material:
     """A BTF of random float16 texels over 27 view slots × H1's 81 lights."""
     rng = np.random.default_rng(0)
     views, lights = Sampling.named("H2").directions[::3], Sampling.named("H1").directions
@@ -77,7 +77,7 @@ def _with_mdf(material: Material) -> Material:
 
 def _mdf_rows(size: tuple[int, int], texels: int, frames: int) -> list[dict]:
     """BTF + MDF on a torus at 1, 2, 3 peeling passes against the BTF alone on it."""
-    material = _with_mdf(_material("pca", 4, texels))
+    material = _with_mdf(random_material("pca", 4, texels))
     mesh = torus(segments=96)
     camera = Camera.perspective((0, -210, 120), (0, 0, -8), fov_deg=38, size=size)
     lights = [PointLight((30.0, -120.0, 160.0), intensity=1e4)]
@@ -180,7 +180,7 @@ def run(quick: bool = False, *, size: tuple[int, int] = _SIZE) -> list[dict]:
     runs = [("pca", c, m) for c in components for m in methods]
     if not quick:
         runs += [("svd", c, "nearest4") for c in components]
-    with Renderer(_material("pca", 1, texels), mesh, shadows=False) as floor:
+    with Renderer(random_material("pca", 1, texels), mesh, shadows=False) as floor:
         plain = _PlainQuad(floor, size)
         try:
             plain_fps, plain_cpu_ms = _timing(lambda: plain.draw(camera), frames)
@@ -188,7 +188,7 @@ def run(quick: bool = False, *, size: tuple[int, int] = _SIZE) -> list[dict]:
             plain.release()
     rows = []
     for kind, c, method in runs:
-        with Renderer(_material(kind, c, texels), mesh, view_method=method,
+        with Renderer(random_material(kind, c, texels), mesh, view_method=method,
                       shadows=False) as renderer:  # fmt: skip
             fps, cpu_ms = _timing(lambda r=renderer: r.draw(camera, lights), frames)
             gl_renderer = renderer.ctx.info["GL_RENDERER"]
@@ -206,7 +206,7 @@ def _mdf_shadow_rows(size: tuple[int, int], texels: int, frames: int) -> list[di
     """A ball's shadow on the plane: without shadows (the baseline), macro shadows, and
     shadows with the MDF; rows ``kind`` ("mdf shadows"), ``shadows``, ``mdf``, then as
     the ``mdf`` rows, the ratios to the frame without shadows."""
-    material = _with_mdf(_material("pca", 4, texels))
+    material = _with_mdf(random_material("pca", 4, texels))
     ball = sphere(radius_mm=40.0, segments=32)
     ball = dataclasses.replace(ball, positions=ball.positions + np.float32([0.0, 10.0, 60.0]))
     mesh = merged([plane(size_mm=400.0, segments=4), ball], name="ball over plane")

@@ -3,6 +3,7 @@ against a truth or a baseline drawn in the same run; their tables and figures ar
 
 from __future__ import annotations
 
+import importlib.util
 import json
 from pathlib import Path
 from typing import Annotated
@@ -72,7 +73,9 @@ PlotOption = Annotated[Path | None, typer.Option("--plot", help="also draw the r
 
 def _run(study: Study, quick: bool, json_out: Path | None, markdown: Path | None,
          plot: Path | None) -> None:  # fmt: skip
-    quiet_dask_logs()  # studies that process through Dask log as `rig process` does
+    # Studies that process (through Dask) log as `rig process` does; the rest need no Dask.
+    if importlib.util.find_spec("distributed") is not None:
+        quiet_dask_logs()
     with working(f"rig bench {study.name}: measuring" + (" (--quick)" if quick else "")):
         module = study.load()
         rows = module.run(quick)

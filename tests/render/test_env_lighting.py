@@ -28,7 +28,7 @@ from render.meshes import Mesh, cloth, sphere
 from render.visibility import visibility_maps
 from rig.geometry import direction_angles, direction_vector, nearest_directions, texel_centers_mm
 from studies.environment import brute_force_texture
-from studies.render_speed import _material as random_material
+from studies.render_speed import random_material
 from tests.render.conftest import SAMPLE_MM, N, material, ps_view, tilted_quad
 
 VIEW_DEG = (30.0, 40.0)
