@@ -260,7 +260,7 @@ STUDIES: tuple[Study, ...] = (
             "Peak memory of a session with a live register worker against its length: "
             "daemon, worker and a modelled rig in one process on virtual time; prints per "
             "session of 200 to 2,000 frames the frames processed, the peak of Python "
-            "allocations (MB) and the wall time (--quick: 200 and 496 frames)."
+            "allocations (MB) and the wall time (--quick: 200 and 1000 frames)."
         ),
     ),
 )

@@ -9,9 +9,11 @@ from studies.live_memory import run
 pytestmark = pytest.mark.slow
 
 
-def test_peak_memory_stays_flat_from_200_to_496_frames():
+def test_peak_memory_does_not_grow_with_the_results():
     short, long = run(quick=True)
-    assert (short["frames"], long["frames"]) == (200, 496)
+    assert (short["frames"], long["frames"]) == (200, 1000)
     assert short["processed"] == short["frames"] and long["processed"] == long["frames"]
-    # Held until the end the results took 70 → 148 MB; streamed, 45 → 47 MB.
-    assert long["peak_mb"] < 1.15 * short["peak_mb"], (short, long)
+    # Held until the end the results took ≈ 0.26 MB a frame (70 → 277 MB); streamed, the
+    # peak moves only with how far the worker lags (37 → 61 MB, at load 15 on 2 cores).
+    growth_mb_per_frame = (long["peak_mb"] - short["peak_mb"]) / (1000 - 200)
+    assert growth_mb_per_frame < 0.1, (short, long)
