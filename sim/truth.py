@@ -38,7 +38,7 @@ _ABOVE_MM = 1e-4  # rays start this far above the reference plane
 #: resamples them onto the grid, so its truth is the mean over the footprint.
 #: Regular sub-texel centres converge by about 7 dB per doubling on the bumps
 #: and the weave at 64² texels; 8 gives 37.7 / 34.6 dB between 4 and 8 rays per
-#: side. A comparison that needs more asks for it (``orchestrator.footprint``).
+#: side. A comparison that needs more asks for it (``studies.footprint``).
 FOOTPRINT_RAYS = 8
 
 

@@ -7,7 +7,7 @@ The models :class:`CompressedBTF` and :class:`GlobalSVD` are the material format
 stored in sRGB are decoded with :func:`to_linear` (and encoded back with
 :func:`from_linear`); a single view slot reconstructs and interpolates on
 its own (:meth:`ViewSlot.reconstruct`, :meth:`ViewSlot.interpolate`);
-``rig bench btf`` runs :func:`processing.btf.bench.run_bench`.
+``rig bench btf`` runs :func:`studies.btf_compression.run`.
 """
 
 from processing.btf._colour import (

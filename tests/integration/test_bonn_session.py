@@ -21,8 +21,8 @@ from rig.geometry import angular_distance_deg, direction_vector
 from rig.material import read_material
 from rig.ur_kinematics import Pose
 from sim.rig import SimulatedRig
+from studies.bonn_registration import bonn_scene
 from tests.integration.conftest import run_session
-from tests.sim.bonn_registration import bonn_scene
 
 # Sessions, subprocesses or benches: the full tier only (make test), not make quick.
 pytestmark = pytest.mark.slow

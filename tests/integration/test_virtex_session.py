@@ -14,7 +14,7 @@ from typer.testing import CliRunner
 
 from orchestrator.cli import app
 from rig.archive import Archive
-from tests.integration.ps_kinds_table import ps_session
+from studies.ps_kinds import ps_session
 
 # Sessions, subprocesses or benches: the full tier only (make test), not make quick.
 pytestmark = pytest.mark.slow

@@ -1,4 +1,4 @@
-"""`rig bench AREA --markdown`: the rows as the table the docs show."""
+"""`rig bench NAME --markdown`: the rows as the table the docs show."""
 
 from orchestrator.cli.bench_cmd import markdown_table
 

@@ -8,7 +8,6 @@ import typer
 from typer.testing import CliRunner
 
 from orchestrator.cli import app
-from orchestrator.cli.bench_cmd import AREAS
 from orchestrator.cli.common import EXTRAS, SessionProgress
 from orchestrator.cli.session_cmd import _print_status as print_status
 from processing.offline import STAGES, MdfStage
@@ -434,13 +433,6 @@ def test_steering_commands_have_no_hidden_request_option(request_name):
         app, [request_name, "---name", "shutdown", "--connect", "tcp://127.0.0.1:1"]
     )
     assert result.exit_code == 2 and "No such option: ---name" in result.output, result.output
-
-
-@pytest.mark.parametrize("area", list(AREAS))
-def test_each_benchmark_says_what_it_measures(area):
-    lines = runner.invoke(app, ["bench", area, "--help"], env={"COLUMNS": "80"}).output.splitlines()
-    description = " ".join(lines[lines.index("") + 1 : lines.index("Options:")])
-    assert "benchmark" not in description and len(description.split()) >= 20, description
 
 
 def test_session_events_and_status_are_printed_as_words(capsys):

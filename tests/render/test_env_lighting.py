@@ -20,8 +20,6 @@ import trimesh
 
 from processing.btf import direction_weights, interpolate
 from render import Camera, RenderError
-from render.bench import _material as random_material
-from render.env_bench import brute_force_texture
 from render.environment import EnvironmentMap, synthetic_environment
 from render.environment._transfer import environment_coefficients, light_radiance, texture_at_vertex
 from render.environment.pca import illumination_basis
@@ -29,6 +27,8 @@ from render.environment.renderer import EnvironmentRenderer
 from render.environment.visibility import visibility_maps
 from render.meshes import Mesh, cloth, sphere
 from rig.geometry import direction_angles, direction_vector, nearest_directions, texel_centers_mm
+from studies.environment import brute_force_texture
+from studies.render_speed import random_material
 from tests.render.conftest import SAMPLE_MM, N, material, ps_view, tilted_quad
 
 VIEW_DEG = (30.0, 40.0)

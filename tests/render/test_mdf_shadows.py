@@ -1,7 +1,7 @@
 """Mesostructure-aware shadows and the ambient term in the renderer (seed 001 §4.2).
 
 The shadow boundaries themselves are checked against the ray-cast truth in
-``tests/orchestrator/test_mdf_shadows.py``; here: the ambient term on the GPU
+``tests/studies/test_mdf_shadows.py``; here: the ambient term on the GPU
 against its numpy reference, the shadow maps' push to the mesostructure's
 base and its grazing clamp, and the hard cases.
 """

@@ -96,7 +96,7 @@ def test_the_camera_sees_the_plate_where_the_arm_and_rail_put_it(lab):
 
 
 def test_frames_of_the_bonn_lab_register_against_the_simulators_truth():
-    from tests.sim.bonn_registration import PAIRS, measure
+    from studies.bonn_registration import PAIRS, measure
 
     rows = measure(PAIRS[:3])
     assert all(r["valid"] and r["markers"] >= 12 for r in rows), rows
@@ -111,7 +111,7 @@ def test_a_grazing_frame_without_markers_registers_from_the_rigs_pose():
     FROM_RIG_POSE, within a bound of the simulator's truth. A rail off by 3° towards the
     horizon makes the error clearly larger; without a pose the frame stays flagged."""
     from processing.registration import Reason
-    from tests.sim.bonn_registration import measure
+    from studies.bonn_registration import measure
 
     grazing = (((85.0, 60.0), (34.0, 200.0)),)
     (posed,) = measure(grazing, posed_rail_error_deg=0.0)

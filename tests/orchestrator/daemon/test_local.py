@@ -2,9 +2,9 @@
 
 import pytest
 
-from orchestrator.daemon_bench import run_bench
 from orchestrator.local import run_local
 from rig.archive import Archive
+from studies.daemon_overhead import run
 from tests.orchestrator.daemon.conftest import TINY_PLAN
 from tests.orchestrator.daemon.soft import soft_devices
 
@@ -24,7 +24,7 @@ def test_run_local_runs_a_whole_session(rig, tmp_path):
 
 
 def test_bench_rows(benchmark):
-    rows = benchmark.pedantic(run_bench, kwargs={"quick": True}, rounds=1, iterations=1)
+    rows = benchmark.pedantic(run, kwargs={"quick": True}, rounds=1, iterations=1)
     assert [r["workers"] for r in rows] == [0, 2]
     for row in rows:
         assert row["frames"] > 0 and row["modelled_s"] > 0

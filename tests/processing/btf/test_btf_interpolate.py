@@ -13,10 +13,10 @@ from processing.btf import (
     reconstruct,
     rmse,
 )
-from processing.btf.bench import plot_bench, run_bench
 from processing.btf.synthetic import SyntheticBTF
 from rig.geometry import Sampling
 from rig.material import MaterialError, btf_from_arrays, btf_to_arrays
+from studies.btf_compression import plot, run
 
 N = 12
 H2 = Sampling.named("H2").directions
@@ -123,7 +123,7 @@ def test_material_arrays_round_trip(btf, model, kind):
 @pytest.mark.slow  # a bench
 def test_bench_rows(benchmark, tmp_path):
     rows = benchmark.pedantic(
-        lambda: run_bench(
+        lambda: run(
             size=8, components=(1, 4), svd_components=(2,), speed_size=16, memory_size=8,
             repeats=1,
         ),
@@ -140,5 +140,5 @@ def test_bench_rows(benchmark, tmp_path):
     assert speed["gram_rmse"] == pytest.approx(speed["numpy_svd_rmse"], rel=1e-3)
     memory = next(r for r in rows if r["row"] == "memory")
     assert memory["peak_mib"] > 0
-    plot_bench(rows, tmp_path / "btf_bench.png")
+    plot(rows, tmp_path / "btf_bench.png")
     assert (tmp_path / "btf_bench.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"

@@ -16,7 +16,7 @@ from processing.registration import RegistrationError, aruco_dictionary, detect_
 from processing.registration._edges import refine_corners
 from processing.registration._markers import to_gray
 from sim import Simulator
-from tests.processing.registration.sim_views import registration_scene
+from studies.registration_views import registration_scene
 
 _SPAN = (0.15, 0.85)
 _STEPS_PER_PX = 8

@@ -4,7 +4,7 @@ Frames of the default rig's cameras at H1 view directions (θ ≤ 75°, the rig
 posed by ``rig.kinematics.inverse``), a flat Lambertian sample with a smooth
 albedo, directional lamps. Truth: the true projection of every marker corner
 (the scene's camera model) and ``Simulator.btf_truth`` on the texel grid. The
-full H1 table is in ``docs/btf.md`` (``registration_sim_table.py``).
+full H1 table is in ``docs/btf.md`` (``rig bench registration-sim``).
 """
 
 from __future__ import annotations
@@ -14,14 +14,13 @@ import pytest
 
 from processing.registration import Reason, register_frame
 from sim import Simulator
-from tests.processing.registration.sim_views import SimRegistration, registration_scene
+from studies.registration_sim import QUICK_VIEWS
+from studies.registration_views import SimRegistration, registration_scene
 
 # Simulated sessions, rendered targets or fits of seconds each: make test only, not make quick.
 pytestmark = pytest.mark.slow
 
-# One view per H1 ring up to 68°, two at 68° (the sparsest marker view, φ = 270°:
-# the far markers are the most foreshortened, 4–6 of them are found).
-VIEWS = [(0.0, 0.0), (17.0, 60.0), (34.0, 150.0), (51.0, 220.0), (68.0, 18.0), (68.0, 270.0)]
+VIEWS = QUICK_VIEWS
 
 
 @pytest.fixture(scope="module")

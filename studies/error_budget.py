@@ -1,0 +1,240 @@
+"""``rig bench error-budget``: the render loop's error, term by term.
+
+The loop of :mod:`studies.render_loop` (a simulated sample measured
+through the daemon, processed by the ``btf`` stage, interpolated at held-out
+directions) is run with the simulator's error terms switched off one at a time
+and all together. A term is switched off in the *scene*, never in processing:
+
+- ``noise``: the scene does not list the ``noise`` effect (no photon, read or
+  quantisation noise beyond the 8/16-bit DN);
+- ``near lamps``: the rig's lamps are ``directional`` (at infinity, each giving
+  the irradiance a point lamp at its position gives at the turntable centre)
+  instead of ``point`` lamps at the light arc's radius;
+- ``point pixels``: each pixel shades 3 × 3 points and averages them
+  (``render.supersample``), as a sensor integrates over its pixel's area,
+  instead of its centre alone.
+
+Three more terms are processing's own choices, read from every run: the
+per-texel near-lamp irradiance (each session processed as it is, and
+``raw``: without it, :mod:`processing.offline.texel_light`), compression (the
+per-view PCA at c against all its components, lossless) and interpolation
+(the material at held-out directions against the captured pairs nearest
+them). Everything is scored against the footprint truth
+(:func:`studies.footprint.converged_truth`, converged on the run with all
+terms off, the most demanding score) with the peak of the held-out truth.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import itertools
+import tempfile
+from pathlib import Path
+
+import numpy as np
+from matplotlib.figure import Figure
+
+from processing.btf import psnr_db, rmse
+from rig.config import RigConfig
+from rig.errors import RigError
+from rig.plan import parse_plan
+from sim.scene import scene_from_dict
+from sim.simulator import Simulator
+from studies.footprint import converged_truth, truth_at
+from studies.render_loop import (
+    HELD_OUT,
+    PLANS,
+    SCENES,
+    captured_pairs,
+    interpolated,
+    irradiance_scale,
+    plan_toml,
+    process,
+    reconstructed,
+    record,
+    truncated,
+)
+
+__all__ = ["CONFIGS", "TERMS", "plot", "run", "scene_without"]
+
+#: The simulator's error terms, each as the scene change that switches it off.
+TERMS: dict[str, str] = {
+    "noise": "the scene does not list the noise effect",
+    "near lamps": "directional lamps (at infinity) instead of point lamps 650 mm away",
+    "point pixels": "3 × 3 shaded points per pixel instead of the pixel centre",
+}
+
+#: Shaded points per pixel side when ``point pixels`` is off.
+PIXEL_SUPERSAMPLE = 3
+
+#: The runs: which terms are off, all on first and all off last.
+CONFIGS: tuple[tuple[str, ...], ...] = ((), *((term,) for term in TERMS), tuple(TERMS))
+
+#: The per-view PCA components scored beside the lossless model.
+COMPONENTS = 4
+
+
+def scene_without(name: str, off: tuple[str, ...]) -> dict:
+    """The scene dict of ``SCENES[name]`` with the terms in ``off`` switched off."""
+    unknown = [term for term in off if term not in TERMS]
+    if unknown:
+        raise RigError(f"unknown error terms {unknown}; valid terms {list(TERMS)}")
+    spec = dict(SCENES[name])
+    if "noise" in off:
+        spec["effects"] = [e for e in spec["effects"] if e != "noise"]
+    if "near lamps" in off:
+        lamps = [lamp.model_dump() | {"kind": "directional"}
+                 for lamp in RigConfig().light_arc.lamps]  # fmt: skip
+        spec["rig"] = {"overrides": {"light_arc": {"lamps": lamps}}}
+    if "point pixels" in off:
+        spec["render"] = spec["render"] | {"supersample": PIXEL_SUPERSAMPLE}
+    return spec
+
+
+def _label(off: tuple[str, ...]) -> str:
+    if not off:
+        return "all terms on"
+    return "all terms off" if set(off) == set(TERMS) else f"{' + '.join(off)} off"
+
+
+def _scores(material, scale, truths, components: int) -> dict:
+    """PSNRs at the captured pairs and the held-out ones of one material at c."""
+    btf, valid = material.btf, np.asarray(material.btf_slot_valid, bool)
+    captured = captured_pairs(btf, valid, HELD_OUT)
+    model = truncated(btf, components)
+    held = interpolated(model, valid, HELD_OUT) / scale
+    at_captured = reconstructed(model, captured) / scale
+    own, truth_captured = truths
+    peak = float(own.max())
+    return {
+        "psnr_captured_db": round(psnr_db(rmse(at_captured, truth_captured), peak=peak), 2),
+        "psnr_held_out_db": round(psnr_db(rmse(held, own), peak=peak), 2),
+        "scale_fit_captured": round(_fit_ratio(at_captured, truth_captured), 4),
+        "scale_fit_held_out": round(_fit_ratio(held, own), 4),
+    }
+
+
+def _fit_ratio(measured: np.ndarray, truth: np.ndarray) -> float:
+    """The least-squares scale of ``measured`` onto ``truth``, as its inverse: the
+    factor by which ``measured`` (already divided by the derived scale) is too bright."""
+    return float(np.sum(measured * measured) / np.sum(measured * truth))
+
+
+def _converged(material, sim, scale):
+    """Footprint truths at the held-out and captured pairs, their rays per texel side
+    and the larger change of the two scores at the last doubling (dB)."""
+    btf, valid = material.btf, np.asarray(material.btf_slot_valid, bool)
+    captured = captured_pairs(btf, valid, HELD_OUT)
+    dirs = [(btf.view_dirs_deg[j], btf.light_dirs_deg[i]) for j, i in captured]
+    own = converged_truth(sim, HELD_OUT, interpolated(btf, valid, HELD_OUT) / scale)
+    peak = float(own.values.max())
+    at = converged_truth(sim, dirs, reconstructed(btf, captured) / scale, peak=peak)
+    rays = max(own.rays, at.rays)
+
+    def at_rays(result, pairs):
+        return result.values if result.rays == rays else truth_at(sim, pairs, material.size, rays)
+
+    change = round(max(own.change_db, at.change_db), 3)
+    return at_rays(own, HELD_OUT), at_rays(at, dirs), rays, change
+
+
+def run(
+    quick: bool = False, *, scenes: tuple[str, ...] = tuple(SCENES),
+    plans: tuple[str, ...] | None = None, runs: tuple[tuple[str, ...], ...] = CONFIGS,
+) -> list[dict]:  # fmt: skip
+    """``quick``: 32² texels, the coarse plan; else 64² texels, the coarse and
+    medium plans. ``scenes``, ``plans``: which of the render loop's to run;
+    ``runs``: which terms are off in each run (default :data:`CONFIGS`; the run
+    with the most terms off converges the truth).
+
+    Rows, one per (scene, plan, run, processing, c): ``scene``, ``plan``, ``run``
+    (which terms are off), ``off`` (their names), ``processing`` (``raw``, or the
+    near-lamp ``irradiance per texel`` divided out), ``components`` (c, or every component:
+    ``lossless``), ``psnr_captured_db`` (the material at the captured pairs
+    nearest the held-out ones against the truth there), ``psnr_held_out_db``
+    (interpolated at :data:`~studies.render_loop.HELD_OUT`),
+    ``scale_fit_captured`` / ``scale_fit_held_out`` (the least-squares scale over
+    the derived one, :func:`~studies.render_loop.irradiance_scale`, at the
+    captured and the held-out pairs), ``truth_rays`` / ``truth_change_db`` (the
+    footprint truth's rays per texel side, and how far the last doubling moved the
+    scores of the all-off run: converged below 0.1 dB).
+    """
+    size = 32 if quick else 64
+    plans = plans if plans is not None else (("coarse",) if quick else ("coarse", "medium"))
+    unknown = [s for s in scenes if s not in SCENES] + [p for p in plans if p not in PLANS]
+    if unknown:
+        raise RigError(
+            f"unknown scene or plan {unknown}; valid scenes {list(SCENES)}, plans {list(PLANS)}"
+        )
+    rows = []
+    for name in scenes:
+        with contextlib.ExitStack() as stack:
+            sim = stack.enter_context(Simulator(scene_from_dict(SCENES[name])))
+            for plan in plans:
+                rows += _plan_rows(name, plan, sim, size, runs)
+    return rows
+
+
+def _plan_rows(name: str, plan: str, sim: Simulator, size: int, runs) -> list[dict]:
+    measured = {}
+    lights = len(parse_plan(plan_toml(plan)).captures.btf.lights.resolve().directions)
+    for off in runs:
+        scene = scene_from_dict(scene_without(name, off))
+        with tempfile.TemporaryDirectory(prefix="rig-error-budget-") as tmp:
+            archive, config = record(scene, plan_toml(plan), Path(tmp))
+            scale = irradiance_scale(scene, config)
+            # as many components as lights: the per-view PCA is then lossless
+            for raw in (False, True):
+                material = process(archive, size=size, components=lights, raw=raw)
+                measured[off, raw] = (material, scale)
+    strictest = max(runs, key=len)  # the highest scores ask the most of the truth
+    first = measured[strictest, False]
+    held_truth, captured_truth, rays, change = _converged(first[0], sim, first[1])
+    rows = []
+    for off in runs:
+        for raw in (True, False):
+            material, scale = measured[off, raw]
+            lossless = material.btf.basis.shape[-1]
+            for c, label in ((COMPONENTS, COMPONENTS), (lossless, "lossless")):
+                rows.append({
+                    "scene": name, "plan": plan, "run": _label(off), "off": list(off),
+                    "processing": "raw" if raw else "irradiance per texel", "components": label,
+                    **_scores(material, scale, (held_truth, captured_truth), c),
+                    "truth_rays": rays, "truth_change_db": change,
+                })  # fmt: skip
+    return rows
+
+
+def plot(rows: list[dict], path: str | Path) -> None:
+    """The waterfall: one panel per (plan, scene), one group of bars per run and
+    processing (``corrected``: the near-lamp irradiance per texel divided out), PSNR
+    at the captured pairs and at the held-out directions, at c and lossless."""
+    scenes = list(dict.fromkeys(r["scene"] for r in rows))
+    plans = list(dict.fromkeys(r["plan"] for r in rows))
+    fig = Figure(figsize=(5.5 * len(scenes), 4.2 * len(plans)))
+    axes = np.array(fig.subplots(len(plans), len(scenes), sharey=True, squeeze=False))
+    series = (("psnr_captured_db", "lossless", "captured, lossless"),
+              ("psnr_captured_db", COMPONENTS, f"captured, c = {COMPONENTS}"),
+              ("psnr_held_out_db", "lossless", "held out, lossless"),
+              ("psnr_held_out_db", COMPONENTS, f"held out, c = {COMPONENTS}"))  # fmt: skip
+    low = min(r[key] for r in rows for key in ("psnr_captured_db", "psnr_held_out_db"))
+    for (i, plan), (j, scene) in itertools.product(enumerate(plans), enumerate(scenes)):
+        ax = axes[i, j]
+        sel = [r for r in rows if (r["scene"], r["plan"]) == (scene, plan)]
+        runs = list(dict.fromkeys((r["run"], r["processing"]) for r in sel))
+        x = np.arange(len(runs))
+        for k, (key, c, label) in enumerate(series):
+            values = [next(r[key] for r in sel
+                           if (r["run"], r["processing"]) == run and r["components"] == c)
+                      for run in runs]  # fmt: skip
+            ax.bar(x + (k - 1.5) * 0.2, values, 0.2, label=label)
+        short = {"raw": "raw"}  # the corrected processing's label is long
+        ax.set_xticks(x, [f"{run}, {short.get(p, 'corrected')}" for run, p in runs],
+                      rotation=35, ha="right", fontsize=7)  # fmt: skip
+        ax.set_ylim(np.floor(low) - 2, None)
+        ax.set_title(f"{scene}, {plan} plan", fontsize=9)
+        ax.grid(axis="y", alpha=0.3)
+        ax.set_ylabel("PSNR against the footprint truth (dB)", fontsize=8)
+    axes[0, 0].legend(fontsize=7, loc="upper left")
+    fig.tight_layout()
+    fig.savefig(path, dpi=110)

@@ -1,0 +1,59 @@
+"""The error budget's switches: each term off is a scene change, and only that."""
+
+import numpy as np
+import pytest
+
+from rig.errors import RigError
+from sim.model import SceneModel
+from sim.scene import scene_from_dict
+from sim.world import WorldSnapshot
+from studies.error_budget import CONFIGS, TERMS, plot, scene_without
+
+
+def _lights(off):
+    scene = scene_from_dict(scene_without("bumps", off))
+    snap = WorldSnapshot(0.0, 30.0, 45.0, frozenset({"lamp3"}), False, 0.0, 0)
+    return scene, SceneModel(scene).lights(snap)["lamp3"]
+
+
+def test_every_term_is_off_alone_once_and_all_together():
+    assert CONFIGS[0] == () and CONFIGS[-1] == tuple(TERMS)
+    assert sorted(c[0] for c in CONFIGS[1:-1]) == sorted(TERMS)
+
+
+def test_noise_off_drops_the_effect_and_nothing_else():
+    on, off = (scene_from_dict(scene_without("weave", o)) for o in ((), ("noise",)))
+    assert on.has("noise") and not off.has("noise")
+    assert set(on.spec.effects) - set(off.spec.effects) == {"noise"}
+    assert off.rig == on.rig
+
+
+def test_lamps_at_infinity_give_the_centre_the_near_lamps_irradiance():
+    _, near = _lights(())
+    _, far = _lights(("near lamps",))
+    assert (near.kind, far.kind) == ("point", "directional")
+    points = np.array([[0.0, 0.0, 0.0], [45.0, -45.0, 0.0]])
+    near_dirs, near_e = near.incident(points)
+    far_dirs, far_e = far.incident(points)
+    np.testing.assert_allclose(far_e, near_e[0], rtol=1e-12)  # the centre's, everywhere
+    np.testing.assert_allclose(far_dirs[0], near_dirs[0], atol=1e-12)
+    assert not np.isclose(near_e[1], near_e[0], rtol=0.05)  # near: 1/r² varies across
+
+
+def test_pixels_integrate_their_area_when_point_pixels_are_off():
+    assert scene_from_dict(scene_without("bumps", ())).spec.render.supersample == 1
+    assert scene_from_dict(scene_without("bumps", ("point pixels",))).spec.render.supersample > 1
+
+
+def test_an_unknown_term_names_the_valid_ones():
+    with pytest.raises(RigError, match="unknown error terms \\['lens'\\]; valid terms"):
+        scene_without("bumps", ("lens",))
+
+
+def test_the_waterfall_is_drawn(tmp_path):
+    rows = [{"scene": s, "plan": "coarse", "run": run, "processing": p, "components": c,
+             "psnr_captured_db": 30.0 + k, "psnr_held_out_db": 22.0 + k}
+            for s in ("bumps", "weave") for k, run in enumerate(("all terms on", "all terms off"))
+            for p in ("raw", "irradiance per texel") for c in (4, "lossless")]  # fmt: skip
+    plot(rows, tmp_path / "budget.png")
+    assert (tmp_path / "budget.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
