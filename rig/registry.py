@@ -48,6 +48,10 @@ class KindRegistry:
 
         return add
 
+    def unregister(self, role: str, kind: str) -> None:
+        """Forget what serves ``kind`` in ``role`` (a family added for a while, e.g. a test's)."""
+        self._entries.pop((role, kind), None)
+
     def lookup(self, role: str, kind: str) -> Callable[..., Any] | None:
         """What serves ``kind`` in ``role``, or None (then see :meth:`served`)."""
         if (role, kind) not in self._entries:
