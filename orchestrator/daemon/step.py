@@ -102,7 +102,7 @@ class StepRunner:
     def _record(
         self, step: Step, actuators: dict, started_at: float, *, flags, **source
     ) -> StepRecord:
-        # the directions the pose the devices were sent to gives
+        # the directions where the pose the devices were sent to puts cameras and light
         views, light = rig_kind(self.config).step_directions(self.config, step)
         return StepRecord(
             index=step.index,
