@@ -59,7 +59,8 @@ class KindRegistry:
         return self._entries.get((role, kind))
 
     def served(self, role: str) -> list[str]:
-        """The kinds registered for ``role``."""
+        """The kinds registered for ``role`` (every module of the package imported first)."""
+        self._discover()
         return sorted(k for r, k in self._entries if r == role)
 
     def _discover(self) -> None:

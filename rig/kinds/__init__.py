@@ -96,7 +96,6 @@ class RigKind(Protocol):
 
 def kind_names() -> list[str]:
     """The registered rig kinds' names."""
-    KINDS.lookup("rig", "")  # a lookup that misses imports every kind module once
     return KINDS.served("rig")
 
 

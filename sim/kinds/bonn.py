@@ -13,6 +13,8 @@ __all__ = ["BonnWorld"]
 
 
 class BonnWorld:
+    """The plate turned by the arm, the camera on the rail, the lamp fixed in the lab."""
+
     def camera(self, config: RigConfig, camera_id: str, snapshot: WorldSnapshot | None):
         """Where the snapshot's plate rotation and rail put the camera (no snapshot: the
         nominal camera)."""

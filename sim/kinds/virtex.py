@@ -13,6 +13,8 @@ __all__ = ["VirtexWorld"]
 
 
 class VirtexWorld:
+    """The stage's camera and lamps stand still."""
+
     def camera(self, config: RigConfig, camera_id: str, snapshot: WorldSnapshot | None):
         return config.camera_model(camera_id)
 

@@ -13,6 +13,8 @@ __all__ = ["WangWorld"]
 
 
 class WangWorld:
+    """Cameras fixed on their arc, lamps where the snapshot's arc and turntable put them."""
+
     def camera(self, config: RigConfig, camera_id: str, snapshot: WorldSnapshot | None):
         """The nominal camera, turntable at 0 (the renderer turns the rays by the snapshot's)."""
         return config.camera_model(camera_id)
