@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from orchestrator.daemon.kinds import DEVICE_SETS
-from orchestrator.daemon.kinds.wang import axes_devices
+from orchestrator.daemon.kinds.virtex import fixed_devices
 from orchestrator.local import run_local
 from rig import kinematics
 from rig.archive import Archive
@@ -103,7 +103,7 @@ class ToyWorld:
 @pytest.fixture
 def toy():
     KINDS.register("rig", "toy")(ToyRig())
-    DEVICE_SETS.register("devices", "toy")(axes_devices)  # no axes: RigDevices without them
+    DEVICE_SETS.register("devices", "toy")(fixed_devices)  # nothing moves, as on a VirTex stage
     SIM_KINDS.register("sim", "toy")(ToyWorld())
     yield
     KINDS.unregister("rig", "toy")
