@@ -15,7 +15,7 @@ daemon (``orchestrator.daemon.kinds``) keep their per-kind code the same way.
 from __future__ import annotations
 
 from collections.abc import Mapping
-from typing import TYPE_CHECKING, Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol, runtime_checkable
 
 from rig.errors import ConfigError
 from rig.registry import KindRegistry
@@ -35,6 +35,7 @@ __all__ = ["KINDS", "RigKind", "kind_names", "rig_kind"]
 KINDS = KindRegistry("rig.kinds", roles=("rig",))
 
 
+@runtime_checkable
 class RigKind(Protocol):
     """One rig design. Lengths in mm, angles in degrees, times in seconds."""
 

@@ -116,3 +116,12 @@ def test_a_virtex_stage_refuses_what_it_cannot_capture(captures, message):
     plan = parse_plan(f'[sample]\nname = "s"\n{captures}\n')
     with pytest.raises(PlanError, match=message):
         compile_plan(plan, _virtex(3))
+
+
+def test_every_registered_kind_answers_the_whole_interface():
+    from rig.kinds import RigKind, kind_names, rig_kind
+
+    assert {"wang", "bonn", "virtex"} <= set(kind_names())
+    for name in kind_names():
+        kind = rig_kind(name)
+        assert isinstance(kind, RigKind) and kind.name == name
