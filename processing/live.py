@@ -86,7 +86,7 @@ class LiveSession:
                 for s in schedule.steps:
                     if s.kind == "ps":
                         for cam in s.cameras:
-                            key = (cam, round(float(s.turntable_deg), 1) % 360.0)
+                            key = (cam, round(float(s.pose.turntable_deg), 1) % 360.0)
                             views.setdefault(key, []).append(s.index)
                 self._views = {}
                 for (cam, turntable), steps in views.items():

@@ -21,7 +21,8 @@ from rig.geometry import (
 )
 from rig.kinematics import RigPose, forward, inverse, laser_plane, sampling_residuals
 from rig.plan import Plan, load_plan, parse_plan
-from rig.schedule import Estimate, Schedule, Step, compile_plan
+from rig.schedule import compile_plan
+from rig.steps import Estimate, Schedule, Step
 
 __all__ = [
     "Clock",

@@ -1,6 +1,6 @@
 """Kinematics of the Bonn lab (seed 000 §3.1): plate orientation + rail position ↔ directions.
 
-In the lab frame (``rig.kinds``) the lamp lies along +x and rail position γ puts
+In the lab frame (``rig.kind_sections``) the lamp lies along +x and rail position γ puts
 the camera at azimuth γ in the horizontal plane; both are seen from the plate
 centre, where the arm holds the sample. The arm's orientation of the plate is
 the rotation ``R`` taking sample-frame vectors to lab vectors, so the view and
@@ -32,7 +32,6 @@ from rig.ur_kinematics import UR_MODELS, Pose, nearest_joints
 from rig.ur_kinematics import forward as ur_forward
 
 __all__ = [
-    "LAMPS_ON_ARC",
     "BonnPose",
     "arm_joints",
     "camera_direction",
@@ -50,9 +49,6 @@ __all__ = [
     "recorded_pose",
     "tilt_deg",
 ]
-
-#: The lab's lamp stands still while the arm turns the plate under it: no light arc.
-LAMPS_ON_ARC = False
 
 _LAMP = np.array([1.0, 0.0, 0.0])
 # A recorded rail position this close to an axis end is at it (a servo's read-back
@@ -145,8 +141,10 @@ def displaced_by_deg(config: RigConfig, actuators) -> float:
 
 
 def _bonn(config: RigConfig):
-    if config.kind != "bonn":
-        raise KinematicsError(f"rig.bonn needs a 'bonn' rig config; this one is {config.kind!r}")
+    if config.bonn is None:
+        raise KinematicsError(
+            f"rig.bonn needs a rig config with a [bonn] section; this one is a {config.kind!r} rig"
+        )
     return config.bonn
 
 

@@ -18,7 +18,7 @@ holding it, towards the rail — is made through the home orientation instead
 from __future__ import annotations
 
 from collections import defaultdict
-from dataclasses import dataclass
+from typing import NamedTuple
 
 import numpy as np
 
@@ -28,56 +28,38 @@ from rig.errors import KinematicsError, PlanError
 from rig.geometry import angular_distance_deg
 from rig.parts import Axis
 from rig.plan import Plan
-from rig.schedule import Estimate, _frame_bytes, _wanted_pairs
+from rig.steps import Estimate, Schedule, Shot, Step, frame_bytes, wanted_pairs
 from rig.timing import shots_s
 from rig.ur_kinematics import UR_MODELS
 from rig.ur_kinematics import forward as arm_forward
 
-__all__ = ["BonnSchedule", "BonnStep", "compile_bonn"]
+__all__ = ["ArmRailPose", "compile_bonn", "motion_s"]
 
 _PATH_SAMPLES = 8  # intermediate joint vectors checked along each arm move
 _SHOWN = 5  # refused pairs named in full; the rest counted
 
 
-@dataclass(frozen=True)
-class BonnStep:
-    """One pair: rail position, arm joints (deg), camera and lamp, what it records."""
+class ArmRailPose(NamedTuple):
+    """A Bonn step's pose: the rail position and the arm's joints (deg); ``via_home``: the
+    arm goes through its home orientation first (its direct path would tilt the plate
+    past ``arm.max_tilt_deg``)."""
 
-    index: int
-    kind: str
     rail_deg: float
     joints_deg: tuple[float, ...]
-    camera: str
-    lamp: str
-    view_deg: tuple[float, float]
-    light_deg: tuple[float, float]
-    view_residual_deg: float
-    light_residual_deg: float
-    exposures_s: tuple[float, ...]
     via_home: bool = False
 
-    @property
-    def cameras(self) -> tuple[str, ...]:
-        return (self.camera,)
+    #: The read-backs a step's frames must still show after capture: the rail's (the arm
+    #: reports its pose on arrival only).
+    checked_axes = ("rail_deg",)
 
-    @property
-    def source(self) -> str:
-        return self.lamp
-
-
-@dataclass(frozen=True)
-class BonnSchedule:
-    """The ordered steps and the estimate (``rig.schedule.Schedule``'s fields)."""
-
-    steps: tuple[BonnStep, ...]
-    estimate: Estimate
-    naive_estimate: Estimate
-    max_view_residual_deg: float
-    max_light_residual_deg: float
-    pairs: int
+    def summary(self) -> str:
+        """One line for a table of steps."""
+        joints = ", ".join(f"{j:.1f}" for j in self.joints_deg)
+        home = " via home" if self.via_home else ""
+        return f"rail {self.rail_deg:.1f}°, joints ({joints})°{home}"
 
 
-def compile_bonn(plan: Plan, config: RigConfig) -> BonnSchedule:
+def compile_bonn(plan: Plan, config: RigConfig) -> Schedule:
     """Ordered steps for ``plan`` on the Bonn lab ``config``, with the estimate.
 
     Raises ``PlanError`` for captures the lab cannot do (``mdf``, ``fixed``)
@@ -93,7 +75,7 @@ def compile_bonn(plan: Plan, config: RigConfig) -> BonnSchedule:
     poses: list[tuple[str, tuple, tuple, BonnPose]] = []
     refused: dict[str, list[str]] = defaultdict(list)
     here = home_joints(config)
-    for kind, view, light in _wanted_pairs(plan):
+    for kind, view, light in wanted_pairs(plan):
         try:
             pose = inverse(config, view, light, current_rad=here)
         except KinematicsError as err:
@@ -118,7 +100,7 @@ def compile_bonn(plan: Plan, config: RigConfig) -> BonnSchedule:
         if tour_estimate.total_s <= naive_estimate.total_s
         else (naive, naive_estimate)
     )
-    return BonnSchedule(
+    return Schedule(
         steps=steps,
         estimate=estimate,
         naive_estimate=naive_estimate,
@@ -180,7 +162,7 @@ def _path_tilts_deg(config: RigConfig, q0_deg, q1_deg) -> float:
     return worst
 
 
-def _steps(config: RigConfig, poses, order, exposures) -> tuple[BonnStep, ...]:
+def _steps(config: RigConfig, poses, order, exposures) -> tuple[Step, ...]:
     camera = config.camera_arc.cameras[0].id
     lamp = config.bonn.lamp_id
     limit = config.bonn.arm.max_tilt_deg
@@ -189,41 +171,46 @@ def _steps(config: RigConfig, poses, order, exposures) -> tuple[BonnStep, ...]:
     for i, n in enumerate(order):
         kind, view, light, pose = poses[n]
         joints = np.degrees(pose.joints_rad)
-        steps.append(
-            BonnStep(
-                index=i, kind=kind, rail_deg=pose.rail_deg,
-                joints_deg=tuple(float(j) for j in joints), camera=camera, lamp=lamp,
-                view_deg=view, light_deg=light, view_residual_deg=pose.view_residual_deg,
-                light_residual_deg=pose.light_residual_deg, exposures_s=exposures,
-                via_home=_path_tilts_deg(config, q, joints) > limit,
-            )
+        placed = ArmRailPose(
+            pose.rail_deg, tuple(float(j) for j in joints),
+            via_home=_path_tilts_deg(config, q, joints) > limit,
         )  # fmt: skip
+        shot = Shot(camera, view, light, pose.view_residual_deg, pose.light_residual_deg)
+        steps.append(Step(i, kind, placed, lamp, (shot,), exposures))
         q = joints
     return tuple(steps)
 
 
-def _estimate(config: RigConfig, plan: Plan, steps: tuple[BonnStep, ...]) -> Estimate:
+def motion_s(config: RigConfig, start: ArmRailPose, target: ArmRailPose):
+    """Move and settle time (s) from one step's pose to the next's (through home where
+    ``target.via_home``)."""
+    q = np.array(start.joints_deg)
+    if not target.via_home:
+        return _move_s(config, q, start.rail_deg, np.array(target.joints_deg), target.rail_deg)
+    home = np.degrees(home_joints(config))
+    move0, settle0 = _move_s(config, q, start.rail_deg, home, start.rail_deg)
+    move1, settle1 = _move_s(config, home, start.rail_deg, np.array(target.joints_deg),
+                             target.rail_deg)  # fmt: skip
+    return move0 + settle0 + move1, settle1
+
+
+def _estimate(config: RigConfig, plan: Plan, steps: tuple[Step, ...]) -> Estimate:
     """Modelled duration and data size of ``steps`` in order (``rig.schedule.Estimate``)."""
     scale = plan.resolution.scale
-    home = np.degrees(home_joints(config))
-    q, rail = home, config.bonn.rail.axis.min_deg
+    here = ArmRailPose(config.bonn.rail.axis.min_deg, tuple(np.degrees(home_joints(config))))
     motion = capture = 0.0
     by_kind: dict[str, float] = defaultdict(float)
     for step in steps:
-        moved = 0.0
-        if step.via_home:
-            move, settle = _move_s(config, q, rail, home, rail)
-            moved, q = float(move + settle), home
-        move, settle = _move_s(config, q, rail, np.array(step.joints_deg), step.rail_deg)
-        moved += float(move + settle)
-        shots = shots_s(config, [step.camera], step.exposures_s, scale=scale)
+        move, settle = motion_s(config, here, step.pose)
+        moved = float(move + settle)
+        shots = shots_s(config, step.cameras, step.exposures_s, scale=scale)
         motion += moved
         capture += shots
         by_kind[step.kind] += moved + shots
-        q, rail = np.array(step.joints_deg), step.rail_deg
+        here = step.pose
     lamp = 2 * config.lamp_bank.warmup_s if steps else 0.0  # on once, off once
     frames = sum(len(s.exposures_s) for s in steps)
-    size = sum(len(s.exposures_s) * _frame_bytes(config, s.camera, scale) for s in steps)
+    size = sum(len(s.exposures_s) * frame_bytes(config, s.cameras[0], scale) for s in steps)
     return Estimate(
         total_s=motion + lamp + capture, motion_s=motion, lamp_s=lamp, capture_s=capture,
         frames=frames, bytes=size, by_kind_s=dict(by_kind),

@@ -1,10 +1,10 @@
 """The rig config: its kind, its sections, and reading and writing it as TOML.
 
-``kind`` names the rig design: ``wang`` (the default), ``virtex`` or ``bonn``.
-The sections of the Wang rig's parts and those every kind has (camera arc, lamp
-bank, holder) are in ``rig.sections``; the other kinds' geometry is one section
-each (``rig.kinds``). ``RigConfig`` checks that the sections fit the kind and
-answers what a kind's lamps, device roles and nominal camera models are. All
+``kind`` names the rig design (``rig.kinds``): ``wang`` (the default), ``virtex``
+or ``bonn``. The sections of the Wang rig's parts and those every kind has
+(camera arc, lamp bank, holder) are in ``rig.sections``; the other kinds'
+geometry is one section each (``rig.kind_sections``). ``RigConfig`` asks its
+kind whether the sections fit and what its lamps and device roles are. All
 positions are in the *world* (turntable) frame: origin at the turntable centre
 on the reference plane (the top of the holder plate), z up, x towards the
 camera arc at azimuth 0. Lengths in mm, angles in degrees, times in seconds.
@@ -17,14 +17,14 @@ from typing import Literal
 
 import numpy as np
 import tomli_w
-from pydantic import BaseModel, ConfigDict, Field, ValidationError, model_validator
+from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from rig.camera import PinholeCamera, look_at
 from rig.config_migration import CONFIG_VERSION, migrate_rig_config
-from rig.devices import ARM_ROLE, DEVICE_ROLES, RAIL_ROLE
 from rig.errors import ConfigError
 from rig.geometry import direction_vector
-from rig.kinds import RIG_KINDS, BonnLab, VirtexStage
+from rig.kind_sections import BonnLab, VirtexStage
+from rig.kinds import kind_names, rig_kind
 from rig.parts import Axis, Lamp
 from rig.sections import (
     CameraArc,
@@ -39,7 +39,6 @@ from rig.targets import Targets
 from rig.tomlfile import format_validation_error, read_toml
 
 __all__ = [
-    "RIG_KINDS",
     "Axis",
     "CameraArc",
     "CameraSpec",
@@ -67,7 +66,7 @@ class RigConfig(BaseModel):
 
     version: Literal[2] = Field(CONFIG_VERSION, description="layout of this config")
     name: str = "default"
-    kind: Literal["wang", "bonn", "virtex"] = Field("wang", description="the rig design")
+    kind: str = Field("wang", description="the rig design (rig.kinds)")
     turntable: Turntable = Turntable()
     light_arc: LightArc = LightArc()
     lamp_bank: LampBank = LampBank()
@@ -85,51 +84,42 @@ class RigConfig(BaseModel):
         if not isinstance(data, dict):
             return data
         data = migrate_rig_config(data)
-        if data.get("kind") in ("virtex", "bonn") and "camera_arc" not in data:
-            # one camera: straight above the VirTex stage, on the Bonn lab's rail
-            data = {**data, "camera_arc": {"cameras": [{"id": "cam0", "theta_deg": 0.0}]}}
+        kind = data.get("kind", "wang")
+        if isinstance(kind, str) and kind in kind_names():  # else the field says what is valid
+            data = rig_kind(kind).config_defaults(data)
         return data
+
+    @field_validator("kind")
+    @classmethod
+    def _known_kind(cls, kind: str) -> str:
+        if kind not in kind_names():
+            raise ValueError(f"unknown rig kind {kind!r}; valid are {kind_names()}")
+        return kind
 
     @model_validator(mode="after")
     def _kind_sections(self) -> RigConfig:
-        for other in ("virtex", "bonn"):
-            if other != self.kind and getattr(self, other) is not None:
+        mine = rig_kind(self).section
+        for other in _KIND_SECTIONS:
+            if other != mine and getattr(self, other) is not None:
                 raise ValueError(
                     f"[{other}] describes a {other!r} rig but kind is {self.kind!r}; "
                     f"set kind = {other!r} or remove [{other}]"
                 )
-        if self.kind != "wang" and getattr(self, self.kind) is None:
-            raise ValueError(f"kind {self.kind!r} needs its [{self.kind}] section")
-        cameras = self.camera_arc.cameras
-        if self.kind == "bonn" and len(cameras) != 1:
-            raise ValueError(
-                f"camera_arc.cameras: the Bonn lab has one camera, on its rail; got "
-                f"{[c.id for c in cameras]}"
-            )
-        if self.kind == "virtex":
-            oblique = [c.id for c in cameras if c.theta_deg != 0.0]
-            if oblique:
-                raise ValueError(
-                    f"camera_arc.cameras {oblique}: a VirTex stage's camera looks straight "
-                    "down at the sample; set theta_deg = 0"
-                )
+        if mine is not None and getattr(self, mine) is None:
+            raise ValueError(f"kind {self.kind!r} needs its [{mine}] section")
+        rig_kind(self).check(self)
         return self
 
     @property
     def lamps(self) -> tuple[Lamp, ...]:
         """The rig's lamps, in lamp-bank channel order."""
-        if self.kind == "virtex":
-            return self.virtex.lamps()
-        if self.kind == "bonn":
-            return self.bonn.lamps()
-        return self.light_arc.lamps
+        return rig_kind(self).lamps(self)
 
     @property
     def device_roles(self) -> tuple[str, ...]:
         """The device roles this kind of rig has, cameras aside, in the order it opens them
         (a Wang rig: ``rig.devices.DEVICE_ROLES``)."""
-        roles = {"virtex": ("lamp_bank",), "bonn": (ARM_ROLE, RAIL_ROLE, "lamp_bank")}
-        return roles.get(self.kind, DEVICE_ROLES)
+        return rig_kind(self).device_roles
 
     def device_section(self, role: str):
         """The config section of ``role`` (one of :attr:`device_roles`): it has a ``device``."""
@@ -137,9 +127,7 @@ class RigConfig(BaseModel):
             raise ConfigError(
                 f"a {self.kind!r} rig has no {role}; its devices are {list(self.device_roles)}"
             )
-        if self.kind == "bonn" and role in (ARM_ROLE, RAIL_ROLE):
-            return getattr(self.bonn, role)
-        return getattr(self, role)
+        return rig_kind(self).device_section(self, role)
 
     def camera(self, camera_id: str) -> CameraSpec:
         for cam in self.camera_arc.cameras:
@@ -171,6 +159,10 @@ class RigConfig(BaseModel):
         cy = (cam.height - 1) / 2 if cam.cy_px is None else cam.cy_px
         K = np.array([[cam.fx_px, 0, cx], [0, cam.fy_px, cy], [0, 0, 1.0]])
         return PinholeCamera(K, np.array(cam.dist), R, t, cam.width, cam.height)
+
+
+#: The config fields that hold one kind's own geometry.
+_KIND_SECTIONS = ("virtex", "bonn")
 
 
 def arc_direction(signed_theta_deg, arc_azimuth_deg) -> np.ndarray:

@@ -1,4 +1,4 @@
-"""Kinematics of the Wang rig and the VirTex stage: actuator positions ↔ sample-frame directions.
+"""Kinematics of the Wang rig: actuator positions ↔ sample-frame directions.
 
 The turntable turns the sample by α about z, so a world direction with azimuth
 ψ has sample azimuth ψ − α. Cameras sit at fixed signed polar angles on the
@@ -10,9 +10,7 @@ The inverse picks, among all cameras and lamps, the pair and axis positions that
 come closest to a wanted (view, light) pair, breaking ties by the motion from
 the current position; what it cannot hit is reported as an angular residual.
 
-A VirTex stage (``kind = "virtex"``) has no axes: its sample frame is the
-stage's, the camera looks down the z axis and lamp *i* sits at its ring
-azimuth; poses keep both axes at 0. (The Bonn lab's kinematics: ``rig.bonn``.)
+(The VirTex stage's kinematics: ``rig.kinds.virtex``; the Bonn lab's: ``rig.bonn``.)
 """
 
 from __future__ import annotations
@@ -21,30 +19,22 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from rig import bonn
 from rig.config import Axis, RigConfig, arc_direction
 from rig.errors import KinematicsError
 from rig.geometry import Sampling, angular_distance_deg, direction_angles, direction_vector
+from rig.kinds import rig_kind
 
 __all__ = [
-    "LAMPS_ON_ARC",
     "RigPose",
-    "displaced_by_deg",
     "forward",
     "inverse",
     "lamp_position_mm",
     "laser_plane",
     "laser_source_mm",
-    "recorded_lamp_mm",
     "rotate_z",
     "sampling_residuals",
     "wrap_into",
 ]
-
-#: The lamps sit on the light arc (the Wang rig) or a fixed ring (VirTex, arc 0°): a lamp's
-#: place over the sample follows from the arc and turntable angles alone.
-LAMPS_ON_ARC = True
-
 
 @dataclass(frozen=True)
 class RigPose:
@@ -115,23 +105,8 @@ def lamp_position_mm(
     config: RigConfig, lamp: str, *, arc_deg: float, turntable_deg: float
 ) -> np.ndarray:
     """(3,) position of lamp ``lamp`` in the sample frame, mm (on the light arc's radius)."""
-    radius = config.virtex.radius_mm if config.kind == "virtex" else config.light_arc.radius_mm
+    radius = config.light_arc.radius_mm
     return rotate_z(radius * _source_direction(config, lamp, arc_deg), -turntable_deg)
-
-
-def recorded_lamp_mm(config: RigConfig, lamp_id: str, actuators) -> np.ndarray:
-    """(3,) the lamp's position (mm) in the sample frame at a step, from the step's recorded
-    ``arc_deg`` and ``turntable_deg`` (a VirTex stage records none: its axes are at 0)."""
-    return lamp_position_mm(
-        config, lamp_id, arc_deg=actuators.get("arc_deg", 0.0),
-        turntable_deg=actuators.get("turntable_deg", 0.0),
-    )  # fmt: skip
-
-
-def displaced_by_deg(config: RigConfig, actuators) -> float:
-    """0: a Wang rig's or a VirTex stage's step records the directions its cameras and lamps
-    stand at, the same for every pair that asked for them, so they are its sampling's."""
-    return 0.0
 
 
 def laser_source_mm(
@@ -147,17 +122,7 @@ def laser_source_mm(
 
 def _source_direction(config: RigConfig, source: str, arc_deg: float) -> np.ndarray:
     """World unit vector towards lamp or laser mount ``source`` with the arc at ``arc_deg``."""
-    _wang_or_virtex(config)
-    if config.kind == "virtex":
-        lamp = config.lamp(source)
-        index = [lamp.id for lamp in config.lamps].index(lamp.id)
-        return direction_vector(lamp.theta_deg, config.virtex.azimuth_deg(index))
     return arc_direction(_source_theta(config, source), arc_deg)
-
-
-def _wang_or_virtex(config: RigConfig) -> None:
-    if config.kind == "bonn":
-        raise KinematicsError("the Bonn lab's kinematics are rig.bonn's, not rig.kinematics'")
 
 
 def _source_theta(config: RigConfig, source: str) -> float:
@@ -189,9 +154,6 @@ def inverse(
     current : (turntable_deg, arc_deg) now; free axes stay put and ties go to
         the smaller move.
     """
-    _wang_or_virtex(config)
-    if config.kind == "virtex":
-        return _inverse_virtex(config, view_deg, light_deg, sources)
     tt_axis, arc_axis = config.turntable.axis, config.light_arc.axis
     cur_tt, cur_arc = current if current is not None else (tt_axis.min_deg, arc_axis.min_deg)
     want_v = direction_vector(*view_deg)
@@ -242,25 +204,6 @@ def inverse(
     )
 
 
-def _inverse_virtex(config: RigConfig, view_deg, light_deg, sources: str) -> RigPose:
-    """The stage's camera and the lamp nearest ``light_deg``; nothing moves."""
-    if sources != "lamps":
-        raise KinematicsError("a VirTex stage has no laser; its sources are its lamps")
-    lamps = config.lamps
-    lamp_dirs = np.array([_source_direction(config, lamp.id, 0.0) for lamp in lamps])
-    light_err = angular_distance_deg(lamp_dirs, direction_vector(*light_deg))
-    n = int(np.argmin(np.round(light_err, 6)))
-    return RigPose(
-        turntable_deg=0.0,
-        arc_deg=0.0,
-        camera=config.camera_arc.cameras[0].id,
-        lamp=lamps[n].id,
-        view_residual_deg=float(angular_distance_deg(np.array([0, 0, 1.0]),
-                                                     direction_vector(*view_deg))),
-        light_residual_deg=float(light_err[n]),
-    )  # fmt: skip
-
-
 def laser_plane(
     config: RigConfig, *, arc_deg: float, mount: int, tilt_deg: float, turntable_deg: float
 ) -> tuple[np.ndarray, float]:
@@ -305,7 +248,7 @@ def sampling_residuals(config: RigConfig, sampling: Sampling) -> list[dict]:
     always hits) and as a light (with a frontal view). Returns one row per ring:
     ``theta_deg``, ``count``, ``max_view_residual_deg``, ``max_light_residual_deg``.
     """
-    solve = bonn.inverse if config.kind == "bonn" else inverse
+    solve = rig_kind(config).inverse
     rows = []
     for theta, idx in sampling.rings().items():
         view_err = light_err = 0.0

@@ -48,6 +48,10 @@ class KindRegistry:
 
         return add
 
+    def unregister(self, role: str, kind: str) -> None:
+        """Forget what serves ``kind`` in ``role`` (a family added for a while, e.g. a test's)."""
+        self._entries.pop((role, kind), None)
+
     def lookup(self, role: str, kind: str) -> Callable[..., Any] | None:
         """What serves ``kind`` in ``role``, or None (then see :meth:`served`)."""
         if (role, kind) not in self._entries:
@@ -55,7 +59,8 @@ class KindRegistry:
         return self._entries.get((role, kind))
 
     def served(self, role: str) -> list[str]:
-        """The kinds registered for ``role``."""
+        """The kinds registered for ``role`` (every module of the package imported first)."""
+        self._discover()
         return sorted(k for r, k in self._entries if r == role)
 
     def _discover(self) -> None:

@@ -5,7 +5,7 @@ a ``LightArc`` rotating about the vertical axis with N lamps (and the ``Laser``
 unit), and a fixed ``CameraArc`` with M cameras. Every kind has a camera arc
 (the VirTex stage and the Bonn lab: one camera on it), a ``LampBank`` switching
 the lamps, and the sample's ``Holder`` plate; the other kinds' own geometry is
-in ``rig.kinds``. All positions are in the *world* (turntable) frame: origin at
+in ``rig.kind_sections``. All positions are in the *world* (turntable) frame: origin at
 the turntable centre on the reference plane (the top of the holder plate), z up,
 x towards the camera arc at azimuth 0. Lengths in mm, angles in degrees, times
 in seconds.

@@ -4,10 +4,10 @@ One model, used wherever time is predicted or spent on purpose: the plan
 estimate (:func:`rig.schedule.estimate`), the simulator's capture timing
 (:meth:`sim.Simulator.capture_timing`) and the daemon benchmark's modelled rig.
 
-- Motion: turntable and arc move at once, each on its trapezoidal profile
-  (:meth:`rig.config.Axis.move_time_s`); the step waits for the slower, then
-  for the longer settle time of the axes that moved. A VirTex stage does not
-  move.
+- Motion (:func:`motion_s`, a Wang rig's; each rig kind has its own,
+  ``RigKind.motion_s``): turntable and arc move at once, each on its trapezoidal
+  profile (:meth:`rig.config.Axis.move_time_s`); the step waits for the slower,
+  then for the longer settle time of the axes that moved.
 - Lamp: the bank waits its warm-up after each switch: on (the light settles)
   and off (the sensors confirm it dark), so twice per lamp step.
 - Capture: the cameras of a step fire together, so each exposure costs its
@@ -28,7 +28,7 @@ import numpy as np
 from rig.config import RigConfig
 
 if TYPE_CHECKING:
-    from rig.schedule import Step
+    from rig.steps import Step
 
 __all__ = ["StepTiming", "motion_s", "readout_s", "scan_s", "shots_s", "step_timing"]
 
@@ -55,12 +55,8 @@ class StepTiming:
 def motion_s(config: RigConfig, start, target) -> tuple[np.ndarray, np.ndarray]:
     """Move and settle time (s) from ``start`` to ``target`` = (turntable_deg, arc_deg).
 
-    Both may be arrays (broadcast): the planner prices many targets at once. A
-    VirTex stage has no axes: nothing moves, nothing settles.
+    Both may be arrays (broadcast): the planner prices many targets at once.
     """
-    if config.kind == "virtex":
-        zero = np.zeros(np.broadcast(np.asarray(target[0]), np.asarray(target[1])).shape)
-        return zero, zero
     tt, arc = config.turntable.axis, config.light_arc.axis
     d_tt = np.abs(np.asarray(target[0], dtype=np.float64) - start[0])
     d_arc = np.abs(np.asarray(target[1], dtype=np.float64) - start[1])
@@ -91,9 +87,12 @@ def scan_s(config: RigConfig, frames: int, sweep_deg: float) -> float:
     return max(frames / config.laser.frame_rate_hz, sweep) + sweep
 
 
-def step_timing(config: RigConfig, step: Step, start, *, scale: float = 1.0) -> StepTiming:
-    """Timing of ``step`` with the axes at ``start`` = (turntable_deg, arc_deg)."""
-    move, settle = motion_s(config, start, (step.turntable_deg, step.arc_deg))
+def step_timing(
+    config: RigConfig, step: Step, start, *, scale: float = 1.0, motion=motion_s
+) -> StepTiming:
+    """Timing of ``step`` with the actuators at the pose ``start``; ``motion`` is the rig
+    kind's move-time model (``RigKind.motion_s``)."""
+    move, settle = motion(config, start, step.pose)
     if step.kind == "mdf":
         lamp = 0.0
         capture = scan_s(config, step.scan_frames, step.tilt_deg[1] - step.tilt_deg[0])

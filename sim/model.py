@@ -11,10 +11,10 @@ from functools import cached_property
 
 import numpy as np
 
-from rig import bonn
 from rig.camera import PinholeCamera
-from rig.kinematics import lamp_position_mm, laser_plane, laser_source_mm, rotate_z
+from rig.kinematics import laser_plane, laser_source_mm, rotate_z
 from sim.holder import RECESS_GREY, SceneMesh, assemble, plate_albedo
+from sim.kinds import sim_kind
 from sim.materials import eval_albedo
 from sim.raycast import RayCaster
 from sim.samples import SampleGeometry, generator
@@ -149,9 +149,7 @@ class SceneModel:
         """The camera's model in the sample frame (turntable at 0); in the Bonn lab,
         where ``snapshot``'s arm and rail put it."""
         rig = self.scene.rig
-        if rig.kind == "bonn" and snapshot is not None:
-            return bonn.camera_model(rig, camera_id, snapshot.plate_rotation(), snapshot.rail_deg)
-        return rig.camera_model(camera_id)
+        return sim_kind(rig.kind).camera(rig, camera_id, snapshot)
 
     def camera_rays(self, camera: PinholeCamera, turntable_deg: float):
         """Pinhole rays through every pixel centre in the sample frame.
@@ -176,12 +174,7 @@ class SceneModel:
         out = {}
         for lamp_id in sorted(snapshot.lamps_on):
             lamp = rig.lamp(lamp_id)
-            if rig.kind == "bonn":
-                pos = bonn.lamp_position_mm(rig, snapshot.plate_rotation())
-            else:
-                pos = lamp_position_mm(
-                    rig, lamp_id, arc_deg=snapshot.arc_deg, turntable_deg=snapshot.turntable_deg
-                )
+            pos = sim_kind(rig.kind).lamp_mm(rig, lamp_id, snapshot)
             out[lamp_id] = LightSource.from_lamp(
                 lamp, pos, self.scene.spec.radiometry.intensity_w_sr
             )

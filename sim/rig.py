@@ -20,8 +20,9 @@ from typing import Any, Literal
 
 from rig.clock import Clock, RealClock
 from rig.config import RigConfig
-from rig.devices import ACTUATOR_ROLES, ARM_ROLE, RAIL_ROLE, SimCameraConnection
+from rig.devices import ACTUATOR_ROLES, ARM_ROLE, SimCameraConnection
 from rig.errors import ConfigError
+from rig.kinds import rig_kind
 from sim.peers import CameraFaults, CameraServer, Peer, start_peer
 from sim.scene import Scene, load_scene
 from sim.simulator import Simulator
@@ -110,9 +111,7 @@ class SimulatedRig:
         update = {
             role: peer.connect(config.device_section(role)) for role, peer in self.peers.items()
         }
-        if config.kind == "bonn":  # the arm and the rail are the Bonn lab's section's
-            lab = {role: update.pop(role) for role in (ARM_ROLE, RAIL_ROLE) if role in update}
-            update["bonn"] = config.bonn.model_copy(update=lab)
+        config = rig_kind(config).with_device_sections(config, update)
         cameras = tuple(
             cam.model_copy(
                 update={
@@ -123,8 +122,8 @@ class SimulatedRig:
             )
             for cam in config.camera_arc.cameras
         )
-        update["camera_arc"] = config.camera_arc.model_copy(update={"cameras": cameras})
-        return config.model_copy(update=update)
+        arc = config.camera_arc.model_copy(update={"cameras": cameras})
+        return config.model_copy(update={"camera_arc": arc})
 
     def stop(self) -> None:
         """Stop every peer that runs and release the GL context (idempotent)."""

@@ -34,6 +34,7 @@ from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from rig.config import RigConfig
 from rig.errors import ConfigError
+from rig.kinds import rig_kind
 from rig.tomlfile import format_validation_error, read_toml
 from sim.materials import ImageAlbedo, MaterialSpec
 from sim.samples import generator
@@ -102,9 +103,9 @@ class SampleSpec(_Closed):
 
 class RigSpec(_Closed):
     config: Path | None = Field(None, description="rig config TOML (default rig if absent)")
-    kind: Literal["wang", "bonn", "virtex"] | None = Field(
-        None, description="the rig's kind (its section's defaults unless given); default: "
-        "the config's"
+    kind: str | None = Field(
+        None, description="the rig's kind (rig.kinds; its section's defaults unless given); "
+        "default: the config's"
     )
     overrides: dict[str, Any] = Field(default_factory=dict, description="RigConfig fields")
 
@@ -313,8 +314,13 @@ def _rig(spec: SceneSpec, base_dir: Path, source: str, problems: list[str]) -> R
     data = _merge(base, spec.rig.overrides)
     if spec.rig.kind is not None:
         data["kind"] = spec.rig.kind
-        if spec.rig.kind != "wang":
-            data.setdefault(spec.rig.kind, {})
+        try:
+            section = rig_kind(spec.rig.kind).section
+        except ConfigError as err:
+            problems.append(f"rig.kind: {err}")
+            return None
+        if section is not None:  # the kind's section with its defaults
+            data.setdefault(section, {})
     try:
         rig = RigConfig.model_validate(data)
     except ValidationError as err:

@@ -21,6 +21,7 @@ import numpy as np
 from rig.bonn import plate_rotation
 from rig.clock import Clock
 from rig.config import Axis, RigConfig
+from rig.devices import RAIL_ROLE
 
 __all__ = ["AxisMotion", "World", "WorldSnapshot"]
 
@@ -113,7 +114,9 @@ class World:
     def __post_init__(self) -> None:
         self.turntable = AxisMotion(self.config.turntable.axis)
         self.arc = AxisMotion(self.config.light_arc.axis)
-        self.rail = AxisMotion(self.config.bonn.rail.axis) if self.config.kind == "bonn" else None
+        roles = self.config.device_roles
+        rail = self.config.device_section(RAIL_ROLE).axis if RAIL_ROLE in roles else None
+        self.rail = AxisMotion(rail) if rail is not None else None
         sweep = self.config.laser
         self.laser_tilt = AxisMotion(
             Axis(

@@ -57,6 +57,9 @@ class ModelledRig:
     def home(self, *, laser: bool) -> None:
         self.here = (0.0, 0.0)
 
+    def place(self, pose) -> dict[str, float]:
+        return self.move(turntable_deg=pose.turntable_deg, arc_deg=pose.arc_deg)
+
     def move(self, *, turntable_deg: float, arc_deg: float) -> dict[str, float]:
         move, settle = motion_s(self.config, self.here, (turntable_deg, arc_deg))
         self.clock.sleep(float(move + settle))

@@ -13,7 +13,8 @@ from orchestrator.cli.common import console, load_config_option, working
 from rig.config import RigConfig
 from rig.kinematics import sampling_residuals
 from rig.plan import Plan, load_plan
-from rig.schedule import Schedule, compile_plan
+from rig.schedule import compile_plan
+from rig.steps import Schedule
 
 __all__ = ["register"]
 
@@ -94,14 +95,13 @@ def register(app: typer.Typer) -> None:
 
 def _print_steps(schedule: Schedule, n: int) -> None:
     table = Table(title=f"First {min(n, len(schedule.steps))} of {len(schedule.steps)} steps")
-    for col in ("#", "kind", "turntable°", "arc°", "source", "cameras", "frames/cam"):
+    for col in ("#", "kind", "pose", "source", "cameras", "frames/cam"):
         table.add_column(col)
     for step in schedule.steps[:n]:
         table.add_row(
             str(step.index),
             step.kind,
-            f"{step.turntable_deg:.1f}",
-            f"{step.arc_deg:.1f}",
+            step.pose.summary(),
             step.source,
             ",".join(step.cameras),
             str(step.frames_per_camera),

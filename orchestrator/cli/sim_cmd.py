@@ -15,14 +15,14 @@ from rich.markup import escape
 from typer.core import TyperGroup
 
 from orchestrator.cli.common import PLAIN_HELP, console, prepare_file
-from rig.config import RIG_KINDS
 from rig.errors import ConfigError
+from rig.kinds import kind_names
 
 __all__ = ["app", "parse_faults"]
 
 
 # what --config-kind accepts: the rig kinds
-Kind = Enum("Kind", {kind: kind for kind in RIG_KINDS}, type=str)
+Kind = Enum("Kind", {kind: kind for kind in kind_names()}, type=str)
 
 
 class _DefaultServe(TyperGroup):

@@ -17,9 +17,8 @@ from collections.abc import Callable, Mapping, Sequence
 
 from orchestrator.daemon.devices import Captured, DeviceSet
 from rig.archive import FrameFlag
-from rig.bonn_plan import BonnStep
 from rig.frame_check import FrameState, frame_mismatch, stale_frames
-from rig.schedule import Step
+from rig.steps import Step
 
 __all__ = ["checked_capture", "flagged_payload"]
 
@@ -27,7 +26,7 @@ Frames = dict[str, list[Captured]]
 
 
 def checked_capture(
-    step: Step | BonnStep,
+    step: Step,
     devices: DeviceSet,
     actuators: Mapping[str, float],
     redrive: Callable[[], Mapping[str, float]],
@@ -56,19 +55,15 @@ def checked_capture(
     return frames, tuple(flags), actuators
 
 
-def _axes(step: Step | BonnStep) -> tuple[str, ...]:
-    return ("rail_deg",) if isinstance(step, BonnStep) else ("turntable_deg", "arc_deg")
-
-
 def _mismatches(
-    step: Step | BonnStep, settled: Mapping[str, float], after: Mapping, frames: Frames
+    step: Step, settled: Mapping[str, float], after: Mapping, frames: Frames
 ) -> dict[tuple[str, int], str]:
     """Why each frame (by camera and sub) does not record ``step``'s state: its lamp
     alone, and the axes where the move settled (the drivers checked that against the
     step's targets on arrival; here they must not have left it)."""
     meant = FrameState(
         lamps_on=frozenset({step.source}),
-        axes={axis: settled[axis] for axis in _axes(step) if axis in settled},
+        axes={axis: settled[axis] for axis in step.pose.checked_axes if axis in settled},
     )
     readback = FrameState(
         lamps_on=None if "lamps_on" not in after else frozenset(after["lamps_on"]),
@@ -85,7 +80,7 @@ def _mismatches(
     return reasons
 
 
-def flagged_payload(session: str, step: Step | BonnStep, flags: Sequence[FrameFlag]) -> dict:
+def flagged_payload(session: str, step: Step, flags: Sequence[FrameFlag]) -> dict:
     """The ``flagged`` event: a step's frames that did not record its state, and why."""
     return {
         "session": session,

@@ -9,7 +9,9 @@ Drivers are synchronous and retry on their own; a ``DeviceError`` reaching the
 facade has survived those retries.
 
 ``build_devices(config, clock=..., scale=...)`` opens, through
-``drivers.open_device``, the driver each device section's ``kind`` names. Tests
+``drivers.open_device``, the driver each device section's ``kind`` names, and
+composes them into the rig kind's device set (``orchestrator.daemon.kinds``:
+``RigDevices``, or the Bonn lab's ``BonnDevices``). Tests
 build ``RigDevices`` from in-process soft devices with the same interfaces
 (``drivers.interfaces``).
 """
@@ -25,9 +27,11 @@ import numpy as np
 
 from drivers import DeviceError, open_device
 from drivers.interfaces import Axis, LampBank, LaserUnit
+from orchestrator.daemon.kinds import DEVICE_SETS
 from orchestrator.daemon.scan import Captured, Scan, sweep_scan
 from rig.clock import Clock
 from rig.config import RigConfig
+from rig.steps import AxesPose
 
 __all__ = [
     "Camera",
@@ -113,7 +117,8 @@ class DeviceSet(Protocol):
     """What a session needs from the rig (``RigDevices``, or replay devices)."""
 
     def home(self, *, laser: bool) -> None: ...
-    def move(self, *, turntable_deg: float, arc_deg: float) -> dict[str, float]: ...
+    def place(self, pose) -> dict[str, float]:
+        """Move to a step's pose (its rig kind's) and settle; the actuators' read-back."""
     def lamp(self, lamp_id: str, on: bool) -> None: ...
     def laser(self, mount: int, on: bool) -> None: ...
     def capture(
@@ -204,6 +209,10 @@ class RigDevices:
         self.clock.sleep(settle)
         self._position = {"turntable_deg": turntable_deg, "arc_deg": arc_deg}
         return {"turntable_deg": float(tt), "arc_deg": float(arc)}
+
+    def place(self, pose: AxesPose) -> dict[str, float]:
+        """:meth:`move` to a step's pose."""
+        return self.move(turntable_deg=pose.turntable_deg, arc_deg=pose.arc_deg)
 
     def forget_position(self) -> None:
         """Forget where the axes were sent: the next ``move`` sends both again (a
@@ -330,7 +339,7 @@ class RigDevices:
 
 def build_devices(
     config: RigConfig, *, clock: Clock, scale: float = 1.0, laser: bool = True
-) -> RigDevices:
+) -> DeviceSet:
     """Open the driver of every device ``config`` names (the simulator's peers answer
     the same way); what opened is closed again if a later one fails.
 
@@ -345,15 +354,20 @@ def build_devices(
         opened.append(device)
         return device
 
+    compose = DEVICE_SETS.lookup("devices", config.kind)
+    if compose is None:
+        raise DeviceError(
+            "rig", "open", f"no device set serves a {config.kind!r} rig; "
+            f"served are {DEVICE_SETS.served('devices')}",
+        )  # fmt: skip
     try:
-        roles = config.device_roles
-        turntable = opening("turntable", config.turntable) if "turntable" in roles else None
-        arc = opening("light_arc", config.light_arc) if "light_arc" in roles else None
-        lamp_ids = [lamp.id for lamp in config.lamps]
-        lamps = opening("lamp_bank", config.lamp_bank, lamp_ids=lamp_ids)
-        unit = opening("laser", config.laser) if laser and "laser" in roles else None
-        lab = {role: opening(role, config.device_section(role)) for role in ("arm", "rail")
-               if role in roles}  # fmt: skip
+        actuators = {}
+        for role in config.device_roles:
+            if role == "lamp_bank":
+                lamp_ids = [lamp.id for lamp in config.lamps]
+                lamps = opening(role, config.lamp_bank, lamp_ids=lamp_ids)
+            elif laser or role != "laser":
+                actuators[role] = opening(role, config.device_section(role))
         cameras = {}
         for spec in config.camera_arc.cameras:
             camera = opening("camera", spec)
@@ -366,10 +380,4 @@ def build_devices(
         for device in reversed(opened):
             device.close()
         raise
-    if lab:
-        from orchestrator.daemon.bonn_devices import BonnDevices  # it builds on RigDevices
-
-        return BonnDevices(config, clock=clock, lamps=lamps, cameras=cameras, **lab)
-    return RigDevices(
-        config, clock=clock, turntable=turntable, arc=arc, lamps=lamps, laser=unit, cameras=cameras
-    )
+    return compose(config, clock=clock, lamps=lamps, cameras=cameras, **actuators)

@@ -16,7 +16,7 @@ import numpy as np
 
 from rig.archive import FrameFlag
 from rig.frame_check import flag_summary
-from rig.schedule import Schedule, Step
+from rig.steps import Schedule, Step
 
 __all__ = ["Progress"]
 

@@ -50,6 +50,10 @@ class ReplayDevices:
     def home(self, *, laser: bool) -> None:
         self._position = {"turntable_deg": 0.0, "arc_deg": 0.0}
 
+    def place(self, pose) -> dict[str, float]:
+        """:meth:`move` to a step's pose (a rig of axes': the Bonn lab's are not replayed)."""
+        return self.move(turntable_deg=pose.turntable_deg, arc_deg=pose.arc_deg)
+
     def move(self, *, turntable_deg: float, arc_deg: float) -> dict[str, float]:
         """Start the next recorded step; its read-back positions must match the request."""
         if self._next >= len(self._steps):

@@ -41,7 +41,6 @@ from orchestrator.daemon.state import IllegalTransition, SessionEvent, SessionSt
 from orchestrator.daemon.step import StepRunner
 from orchestrator.daemon.stream import SessionOutbox
 from rig.archive import Archive, ArchiveError, ArchiveFull, FrameFormat
-from rig.bonn_plan import BonnStep
 from rig.calfile import load_calibration
 from rig.clock import Clock
 from rig.config import RigConfig
@@ -49,7 +48,8 @@ from rig.errors import RigError
 from rig.frame_check import flags_of
 from rig.material import copy_flat_field
 from rig.plan import Plan, parse_plan
-from rig.schedule import Schedule, Step, compile_plan
+from rig.schedule import compile_plan
+from rig.steps import Schedule, Step
 
 __all__ = ["DeviceFactory", "Session", "SessionError", "frame_formats"]
 
@@ -246,7 +246,7 @@ class Session:
             self._fire(SessionEvent.FINISHED)
 
     def _run_with_faults(
-        self, step: Step, devices: DeviceSet, following: Step | BonnStep | None
+        self, step: Step, devices: DeviceSet, following: Step | None
     ) -> None:
         while True:
             self._wait_runnable()
@@ -290,7 +290,7 @@ class Session:
                 continue  # paused in between: wait again
 
     def _run_step(
-        self, step: Step | BonnStep, devices: DeviceSet, following: Step | BonnStep | None
+        self, step: Step, devices: DeviceSet, following: Step | None
     ) -> None:
         self._progress.at_step(step.index)
         started_at = self.clock.now()

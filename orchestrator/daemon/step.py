@@ -1,31 +1,26 @@
 """One step against the devices: move, light, capture, commit, switch off, stream.
 
-``StepRunner.move`` sends the axes (both at once; on a Bonn rig the arm and the
-rail) and returns when they settled. ``StepRunner.expose`` then switches the
-step's lamp or laser on, triggers the cameras (or sweeps the laser sheet past
-them), commits the frames to the archive in one atomic append, switches the
-source off (a lamp the following step uses too stays lit) and streams the frames
-to the workers. Between the two the session decides whether to go on: an abort
-during a long move lights nothing.
+``StepRunner.move`` sends the step's pose to the devices (a Wang rig's two axes
+at once; a Bonn lab's arm and rail) and returns when they settled.
+``StepRunner.expose`` then switches the step's lamp or laser on, triggers the
+cameras (or sweeps the laser sheet past them), commits the frames to the archive
+in one atomic append, switches the source off (a lamp the following step uses
+too stays lit) and streams the frames to the workers. Between the two the session
+decides whether to go on: an abort during a long move lights nothing.
 """
 
 from __future__ import annotations
 
 import itertools
 
-import numpy as np
-
 from orchestrator.daemon.checks import checked_capture, flagged_payload
 from orchestrator.daemon.devices import Captured, DeviceSet
 from orchestrator.daemon.stream import SessionOutbox
 from orchestrator.wire.protocol import ArraySpec, FrameHeader
 from rig.archive import Archive, FrameFlag, FrameRecord, StepRecord
-from rig.bonn import forward as bonn_forward
-from rig.bonn import plate_rotation
-from rig.bonn_plan import BonnStep
 from rig.config import RigConfig
-from rig.kinematics import forward
-from rig.schedule import Step
+from rig.kinds import rig_kind
+from rig.steps import Step
 
 __all__ = ["StepRunner"]
 
@@ -51,22 +46,19 @@ class StepRunner:
         #: The lamp the previous step left lit for the next one (None: all off).
         self.lit: str | None = None
 
-    def move(self, step: Step | BonnStep, devices: DeviceSet) -> dict:
-        """Move to the step's positions and wait until settled; the actuators' positions."""
-        if isinstance(step, BonnStep):  # the arm turns the plate, the rail moves the camera
-            actuators = devices.place(rail_deg=step.rail_deg, joints_deg=step.joints_deg)
-        else:
-            actuators = devices.move(turntable_deg=step.turntable_deg, arc_deg=step.arc_deg)
+    def move(self, step: Step, devices: DeviceSet) -> dict:
+        """Move to the step's pose and wait until settled; the actuators' positions."""
+        actuators = devices.place(step.pose)
         self.outbox.publish("telemetry", {"session": self.session, "step": step.index, **actuators})
         return actuators
 
     def expose(
         self,
-        step: Step | BonnStep,
+        step: Step,
         devices: DeviceSet,
         actuators: dict,
         started_at: float,
-        following: Step | BonnStep | None,
+        following: Step | None,
     ) -> tuple[int, tuple[FrameFlag, ...]]:
         """Light, capture, check and commit the step that ``move`` placed; how many
         frames it has, and those flagged (``rig.frame_check``: re-captured or not).
@@ -108,26 +100,16 @@ class StepRunner:
         return sum(len(f) for f in frames.values()), flags
 
     def _record(
-        self, step: Step | BonnStep, actuators: dict, started_at: float, *, flags, **source
+        self, step: Step, actuators: dict, started_at: float, *, flags, **source
     ) -> StepRecord:
-        views, light = {}, None
-        if isinstance(step, BonnStep):  # the directions the arm and the rail were sent to
-            rotation = plate_rotation(self.config, np.radians(step.joints_deg))
-            view, light = bonn_forward(self.config, rotation, step.rail_deg)
-            views[step.camera] = (float(view[0]), float(view[1]))
-        else:
-            for shot in step.shots:
-                view, light = forward(
-                    self.config, turntable_deg=step.turntable_deg, arc_deg=step.arc_deg,
-                    camera=shot.camera, lamp=step.source,
-                )  # fmt: skip
-                views[shot.camera] = (float(view[0]), float(view[1]))
+        # the directions where the pose the devices were sent to puts cameras and light
+        views, light = rig_kind(self.config).step_directions(self.config, step)
         return StepRecord(
             index=step.index,
             kind=step.kind,
             cameras=step.cameras,
             views_deg=views,
-            light_deg=(float(light[0]), float(light[1])),
+            light_deg=light,
             actuators=actuators,
             exposures_s=step.exposures_s,
             started_at=started_at,
@@ -135,7 +117,7 @@ class StepRunner:
             **source,
         )
 
-    def _stream(self, step: Step | BonnStep, frames: dict[str, list[Captured]]) -> None:
+    def _stream(self, step: Step, frames: dict[str, list[Captured]]) -> None:
         for camera, captured in frames.items():
             for frame in captured:
                 header = FrameHeader(

@@ -100,7 +100,7 @@ def view_slots(
         and their camera ``""`` (an imported partial data set).
     displaced_by_deg : mapping step index → deg, optional
         Steps whose recorded directions each lie up to that far from the pair
-        they were asked for (``rig.kind_kinematics``); missing or 0: on it.
+        they were asked for (``RigKind.displaced_by_deg``); missing or 0: on it.
 
     Returns
     -------

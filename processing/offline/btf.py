@@ -19,7 +19,7 @@ is nothing to compress: the stage is skipped (``StageSkipped``) with the
 count of each flag's reason.
 
 A capture the rig made off the pair it was asked for (the Bonn lab's
-retro-reflection pairs, ``rig.kind_kinematics``) fills that pair's cell and
+retro-reflection pairs, ``RigKind.displaced_by_deg``) fills that pair's cell and
 is listed in the material's ``displaced`` attribute with the directions it
 was measured at (``docs/btf.md``).
 """
@@ -43,7 +43,7 @@ from processing.registration import register_capture
 from rig.archive import Archive
 from rig.config import RigConfig
 from rig.interchange import imported_normtextures
-from rig.kind_kinematics import step_kinematics
+from rig.kinds import rig_kind
 from rig.material import Radiometry, write_btf
 
 __all__ = ["BtfSlot", "BtfStage", "resample_texels", "slot_normtextures", "slot_table"]
@@ -143,10 +143,10 @@ def slot_table(archive: Archive, *, gaps: bool = False) -> SlotTable:
     """The archive's BTF captures as view slots × lights (``processing.btf.view_slots``,
     ``gaps`` as there), each step's displacement from its pair asked of the rig's kind."""
     config = RigConfig.model_validate(archive.rig_config)
-    kinematics = step_kinematics(config)
+    rig = rig_kind(config)
     steps = archive.step_table()
     displaced = {
-        s.index: kinematics.displaced_by_deg(config, s.actuators) for s in steps if s.kind == "btf"
+        s.index: rig.displaced_by_deg(config, s.actuators) for s in steps if s.kind == "btf"
     }
     return view_slots(steps, gaps=gaps, displaced_by_deg=displaced)
 

@@ -7,7 +7,7 @@ onto the sample's N×N texel grid (``processing.registration``: holder markers
 the grid of the normtextures and the MDF (``rig.geometry.texel_centers_mm``)
 and are in the sample frame. The lamps are near: their positions come from
 the archive's rig config and each step's recorded actuators, by the rig's
-kind (``rig.kind_kinematics``: a Wang rig's arc and turntable angles, a Bonn
+kind (``RigKind.recorded_lamp_mm``: a Wang rig's arc and turntable angles, a Bonn
 lab's plate rotation), and the solve is refined with the
 integrated height (seed 004: Woodham's method, then integration). Frames are
 linearised by the archive's response curve and divided by the part of their
@@ -38,7 +38,7 @@ from processing.registration import register_capture
 from rig.archive import Archive
 from rig.config import RigConfig
 from rig.geometry import direction_angles, direction_vector
-from rig.kind_kinematics import step_kinematics
+from rig.kinds import rig_kind
 from rig.material import PsView, write_ps
 
 __all__ = ["PsStage"]
@@ -180,8 +180,8 @@ def _lights(config: RigConfig, steps) -> NearLights | DistantLights:
     if all(lamp.kind == "directional" for lamp in lamps):
         directions = np.array([direction_vector(*s.light_deg) for s in steps])
         return DistantLights(directions, intensities)
-    kinematics = step_kinematics(config)
-    positions = [kinematics.recorded_lamp_mm(config, s.lamp, s.actuators) for s in steps]
+    rig = rig_kind(config)
+    positions = [rig.recorded_lamp_mm(config, s.lamp, s.actuators) for s in steps]
     return NearLights(np.array(positions), intensities)
 
 

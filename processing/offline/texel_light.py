@@ -29,8 +29,8 @@ import numpy as np
 from rig.calfile import CalibrationFile
 from rig.config import RigConfig
 from rig.geometry import texel_centers_mm
-from rig.kind_kinematics import step_kinematics
-from rig.kinematics import lamp_position_mm, rotate_z
+from rig.kinds import rig_kind
+from rig.kinematics import rotate_z
 
 __all__ = [
     "IRRADIANCE_FLOOR",
@@ -73,7 +73,8 @@ def lamp_positions(config: RigConfig, calibration: CalibrationFile | None, sourc
     when the rig has no near lamp on an arc (a Bonn lab's lamp moves with the
     plate: not modelled here)."""
     near = [lamp for lamp in config.lamps if lamp.kind != "directional"]
-    if not near or not step_kinematics(config).LAMPS_ON_ARC:
+    kind = rig_kind(config)
+    if not near or not kind.lamps_on_arc:
         return None
     calibrated = calibration.lamps if calibration is not None else {}
     positions, origins = {}, set()
@@ -83,7 +84,7 @@ def lamp_positions(config: RigConfig, calibration: CalibrationFile | None, sourc
             positions[lamp.id] = np.asarray(result.position_mm, dtype=np.float64)
             origins.add(f"calibrated lamp positions, {source}")
         else:
-            positions[lamp.id] = lamp_position_mm(config, lamp.id, arc_deg=0.0, turntable_deg=0.0)
+            positions[lamp.id] = kind.recorded_lamp_mm(config, lamp.id, {})  # every axis at 0
             origins.add("the rig config's lamp geometry (nominal)")
     return LampPositions(positions, "; ".join(sorted(origins)))
 

@@ -14,11 +14,11 @@ import numpy as np
 from processing.registration._errors import RegistrationError
 from processing.registration._rectify import Region
 from processing.registration._register import Registration, register_frame
-from rig import bonn
 from rig.archive import StepRecord
 from rig.camera import PinholeCamera
 from rig.config import RigConfig
 from rig.errors import ConfigError, KinematicsError
+from rig.kinds import rig_kind
 
 __all__ = ["CaptureRegistration", "register_capture"]
 
@@ -124,12 +124,13 @@ def register_capture(
 def _posed(
     config: RigConfig, step: StepRecord, camera_id: str, lens: PinholeCamera
 ) -> PinholeCamera | None:
-    """On the Bonn lab, the camera posed by the arm's and the rail's recorded state (with
-    ``lens``'s intrinsics, scaled to the frames): frames whose markers fail register from it."""
-    if config.kind != "bonn":
-        return None
+    """Where the rig kind poses the camera from the step's recorded actuators (the Bonn lab:
+    its arm and rail), with ``lens``'s intrinsics, scaled to the frames: frames whose
+    markers fail register from it. None where the kind leaves it to the markers."""
     try:
-        pose = bonn.recorded_camera(config, camera_id, step.actuators)
+        pose = rig_kind(config).posed_camera(config, camera_id, step.actuators)
     except KinematicsError as err:
         raise RegistrationError(f"step {step.index}: {err}") from err
+    if pose is None:
+        return None
     return PinholeCamera(lens.K, lens.dist, pose.R, pose.t, lens.width, lens.height)

@@ -9,7 +9,7 @@ frames, reconstructing a compressed BTF) is the caller's.
 from rig.interchange._directions import ENCODINGS, FolderFrame, FolderListing, list_folder
 from rig.interchange._errors import InterchangeError, InterchangeWriteError
 from rig.interchange._frames import FRAME_FORMATS, export_frames
-from rig.interchange._gltf import glb_generator, write_glb
+from rig.interchange._gltf import glb_generator, is_export, write_glb
 from rig.interchange._gltf_pbr import EXTENSIONS as GLTF_EXTENSIONS
 from rig.interchange._gltf_pbr import write_pbr_glb
 from rig.interchange._images import (
@@ -28,7 +28,7 @@ from rig.interchange._import import (
     import_folder,
     imported_normtextures,
 )
-from rig.interchange._manifest import EXPORTED_BY, MANIFEST, is_export, write_manifest
+from rig.interchange._manifest import EXPORTED_BY, MANIFEST, write_manifest
 from rig.interchange._maps import TextureMaps, decode_normal_map, texture_maps, write_maps
 from rig.interchange._materialx import write_materialx
 from rig.interchange._pbr_textures import PbrTextures, pbr_textures

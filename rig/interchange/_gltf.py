@@ -19,9 +19,10 @@ from pathlib import Path
 import numpy as np
 
 from rig.interchange._errors import InterchangeError
+from rig.interchange._manifest import EXPORTED_BY, is_marked_manifest
 from rig.interchange._maps import TextureMaps
 
-__all__ = ["glb_generator", "write_glb"]
+__all__ = ["glb_generator", "is_export", "write_glb"]
 
 #: The glb header (magic, version, length) and its first chunk's (length, type).
 _GLB_HEADER = struct.Struct("<4sII")
@@ -78,7 +79,6 @@ def write_glb(path, maps: TextureMaps, *, sample_mm: float, mesh=None) -> Path:
         roughnessFactor=1.0,
     )
     geometry.visual = trimesh.visual.TextureVisuals(uv=uvs, material=material)
-    from rig.interchange._manifest import EXPORTED_BY
 
     def mark(tree: dict) -> None:
         tree.setdefault("asset", {})["generator"] = EXPORTED_BY
@@ -113,3 +113,13 @@ def glb_generator(path: Path) -> str | None:
     asset = tree.get("asset") if isinstance(tree, dict) else None
     generator = asset.get("generator") if isinstance(asset, dict) else None
     return generator if isinstance(generator, str) else None
+
+
+def is_export(path: Path) -> bool:
+    """Whether ``path`` is an export this project wrote: a folder with a marked
+    manifest, or a ``.glb`` it generated. Links are not followed."""
+    if path.is_symlink():
+        return False
+    if path.is_dir():
+        return is_marked_manifest(path)
+    return path.suffix.lower() == ".glb" and glb_generator(path) == EXPORTED_BY

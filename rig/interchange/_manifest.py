@@ -13,7 +13,7 @@ import os
 from pathlib import Path
 from typing import Any
 
-__all__ = ["EXPORTED_BY", "MANIFEST", "is_export", "write_manifest"]
+__all__ = ["EXPORTED_BY", "MANIFEST", "is_marked_manifest", "write_manifest"]
 
 #: the manifest's file name (the importer reads a UBO2003 folder's, too)
 MANIFEST = "manifest.json"
@@ -31,16 +31,9 @@ def write_manifest(out: Path, manifest: dict[str, Any]) -> Path:
     return path
 
 
-def is_export(path: Path) -> bool:
-    """Whether ``path`` is an export this project wrote: a folder with a marked
-    manifest, or a ``.glb`` it generated. Links are not followed."""
-    from rig.interchange._gltf import glb_generator
-
-    if path.is_symlink():
-        return False
-    if path.is_dir():
-        return _starts_with(path / MANIFEST, _MARKER)
-    return path.suffix.lower() == ".glb" and glb_generator(path) == EXPORTED_BY
+def is_marked_manifest(folder: Path) -> bool:
+    """Whether ``folder`` holds a manifest this project wrote (links are not followed)."""
+    return _starts_with(Path(folder) / MANIFEST, _MARKER)
 
 
 def _starts_with(path: Path, prefix: bytes) -> bool:

@@ -32,7 +32,7 @@ def test_kind_configs_round_trip_through_toml(tmp_path):
         ("kind = 'virtex'", r"kind 'virtex' needs its \[virtex\] section"),
         ("[virtex]\nlamp_count = 3", r"\[virtex\] describes a 'virtex' rig but kind is 'wang'"),
         ("kind = 'virtex'\n[virtex]\nlamp_count = 2", r"virtex.lamp_count: .*greater than or"),
-        ("kind = 'tripod'", r"kind: Input should be 'wang', 'bonn' or 'virtex'"),
+        ("kind = 'tripod'", r"kind: unknown rig kind 'tripod'; valid are \['bonn', 'virtex'"),
         (
             "kind = 'virtex'\n[virtex]\n[[camera_arc.cameras]]\nid = 'c1'\ntheta_deg = 30",
             r"camera_arc.cameras \['c1'\]: a VirTex stage's camera looks straight down",
@@ -65,17 +65,21 @@ def _virtex(count=3, **stage):
 
 
 def test_virtex_forward_and_inverse_meet_at_every_lamp():
-    from rig.kinematics import forward, inverse, lamp_position_mm
+    from rig.kinds import rig_kind
+    from rig.steps import AxesPose, Shot, Step
 
     config = _virtex(6, phi0_deg=15.0, lamp_theta_deg=40.0, radius_mm=500.0)
+    virtex = rig_kind(config)
     for i, lamp in enumerate(config.lamps):
-        view, light = forward(config, turntable_deg=0, arc_deg=0, camera="cam0", lamp=lamp.id)
-        np.testing.assert_allclose(view[0], 0.0, atol=1e-9)
+        shot = Shot("cam0", (0.0, 0.0), (0.0, 0.0), 0.0, 0.0)
+        step = Step(0, "ps", AxesPose(0.0, 0.0), lamp.id, (shot,), (0.01,))
+        views, light = virtex.step_directions(config, step)
+        np.testing.assert_allclose(views["cam0"][0], 0.0, atol=1e-9)
         np.testing.assert_allclose(light, [40.0, 15.0 + 60.0 * i], atol=1e-9)
-        pose = inverse(config, (0.0, 0.0), (40.0, 15.0 + 60.0 * i + 5.0))
+        pose = virtex.inverse(config, (0.0, 0.0), (40.0, 15.0 + 60.0 * i + 5.0))
         assert pose.lamp == lamp.id and (pose.turntable_deg, pose.arc_deg) == (0.0, 0.0)
         np.testing.assert_allclose(pose.light_residual_deg, 5.0 * np.sin(np.deg2rad(40)), rtol=0.01)
-        position = lamp_position_mm(config, lamp.id, arc_deg=0.0, turntable_deg=0.0)
+        position = virtex.recorded_lamp_mm(config, lamp.id, {})
         np.testing.assert_allclose(np.linalg.norm(position), 500.0)
 
 
@@ -112,3 +116,12 @@ def test_a_virtex_stage_refuses_what_it_cannot_capture(captures, message):
     plan = parse_plan(f'[sample]\nname = "s"\n{captures}\n')
     with pytest.raises(PlanError, match=message):
         compile_plan(plan, _virtex(3))
+
+
+def test_every_registered_kind_answers_the_whole_interface():
+    from rig.kinds import RigKind, kind_names, rig_kind
+
+    assert {"wang", "bonn", "virtex"} <= set(kind_names())
+    for name in kind_names():
+        kind = rig_kind(name)
+        assert isinstance(kind, RigKind) and kind.name == name

@@ -19,6 +19,15 @@ def test_registered_entry_is_found_and_others_are_not():
     assert registry.served("turntable") == ["modbus"]
 
 
+def test_an_unregistered_entry_is_gone_and_may_be_registered_again():
+    registry = KindRegistry("json", ["turntable"])
+    registry.register("turntable", "modbus")(lambda: 1)
+    registry.unregister("turntable", "modbus")
+    assert registry.lookup("turntable", "modbus") is None
+    registry.register("turntable", "modbus")(lambda: 2)
+    assert registry.lookup("turntable", "modbus")() == 2
+
+
 def test_unknown_role_and_double_registration_are_refused():
     registry = KindRegistry("json", ["turntable"])
     with pytest.raises(ValueError, match="unknown role 'arm'"):
@@ -44,7 +53,7 @@ def test_first_miss_imports_the_package_modules(tmp_path, monkeypatch):
     try:
         import family_pkg
 
-        assert family_pkg.REGISTRY.served("lamp_bank") == []
+        assert family_pkg.REGISTRY.served("lamp_bank") == ["relays"]  # listing discovers
         assert family_pkg.REGISTRY.lookup("lamp_bank", "relays")() == "relays"
     finally:
         for name in [n for n in sys.modules if n.startswith("family_pkg")]:

@@ -40,7 +40,7 @@ def test_every_pair_captured_exactly_once(schedule):
 
 
 def test_steps_group_cameras_and_keep_positions_together(schedule):
-    positions = [(s.turntable_deg, s.arc_deg) for s in schedule.steps]
+    positions = [tuple(s.pose) for s in schedule.steps]
     # A position, once left, is never returned to.
     left = set()
     for prev, cur in itertools.pairwise(positions):
@@ -91,7 +91,7 @@ def test_fixed_shots_go_where_they_say_and_bad_ids_are_named():
         '[[captures.fixed]]\nturntable_deg = 200.0\narc_deg = 45.0\nlamp = "lamp0"\n'
     )
     steps = compile_plan(plan, config).steps
-    where = {(s.turntable_deg, s.arc_deg, s.source): s.cameras for s in steps}
+    where = {(*s.pose, s.source): s.cameras for s in steps}
     assert where[(30.0, 0.0, "lamp2")] == ("cam0", "cam3")
     assert len(where[(200.0, 45.0, "lamp0")]) == len(config.camera_arc.cameras)
     bad = parse_plan(

@@ -43,7 +43,7 @@ def test_a_frame_taken_in_the_wrong_state_is_flagged_and_taken_again(
     assert all(f.recaptured and why in f.reason for f in flagged[step.index])
     # the archived frame is the re-take: the step's own lamp and turntable angle
     expected = soft_image(
-        _format(config, camera), camera, step.turntable_deg, step.arc_deg, (step.source,),
+        _format(config, camera), camera, *step.pose, (step.source,),
         False, step.exposures_s[0],
     )  # fmt: skip
     assert (frame == expected).all()

@@ -43,7 +43,7 @@ def _check_archive(path, config, plan_text, rig=None):
                 for camera in step.cameras:
                     for sub, exposure in enumerate(step.exposures_s):
                         expected = soft_image(
-                            formats[camera], camera, step.turntable_deg, step.arc_deg,
+                            formats[camera], camera, *step.pose,
                             (step.source,), False, exposure,
                         )  # fmt: skip
                         np.testing.assert_array_equal(

@@ -1,8 +1,8 @@
-"""The geometry of the rig kinds other than the Wang rig: the VirTex stage and the Bonn lab.
+"""The config sections of the rig kinds other than the Wang rig: the VirTex stage, the Bonn lab.
 
-A rig config names its ``kind``; the Wang rig (seed 001: turntable, light arc,
-camera arc) is described by ``rig.sections``, the other kinds by one
-section each here:
+A rig config names its ``kind`` (``rig.kinds``); the Wang rig (seed 001:
+turntable, light arc, camera arc) is described by ``rig.sections``, the other
+kinds by one section each here:
 
 - ``virtex`` (seed 004): one camera straight above the sample and ``lamp_count``
   lamps at one polar angle, at equal azimuth spacing (120° for three). Nothing
@@ -28,9 +28,7 @@ from pydantic import BaseModel, ConfigDict, Field, model_validator
 from rig.devices import ArmDevice, DynamixelServos, ModbusDrive, UrController
 from rig.parts import Axis, Lamp
 
-__all__ = ["RIG_KINDS", "Arm", "BonnLab", "Rail", "RailDevice", "VirtexStage"]
-
-RIG_KINDS = ("wang", "bonn", "virtex")
+__all__ = ["Arm", "BonnLab", "Rail", "RailDevice", "VirtexStage"]
 
 LampKind = Literal["point", "spot", "directional"]
 
