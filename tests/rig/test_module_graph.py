@@ -11,7 +11,9 @@ import grimp
 from rig.kinds import kind_names
 
 ROOT = Path(__file__).resolve().parents[2]
-PACKAGES = ("rig", "sim", "orchestrator", "processing", "calibration", "render", "drivers")
+PACKAGES = (
+    "rig", "sim", "orchestrator", "studies", "processing", "calibration", "render", "drivers"
+)  # fmt: skip
 WATCHED = ("rig", "sim", "orchestrator.daemon")
 
 
