@@ -24,7 +24,7 @@ from processing.registration import register_frame
 from render import Camera, DirectionalLight, Renderer
 from render.meshes import plane
 from rig.geometry import direction_vector
-from rig.kinematics import lamp_position_mm
+from rig.kinds import rig_kind
 from rig.material import Material, PsView
 from sim.scene import scene_from_dict
 from sim.simulator import Simulator
@@ -50,9 +50,7 @@ def measured_ps(**sample) -> Material:
         register_frame(f, config.holder, size=TEXELS, camera=camera).normtexture.texture
         for f in frames
     ]
-    positions = np.array(
-        [lamp_position_mm(config, lamp, arc_deg=0.0, turntable_deg=0.0) for lamp in lamps]
-    )
+    positions = np.array([rig_kind(config).recorded_lamp_mm(config, lamp, {}) for lamp in lamps])
     stack = np.stack(textures).astype(np.float32)
     grid = PixelGrid.for_sample(config.holder.sample_mm, TEXELS)
     result = solve(stack, NearLights(positions), pixels=grid)
