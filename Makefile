@@ -39,9 +39,10 @@ debian-tools:
 tools: $(GLTF_VALIDATOR) debian-tools
 
 # Everything, as CI runs it: the ci hypothesis profile (1,000-example fuzzing), benches,
-# subprocess sessions and the browser tests included.
+# subprocess sessions and the browser tests included; on every core, a test module's tests
+# on one worker (its module fixtures, the recorded sessions, are built once).
 test: lint tools
-	HYPOTHESIS_PROFILE=ci $(BIN)/pytest
+	HYPOTHESIS_PROFILE=ci $(BIN)/pytest -n auto --dist loadscope
 
 # The fast tier: no test marked slow (subprocess sessions, benches, long simulations) and
 # the quick hypothesis profile, on every core (pytest-xdist).

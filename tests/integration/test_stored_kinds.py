@@ -40,9 +40,11 @@ def _recorded(path: Path):
             for s in steps for c in s.cameras for sub in range(len(s.exposures_s))
         }  # fmt: skip
         config = archive.rig_config
+    # Not the steps' start times: a frame the camera re-sends on a loaded machine moves the
+    # virtual clock, not what a step records or captures.
     rows = [
         (s.index, s.kind, s.cameras, s.views_deg, s.light_deg, s.actuators, s.exposures_s,
-         s.lamp, s.laser, s.started_at)
+         s.lamp, s.laser)
         for s in steps
     ]  # fmt: skip
     return config, rows, frames
