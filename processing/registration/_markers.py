@@ -176,5 +176,5 @@ def detect_markers(
     keep = np.isin(found, keep_ids)
     found, quads = found[keep], quads[keep]
     if edge_refine:
-        quads = refine_corners(gray, quads, modules=dictionary.markerSize + 2)
+        quads = refine_corners(frame, quads, modules=dictionary.markerSize + 2)
     return MarkerDetection(found, quads, rejected)
