@@ -15,9 +15,14 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
-from processing.registration._edges import as_channels, fit_corners, sample_gray
+from processing.registration._edges import fit_corners, sample_gray
 from processing.registration._errors import RegistrationError
-from processing.registration._markers import MarkerDetection, aruco_dictionary, marker_corners_mm
+from processing.registration._markers import (
+    MarkerDetection,
+    aruco_dictionary,
+    marker_corners_mm,
+    to_gray,
+)
 from rig.camera import PinholeCamera
 from rig.config import Holder
 
@@ -58,9 +63,9 @@ def track_markers(frame: np.ndarray, holder: Holder, expected_px: np.ndarray) ->
         The markers whose four edges were located and whose bits read as
         their id; none rejected (a marker is only ever looked for as itself).
     """
-    image = as_channels(frame)
+    gray = to_gray(frame)
     dictionary = aruco_dictionary(holder)
-    n_markers = len(holder.marker_centers_mm())
+    n_markers = len(marker_corners_mm(holder))
     expected = np.asarray(expected_px, dtype=np.float64)
     if expected.shape != (n_markers, 4, 2):
         raise RegistrationError(
@@ -69,7 +74,7 @@ def track_markers(frame: np.ndarray, holder: Holder, expected_px: np.ndarray) ->
         )
     bits = dictionary.markerSize
     modules = bits + 2
-    height, width = image.shape[:2]
+    height, width = gray.shape
     sides = np.linalg.norm(expected - np.roll(expected, 1, axis=1), axis=2).max(axis=1)
     # Wholly inside with a module to spare: the edge normals and the quiet zone
     # around the marker are read too.
@@ -80,9 +85,9 @@ def track_markers(frame: np.ndarray, holder: Holder, expected_px: np.ndarray) ->
             & (expected[:, :, 1] >= spare) & (expected[:, :, 1] <= height - 1 - spare)
         ).all(axis=1)  # fmt: skip
     candidates = np.flatnonzero(inside)
-    quads, ok = fit_corners(image, expected[candidates], modules=modules)
+    quads, ok = fit_corners(gray, expected[candidates], modules=modules)
     ids, quads = candidates[ok], quads[ok]
-    reads = _reads_as(image, quads, _marker_bits(dictionary, ids), modules)
+    reads = _reads_as(gray, quads, _marker_bits(dictionary, ids), modules)
     return MarkerDetection(ids[reads], quads[reads], np.zeros(0, np.int64))
 
 
@@ -113,7 +118,7 @@ def _square_to_quads(quads: np.ndarray, uv: np.ndarray) -> np.ndarray:
     return (a[:, None, :] * u + b[:, None, :] * v + p0[:, None, :]) / w
 
 
-def _reads_as(image: np.ndarray, quads: np.ndarray, bits: np.ndarray, modules: int) -> np.ndarray:
+def _reads_as(gray: np.ndarray, quads: np.ndarray, bits: np.ndarray, modules: int) -> np.ndarray:
     """(m,) bool: whether each marker (corners ``quads`` (m, 4, 2)) shows its ``bits``
     (m, b, b) inside an all-black border.
 
@@ -128,7 +133,7 @@ def _reads_as(image: np.ndarray, quads: np.ndarray, bits: np.ndarray, modules: i
     u, v = np.meshgrid(cells, cells)
     points = _square_to_quads(quads, np.column_stack([u.ravel(), v.ravel()]))
     n = modules + 2
-    levels = sample_gray(image, points).reshape(m, n, n)
+    levels = sample_gray(gray, points).reshape(m, n, n)
     quiet = np.median(levels[:, _ring(n)], axis=1)
     border = levels[:, 1:-1, 1:-1][:, _ring(n - 2)]
     threshold = 0.5 * (quiet + np.median(border, axis=1))
