@@ -12,6 +12,8 @@ left out; when too few remain, the caller runs the detector (:func:`register_fra
 
 from __future__ import annotations
 
+import functools
+
 import cv2
 import numpy as np
 
@@ -87,16 +89,20 @@ def track_markers(frame: np.ndarray, holder: Holder, expected_px: np.ndarray) ->
     candidates = np.flatnonzero(inside)
     quads, ok = fit_corners(gray, expected[candidates], modules=modules)
     ids, quads = candidates[ok], quads[ok]
-    reads = _reads_as(gray, quads, _marker_bits(dictionary, ids), modules)
+    reads = _reads_as(gray, quads, _marker_bits(holder)[ids], modules)
     return MarkerDetection(ids[reads], quads[reads], np.zeros(0, np.int64))
 
 
-def _marker_bits(dictionary: cv2.aruco.Dictionary, ids: np.ndarray) -> np.ndarray:
-    """(m, bits, bits) bool: True where a marker's module is white, row 0 on top."""
+@functools.lru_cache(maxsize=16)
+def _marker_bits(holder: Holder) -> np.ndarray:
+    """(n_markers, bits, bits) bool: True where a marker's module is white, row 0 on top."""
+    dictionary = aruco_dictionary(holder)
     size = dictionary.markerSize
     bits = [cv2.aruco.Dictionary.getBitsFromByteList(dictionary.bytesList[i : i + 1], size)
-            for i in ids]  # fmt: skip
-    return np.asarray(bits, dtype=bool).reshape(-1, size, size)
+            for i in range(len(marker_corners_mm(holder)))]  # fmt: skip
+    bits = np.asarray(bits, dtype=bool).reshape(-1, size, size)
+    bits.setflags(write=False)
+    return bits
 
 
 def _square_to_quads(quads: np.ndarray, uv: np.ndarray) -> np.ndarray:
