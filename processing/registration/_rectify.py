@@ -23,7 +23,11 @@ from scipy import ndimage
 
 from processing.registration._errors import RegistrationError
 from processing.registration._homography import PlaneHomography, distort_px
-from processing.registration._sampling import box_bilinear, project_box_bilinear
+from processing.registration._sampling import (
+    box_bilinear,
+    homography_footprint_px,
+    project_box_bilinear,
+)
 from rig.camera import PinholeCamera
 from rig.geometry import texel_centers_mm
 
@@ -175,7 +179,13 @@ def rectify(
     if region is not None:
         grid = grid + np.asarray(region.center_mm, dtype=np.float64)
     H = homography.plane_to_image
-    fx, fy = _footprint_px(H, grid, step, camera)
+    # Without a lens model the sample positions are the homography's alone: footprint,
+    # positions and samples come from compiled passes without (n, 2) temporaries.
+    pinhole = camera is None or not np.any(camera.dist)
+    if pinhole:
+        fx, fy = homography_footprint_px(H, grid.reshape(-1, 2), step)
+    else:
+        fx, fy = _footprint_px(H, grid, step, camera)
     sx = int(np.clip(np.ceil(fx), 1, max_supersample))
     sy = int(np.clip(np.ceil(fy), 1, max_supersample))
     offsets_x = ((np.arange(sx) + 0.5) / sx - 0.5) * step
@@ -190,7 +200,7 @@ def rectify(
         ]
     texture = np.zeros((n_out, n_out, channels), np.float64)
     valid = np.ones((n_out, n_out), bool)
-    if order == 1 and (camera is None or not np.any(camera.dist)):
+    if order == 1 and pinhole:
         flat = texture.reshape(-1, channels)
         project_box_bilinear(image, H, grid.reshape(-1, 2), sub, flat, valid.reshape(-1))
         texture[~valid] = 0.0

@@ -10,10 +10,12 @@ are taken. ``map_coordinates(order=1, mode="nearest")``'s values, to rounding.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 from numba import njit
 
-__all__ = ["box_bilinear", "project_box_bilinear"]
+__all__ = ["box_bilinear", "homography_footprint_px", "project_box_bilinear"]
 
 
 def box_bilinear(frame: np.ndarray, pixels: np.ndarray, n_sub: int, out: np.ndarray) -> None:
@@ -71,6 +73,19 @@ def project_box_bilinear(
     )  # fmt: skip
 
 
+def homography_footprint_px(
+    plane_to_image: np.ndarray, centers_mm: np.ndarray, step_mm: float
+) -> tuple[float, float]:
+    """Largest extent in pixels of one texel step along x and along y over the texel
+    centres (n, 2), mapped through the homography alone (a camera without lens distortion)."""
+    extents = np.zeros(2)
+    _footprint(
+        np.ascontiguousarray(plane_to_image, dtype=np.float64),
+        np.ascontiguousarray(centers_mm, dtype=np.float64), float(step_mm), extents,
+    )  # fmt: skip
+    return float(extents[0]), float(extents[1])
+
+
 @njit(cache=True, nogil=True)
 def _box_bilinear(frame, pixels, n_sub, out):
     for t in range(out.shape[0]):
@@ -86,16 +101,31 @@ def _project_box_bilinear(frame, H, centers, sub, out, valid):
     n_sub = sub.shape[0]
     for t in range(out.shape[0]):
         for k in range(n_sub):
-            px, py = centers[t, 0] + sub[k, 0], centers[t, 1] + sub[k, 1]
-            # _to_pixels' arithmetic, term by term.
-            w = H[2, 0] * px + H[2, 1] * py + H[2, 2]
-            x = (H[0, 0] * px + H[0, 1] * py + H[0, 2]) / w
-            y = (H[1, 0] * px + H[1, 1] * py + H[1, 2]) / w
+            x, y = _project(H, centers[t, 0] + sub[k, 0], centers[t, 1] + sub[k, 1])
             if not (-0.5 <= x <= cols - 0.5 and -0.5 <= y <= rows - 0.5):
                 valid[t] = False
             _accumulate(frame, x, y, out, t)
         for c in range(out.shape[1]):
             out[t, c] /= n_sub
+
+
+@njit(cache=True, nogil=True)
+def _footprint(H, centers, step, extents):
+    for t in range(centers.shape[0]):
+        x, y = _project(H, centers[t, 0], centers[t, 1])
+        ax, ay = _project(H, centers[t, 0] + step, centers[t, 1])
+        bx, by = _project(H, centers[t, 0], centers[t, 1] + step)
+        extents[0] = max(extents[0], (ax - x) ** 2 + (ay - y) ** 2)
+        extents[1] = max(extents[1], (bx - x) ** 2 + (by - y) ** 2)
+    extents[0] = math.sqrt(extents[0])
+    extents[1] = math.sqrt(extents[1])
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _project(H, px, py):
+    """Pixel (x, y) of plate point (px, py) mm: ``_to_pixels``' arithmetic, term by term."""
+    w = H[2, 0] * px + H[2, 1] * py + H[2, 2]
+    return (H[0, 0] * px + H[0, 1] * py + H[0, 2]) / w, (H[1, 0] * px + H[1, 1] * py + H[1, 2]) / w
 
 
 @njit(cache=True, nogil=True, inline="always")

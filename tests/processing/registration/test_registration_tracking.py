@@ -85,3 +85,17 @@ def test_projected_sampling_flags_texels_off_the_frame():
     expected = np.zeros((50, 1))
     box_bilinear(frame, pix, 4, expected)
     np.testing.assert_allclose(out, expected, atol=1e-9)
+
+
+def test_the_compiled_footprint_is_the_lens_models_without_distortion(rig_config):
+    from processing.registration._rectify import _footprint_px
+    from processing.registration._sampling import homography_footprint_px
+    from rig.geometry import texel_centers_mm
+    from tests.processing.registration.plate_frames import camera_homography
+
+    camera = rig_config.camera_model("cam6")
+    H = camera_homography(camera, 75.0)
+    grid = texel_centers_mm(100.0, 40)
+    expected = _footprint_px(H, grid, 2.5, None)
+    np.testing.assert_allclose(homography_footprint_px(H, grid.reshape(-1, 2), 2.5), expected, rtol=1e-12)
+    assert expected[0] != pytest.approx(expected[1], rel=0.01)  # an oblique view: x and y differ
