@@ -64,7 +64,13 @@ def refine_corners(gray: np.ndarray, quads: np.ndarray, *, modules: int) -> np.n
 def fit_corners(
     gray: np.ndarray, quads: np.ndarray, *, modules: int
 ) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`refine_corners` and which markers it refined: ``(corners (m, 4, 2), ok (m,) bool)``."""
+    """:func:`refine_corners`, and which markers it refined.
+
+    Returns
+    -------
+    corners : (m, 4, 2) float64
+    ok : (m,) bool
+    """
     image = np.ascontiguousarray(gray, dtype=np.float64)
     if image.ndim != 2 or min(image.shape) < 2:
         raise RegistrationError(f"gray: expected an (H, W) image, H, W ≥ 2, got {image.shape}")

@@ -4,9 +4,9 @@ Every marker corner found gives one correspondence between its (undistorted)
 image position and its known position on the plate (mm, z = 0). The fit is a
 normalised DLT [1]_ (OpenCV's ``findHomography`` without RANSAC) refined by
 Gauss–Newton on the reprojection error in the image, with markers whose
-corners disagree by more than ``outlier_px`` dropped and the fit repeated. Before a frame may be warped, the fit's
-conditioning is checked: how much corner noise it would amplify at the
-corners of the sample square.
+corners disagree by more than ``outlier_px`` dropped and the fit repeated.
+Before a frame may be warped, the fit's conditioning is checked: how much
+corner noise it would amplify at the corners of the sample square.
 
 References
 ----------

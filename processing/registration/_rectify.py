@@ -222,7 +222,9 @@ def rectify(
             continue
         coords = np.stack([pix[:, 1], pix[:, 0]])
         for c, plane in enumerate(planes):
-            values = ndimage.map_coordinates(plane, coords, order=3, mode="nearest", prefilter=False)
+            values = ndimage.map_coordinates(
+                plane, coords, order=3, mode="nearest", prefilter=False
+            )
             strip[:, :, c] = values.reshape(shape).mean(axis=2)
     texture[~valid] = 0.0
     return Normtexture(texture.astype(np.float32), valid, (sx, sy))

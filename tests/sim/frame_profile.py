@@ -71,14 +71,13 @@ def measure(base: Path, *, rounds: int = 3) -> list[dict]:
                 capture_output=True, text=True, check=True,
             )  # fmt: skip
             runs[name].append(json.loads(reply.stdout.strip().splitlines()[-1]))
-    return [
-        {
-            "stage": label,
-            **{f"{name}_ms": float(np.median([r.get(label, 0.0) for r in runs[name]]))
-               for name in runs},
-        }  # fmt: skip
-        for label, _ in STAGES
-    ]
+    rows = []
+    for label, _ in STAGES:
+        row = {"stage": label}
+        for name in runs:
+            row[f"{name}_ms"] = float(np.median([r.get(label, 0.0) for r in runs[name]]))
+        rows.append(row)
+    return rows
 
 
 if __name__ == "__main__":

@@ -67,8 +67,9 @@ def test_the_noise_is_the_references_in_distribution(noisy_frames):
             sigma = np.sqrt(truth * gain + (noise.read_noise_e * gain) ** 2)
             # Away from the clipping at 0 and at full scale (the saturation effect).
             keep = (truth > 6 * sigma) & (truth < full_scale(8) - 6 * sigma)
-            for name, signal in (("new", noisy_frames[f"signal_{k}"]), ("reference", ref[f"signal_{k}"])):
-                z[name].append(((signal.astype(np.float64) - truth) / sigma)[keep])
+            for name, frames_ in (("new", noisy_frames), ("reference", ref)):
+                residual = frames_[f"signal_{k}"].astype(np.float64) - truth
+                z[name].append((residual / sigma)[keep])
     new, reference = np.concatenate(z["new"]), np.concatenate(z["reference"])
     assert len(new) > 50_000 and not np.array_equal(new, reference)  # redrawn
     assert abs(new.mean()) < 0.02 and abs(reference.mean()) < 0.02

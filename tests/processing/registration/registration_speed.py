@@ -2,8 +2,10 @@
 
 Frames of the default scene (cameras 0, 2, 4, 6 at three turntable angles, two
 lamps each) are rendered once; then each checkout registers them in its own
-process, alternately, ``rounds`` times, and the median CPU time per frame is
-compared (CPU time: on a shared machine the wall clock follows the load). This
+process, alternately, ``rounds`` times; each process times three passes over
+the frames and keeps the fastest, and the median over the rounds of that CPU
+time per frame is compared (CPU time: on a shared machine the wall clock
+follows the load). This
 checkout registers as ``register_capture`` does, with the markers expected
 where the step's recorded turntable angle puts them; a checkout whose
 ``register_frame`` has no ``expected`` runs the detector. Both report the mean
@@ -55,9 +57,12 @@ for size in json.loads(sys.argv[3]):
             results.append(register_frame(image, holder, size=size, **options))
         return results
     run()  # compiled kernels loaded, caches warm
-    start = time.process_time()
-    results = run()
-    ms = (time.process_time() - start) / len(frames) * 1e3
+    best = float("inf")
+    for _ in range(3):  # the least disturbed of three passes
+        start = time.process_time()
+        results = run()
+        best = min(best, time.process_time() - start)
+    ms = best / len(frames) * 1e3
     out[size] = {
         "ms": ms, "valid": sum(r.valid for r in results),
         "markers": sum(len(r.homography.ids) for r in results),
@@ -91,8 +96,9 @@ def measure(base: Path, *, rounds: int = 3, sizes=SIZES) -> list[dict]:
         for _ in range(rounds):
             for name, root in (("base", base), ("this", here)):
                 env = {**os.environ, "PYTHONPATH": str(root)}
+                command = [sys.executable, "-c", _TIMER, str(frames), str(here / SCENE)]
                 reply = subprocess.run(
-                    [sys.executable, "-c", _TIMER, str(frames), str(here / SCENE), json.dumps(sizes)],
+                    [*command, json.dumps(sizes)],
                     cwd=root, env=env, capture_output=True, text=True, check=True,
                 )  # fmt: skip
                 runs[name].append(json.loads(reply.stdout.strip().splitlines()[-1]))
@@ -110,7 +116,10 @@ def measure(base: Path, *, rounds: int = 3, sizes=SIZES) -> list[dict]:
 
 
 if __name__ == "__main__":
-    print("| texels | before ms | after ms | ratio | markers before / after | mean reproj. px before / after |")
+    print(
+        "| texels | before ms | after ms | ratio | markers before / after "
+        "| mean reproj. px before / after |"
+    )
     print("|---|---|---|---|---|---|")
     for r in measure(Path(sys.argv[1]).resolve()):
         print(

@@ -97,5 +97,6 @@ def test_the_compiled_footprint_is_the_lens_models_without_distortion(rig_config
     H = camera_homography(camera, 75.0)
     grid = texel_centers_mm(100.0, 40)
     expected = _footprint_px(H, grid, 2.5, None)
-    np.testing.assert_allclose(homography_footprint_px(H, grid.reshape(-1, 2), 2.5), expected, rtol=1e-12)
+    compiled = homography_footprint_px(H, grid.reshape(-1, 2), 2.5)
+    np.testing.assert_allclose(compiled, expected, rtol=1e-12)
     assert expected[0] != pytest.approx(expected[1], rel=0.01)  # an oblique view: x and y differ
