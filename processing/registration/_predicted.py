@@ -48,6 +48,8 @@ def expected_corners_px(posed: PinholeCamera, holder: Holder) -> np.ndarray:
 def track_markers(frame: np.ndarray, holder: Holder, expected_px: np.ndarray) -> MarkerDetection:
     """The holder's markers, refined from their expected corners and checked by their bits.
 
+    A marker is looked for where all four expected corners lie in the frame.
+
     Parameters
     ----------
     frame : (H, W) or (H, W, C) array, any real dtype
@@ -77,14 +79,13 @@ def track_markers(frame: np.ndarray, holder: Holder, expected_px: np.ndarray) ->
     bits = dictionary.markerSize
     modules = bits + 2
     height, width = gray.shape
-    sides = np.linalg.norm(expected - np.roll(expected, 1, axis=1), axis=2).max(axis=1)
-    # Wholly inside with a module to spare: the edge normals and the quiet zone
-    # around the marker are read too.
+    # Every corner inside the frame, as the detector needs them; beyond the frame's edge
+    # the edge normals and the quiet ring read the edge pixels, and a marker the edge
+    # cuts fails its edges or its bits.
     with np.errstate(invalid="ignore"):
-        spare = (sides / modules)[:, None]
         inside = (
-            (expected[:, :, 0] >= spare) & (expected[:, :, 0] <= width - 1 - spare)
-            & (expected[:, :, 1] >= spare) & (expected[:, :, 1] <= height - 1 - spare)
+            (expected[:, :, 0] >= 0) & (expected[:, :, 0] <= width - 1)
+            & (expected[:, :, 1] >= 0) & (expected[:, :, 1] <= height - 1)
         ).all(axis=1)  # fmt: skip
     candidates = np.flatnonzero(inside)
     quads, ok = fit_corners(gray, expected[candidates], modules=modules)
