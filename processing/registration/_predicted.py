@@ -5,7 +5,8 @@ the sample frame says where each marker's corners should appear. From there
 the edge fits of :mod:`._edges` locate the corners directly, and the marker's
 bits, read through its refined corners, confirm that the right marker was
 found. OpenCV's detector (thresholds, contours and candidate decoding over the
-whole frame) took half of a frame's registration; this takes a few percent.
+whole frame) took a third of a frame's registration; reading the bits takes a
+twentieth of that, the edge fits both ways run are what is left.
 A marker misplaced by the expectation fails its edge fits or its bits and is
 left out; when too few remain, the caller runs the detector (:func:`register_frame`).
 """

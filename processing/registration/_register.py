@@ -89,7 +89,7 @@ def register_frame(
         The camera model (lens included) posed in the sample frame from the
         rig's recorded positions, good to about a third of a marker module.
         The markers are then refined where it puts them and checked by their
-        bits (:func:`track_markers`, a tenth of the detector's time); where
+        bits (:func:`track_markers`, without OpenCV's detector); where
         they give no valid homography, the detector searches the whole frame.
     region, extend_texels, order :
         Passed to :func:`rectify`.
