@@ -30,6 +30,7 @@ _GN_ITERATIONS = 10
 
 __all__ = ["PlaneHomography", "fit_plane_homography", "pose_plane_homography", "undistort_px"]
 
+
 @dataclass(frozen=True)
 class PlaneHomography:
     """A frame's homography to the reference plane and how well it fits.

@@ -110,6 +110,7 @@ def register_frame(
     >>> register_frame(blank, default_rig_config().holder, size=16).reason.name
     'TOO_FEW_MARKERS'
     """
+
     def fit(detection: MarkerDetection) -> PlaneHomography:
         return fit_plane_homography(
             detection,
