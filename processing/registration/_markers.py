@@ -24,6 +24,7 @@ import numpy as np
 
 from processing.registration._edges import gray_image, refine_corners
 from processing.registration._errors import RegistrationError
+from processing.registration._sampling import kernel_frame
 from rig.config import Holder
 
 __all__ = ["MarkerDetection", "aruco_dictionary", "detect_markers", "marker_corners_mm"]
@@ -108,9 +109,7 @@ def to_gray(frame: np.ndarray) -> np.ndarray:
             f"frame: expected an (H, W), (H, W, 1) or (H, W, 3) image at least 8 px "
             f"on a side, got shape {np.shape(frame)}"
         )
-    if image.dtype == np.float16:  # not a type the compiled pass reads
-        image = image.astype(np.float32)
-    return gray_image(image)
+    return gray_image(kernel_frame(image))
 
 
 def to_gray8(gray: np.ndarray) -> np.ndarray:

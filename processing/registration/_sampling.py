@@ -15,7 +15,20 @@ import math
 import numpy as np
 from numba import njit
 
-__all__ = ["box_bilinear", "homography_footprint_px", "project_box_bilinear"]
+__all__ = ["box_bilinear", "homography_footprint_px", "kernel_frame", "project_box_bilinear"]
+
+
+def kernel_frame(frame: np.ndarray) -> np.ndarray:
+    """``frame`` in a dtype the compiled passes read: native byte order (a frame read from a
+    big-endian file is swapped), float16 as float32, bool as uint8; otherwise the same array."""
+    image = np.asarray(frame)
+    if image.dtype == np.float16:
+        return image.astype(np.float32)
+    if image.dtype == np.bool_:
+        return image.astype(np.uint8)
+    if not image.dtype.isnative:
+        return image.astype(image.dtype.newbyteorder("="))
+    return image
 
 
 def box_bilinear(frame: np.ndarray, pixels: np.ndarray, n_sub: int, out: np.ndarray) -> None:
@@ -35,7 +48,8 @@ def box_bilinear(frame: np.ndarray, pixels: np.ndarray, n_sub: int, out: np.ndar
     out : (n, C) float64, C-contiguous, zeros
         The texels' mean values are written in place.
     """
-    _box_bilinear(frame, np.ascontiguousarray(pixels, dtype=np.float64), int(n_sub), out)
+    pixels = np.ascontiguousarray(pixels, dtype=np.float64)
+    _box_bilinear(kernel_frame(frame), pixels, int(n_sub), out)
 
 
 def project_box_bilinear(
@@ -67,7 +81,7 @@ def project_box_bilinear(
         pixel area ``[−0.5, W − 0.5] × [−0.5, H − 0.5]``.
     """
     _project_box_bilinear(
-        frame, np.ascontiguousarray(plane_to_image, dtype=np.float64),
+        kernel_frame(frame), np.ascontiguousarray(plane_to_image, dtype=np.float64),
         np.ascontiguousarray(centers_mm, dtype=np.float64),
         np.ascontiguousarray(sub_mm, dtype=np.float64), out, valid,
     )  # fmt: skip

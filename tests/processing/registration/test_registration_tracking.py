@@ -100,3 +100,16 @@ def test_the_compiled_footprint_is_the_lens_models_without_distortion(rig_config
     compiled = homography_footprint_px(H, grid.reshape(-1, 2), 2.5)
     np.testing.assert_allclose(compiled, expected, rtol=1e-12)
     assert expected[0] != pytest.approx(expected[1], rel=0.01)  # an oblique view: x and y differ
+
+
+@pytest.mark.parametrize("dtype", [">u2", "<f2", ">f8"])
+def test_frames_of_any_byte_order_and_half_floats_register_as_native_ones(frames, holder, dtype):
+    """The compiled passes read native dtypes only: a big-endian or float16 frame (as a file
+    may hold it) registers exactly as its native copy."""
+    frame, _, camera = frames("cam0", 0.0)  # float, 0 … 1
+    odd = (frame * (60000 if dtype == ">u2" else 1)).astype(dtype)
+    native = odd.astype(odd.dtype.newbyteorder("=") if dtype != "<f2" else np.float32)
+    a = register_frame(odd, holder, size=16, camera=camera, expected=camera)
+    b = register_frame(native, holder, size=16, camera=camera, expected=camera)
+    assert a.valid and len(a.detection) >= 12
+    np.testing.assert_array_equal(a.normtexture.texture, b.normtexture.texture)
