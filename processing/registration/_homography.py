@@ -129,10 +129,14 @@ def _fit(plane: np.ndarray, image: np.ndarray) -> np.ndarray:
     return _refine(H / np.linalg.norm(H), plane, image)
 
 
-def _jacobian(H: np.ndarray, plane: np.ndarray) -> np.ndarray:
-    """d(image point)/d(H entries): (2n, 9), for H acting on (x, y, 1); rows u then v."""
+def _jacobian(H: np.ndarray, plane: np.ndarray, projected=None) -> np.ndarray:
+    """d(image point)/d(H entries): (2n, 9), for H acting on (x, y, 1); rows u then v.
+
+    ``projected`` is ``_apply(H, plane)`` where the caller has it already.
+    """
     n = len(plane)
-    (u, v), w = _apply(H, plane)[0].T, H[2, 0] * plane[:, 0] + H[2, 1] * plane[:, 1] + H[2, 2]
+    u, v = (_apply(H, plane) if projected is None else projected)[0].T
+    w = H[2, 0] * plane[:, 0] + H[2, 1] * plane[:, 1] + H[2, 2]
     J = np.zeros((2 * n, 9))
     J[:n, 0], J[:n, 1], J[:n, 2] = plane[:, 0] / w, plane[:, 1] / w, 1.0 / w
     J[n:, 3:6] = J[:n, 0:3]
@@ -147,9 +151,11 @@ def _refine(H: np.ndarray, plane: np.ndarray, image: np.ndarray) -> np.ndarray:
     # near it is reached that way, and the basis is computed once.
     basis = np.linalg.svd(H.reshape(1, 9))[2][1:].T  # (9, 8)
     for _ in range(_GN_ITERATIONS):
-        pred, _ = _apply(H, plane)
+        projected = _apply(H, plane)
+        pred = projected[0]
         residual = np.concatenate([image[:, 0] - pred[:, 0], image[:, 1] - pred[:, 1]])
-        step, *_ = np.linalg.lstsq(_jacobian(H, plane) @ basis, residual, rcond=None)
+        J = _jacobian(H, plane, projected)
+        step, *_ = np.linalg.lstsq(J @ basis, residual, rcond=None)
         H = H + (basis @ step).reshape(3, 3)
         H = H / np.linalg.norm(H)
         # Converged: a step of 1e-12 of the unit-norm H moves points by ~1e-9 px.
@@ -158,10 +164,11 @@ def _refine(H: np.ndarray, plane: np.ndarray, image: np.ndarray) -> np.ndarray:
     return H
 
 
-def _noise_gain(H: np.ndarray, plane: np.ndarray, sample_corners: np.ndarray) -> float:
-    """RMS image-position std at the sample corners for unit corner noise [1]_ §5.2."""
+def _noise_gain(H: np.ndarray, plane: np.ndarray, sample_corners: np.ndarray, projected) -> float:
+    """RMS image-position std at the sample corners for unit corner noise [1]_ §5.2
+    (``projected``: ``_apply(H, plane)``)."""
     basis = np.linalg.svd(H.reshape(1, 9))[2][1:].T
-    J = _jacobian(H, plane) @ basis
+    J = _jacobian(H, plane, projected) @ basis
     singular = np.linalg.svd(J, compute_uv=False)
     if singular[-1] <= 1e-10 * singular[0]:
         return 1e12
@@ -256,22 +263,22 @@ def fit_plane_homography(
             return flagged(Reason.COLLINEAR_MARKERS, ids[keep], outliers=ids[~keep])
         image = image_all[keep].reshape(-1, 2)
         H = _fit(plane, image)
-        pred, _ = _apply(H, plane)
+        projected = _apply(H, plane)
+        pred = projected[0]
         rms = np.sqrt(np.mean(np.sum((pred - image) ** 2, axis=1).reshape(-1, 4), axis=1))
         if rms.max() <= outlier_px or keep.sum() <= min_markers:
             break
         keep[np.flatnonzero(keep)[np.argmax(rms)]] = False
 
-    used, outliers = ids[keep], ids[~keep]
-    plane = all_plane[used].reshape(-1, 2)
-    predicted = distort_px(_apply(H, plane)[0], camera)
+    used, outliers = ids[keep], ids[~keep]  # plane and projected are the last fit's
+    predicted = distort_px(pred, camera)
     distance = np.linalg.norm(predicted - raw[keep].reshape(-1, 2), axis=1)
     per_marker = np.sqrt(np.mean(distance.reshape(-1, 4) ** 2, axis=1))
     mean_err = float(np.mean(distance))
     half = holder.sample_mm / 2
     sample_corners = np.array([[-half, half], [half, half], [half, -half], [-half, -half]])
-    gain = _noise_gain(H, plane, sample_corners)
-    _, w_plate = _apply(H, plane)
+    gain = _noise_gain(H, plane, sample_corners, projected)
+    w_plate = projected[1]
     _, w_sample = _apply(H, sample_corners)
     # All plate points, markers and sample alike, must lie on one side of the
     # camera: w changes sign across the horizon line of the plane.
