@@ -8,8 +8,12 @@ in digital numbers (DN) of the camera's bit depth, full scale ``2**bits − 1``.
 
 from __future__ import annotations
 
+import math
+
 import cv2
 import numpy as np
+from numba import njit
+from scipy.optimize import brentq
 
 from rig.camera import PinholeCamera
 
@@ -19,6 +23,7 @@ __all__ = [
     "distort",
     "distortion_maps",
     "full_scale",
+    "gaussian_floor_e",
     "inverse_response",
     "quantize",
     "vignetting_factor",
@@ -68,6 +73,13 @@ def distort(image: np.ndarray, maps: tuple[np.ndarray, np.ndarray]) -> np.ndarra
     )  # fmt: skip
 
 
+# Largest skewness of a pixel's shot + read noise drawn as one Gaussian. Its CDF then
+# differs from the exact one by at most ≈ 0.0665 · skewness (Edgeworth's first term,
+# −γ/6 · He₂(x) φ(x), is largest at the mean): 0.7 % of the probability, a fraction of
+# what one quantisation step holds. The mean and the variance are exact either way.
+GAUSSIAN_SKEWNESS = 0.1
+
+
 def add_noise(
     signal_dn: np.ndarray,
     *,
@@ -82,15 +94,50 @@ def add_noise(
     in ``e``, read noise Gaussian with σ = ``read_noise_e``. Hence, before
     quantisation, ``mean = signal`` and ``var = signal·g + (read_noise_e·g)²``
     with ``g = full_scale / full_well`` DN per electron.
+
+    Where the sum's skewness ``e / (e + σ²)^1.5`` is at most
+    :data:`GAUSSIAN_SKEWNESS` it is drawn as one Gaussian of that mean and
+    variance (one float32 standard normal per pixel, a sixth of the Poisson
+    draw's time); below :func:`gaussian_floor_e` electrons the Poisson draw is
+    exact. With σ ≥ 3.85 e⁻ every level qualifies.
     """
     gain = full_scale(bit_depth) / full_well_e
-    electrons = np.clip(signal_dn, 0, None)
-    electrons /= gain
-    noisy = rng.poisson(electrons).astype(np.float64)
-    if read_noise_e > 0:
-        noisy += rng.normal(0.0, read_noise_e, size=noisy.shape)
-    noisy *= gain
+    signal = np.ascontiguousarray(signal_dn, dtype=np.float64)
+    unit = rng.standard_normal(signal.shape, dtype=np.float32)
+    noisy = np.empty(signal.shape)
+    _gaussian_dn(signal.reshape(-1), unit.reshape(-1), gain, float(read_noise_e) ** 2,
+                 noisy.reshape(-1))  # fmt: skip
+    floor = gaussian_floor_e(read_noise_e)
+    if floor > 0:
+        electrons = np.clip(signal, 0, None) / gain
+        low = electrons < floor
+        if low.any():
+            noisy[low] = (rng.poisson(electrons[low]) + read_noise_e * unit[low]) * gain
     return noisy
+
+
+@njit(cache=True, nogil=True)
+def _gaussian_dn(signal, unit, gain, read_var, out):
+    """out = (e + √(e + σ²) · unit) · gain with e = max(signal, 0) / gain, in one pass
+    (as numpy's seven passes over the frame it cost as much as the draw)."""
+    for i in range(signal.size):
+        electrons = max(signal[i], 0.0) / gain
+        out[i] = (electrons + math.sqrt(electrons + read_var) * unit[i]) * gain
+
+
+def gaussian_floor_e(read_noise_e: float) -> float:
+    """The electrons above which shot + read noise is drawn as a Gaussian (0: at every level).
+
+    The skewness ``e / (e + σ²)^1.5`` peaks at e = 2σ² with ``0.385 / σ``; where
+    that exceeds :data:`GAUSSIAN_SKEWNESS` the floor is the level above the peak
+    where it falls back to it (100 e⁻ without read noise).
+    """
+    var = float(read_noise_e) ** 2
+    if var == 0:
+        return 1.0 / GAUSSIAN_SKEWNESS**2  # Poisson alone: skewness 1/√e
+    if 2 / 3**1.5 / float(read_noise_e) <= GAUSSIAN_SKEWNESS:
+        return 0.0
+    return float(brentq(lambda e: e / (e + var) ** 1.5 - GAUSSIAN_SKEWNESS, 2 * var, 100.0))
 
 
 def quantize(signal_dn: np.ndarray, dtype: np.dtype) -> np.ndarray:

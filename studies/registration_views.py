@@ -156,8 +156,9 @@ class SimRegistration:
         )
         camera = config.camera_model(pose.camera, turntable_deg=pose.turntable_deg)
         holder = config.holder
-        clean = register_frame(clean_frame, holder, size=self.size, camera=camera)
-        noisy = register_frame(noisy_frame, holder, size=self.size, camera=camera)
+        # The markers are looked for where the rig's pose puts them, as register_capture does.
+        clean = register_frame(clean_frame, holder, size=self.size, camera=camera, expected=camera)
+        noisy = register_frame(noisy_frame, holder, size=self.size, camera=camera, expected=camera)
         truth = self.true_texture(light, pose.lamp)
         corner_error = np.nan
         texture_rmse = noisy_rmse = noise_rmse = gain = np.nan

@@ -21,6 +21,7 @@ from processing.registration._markers import (
     detect_markers,
     marker_corners_mm,
 )
+from processing.registration._predicted import expected_corners_px, track_markers
 from processing.registration._rectify import Normtexture, Region, blend_edges, rectify
 from processing.registration._register import Registration, register_frame
 
@@ -37,11 +38,13 @@ __all__ = [
     "blend_edges",
     "detect_markers",
     "distort_px",
+    "expected_corners_px",
     "fit_plane_homography",
     "marker_corners_mm",
     "pose_plane_homography",
     "rectify",
     "register_capture",
     "register_frame",
+    "track_markers",
     "undistort_px",
 ]

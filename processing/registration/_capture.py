@@ -88,7 +88,9 @@ def register_capture(
     Returns
     -------
     CaptureRegistration
-        Check ``registration.valid``; a flagged frame carries its reason. On the
+        Check ``registration.valid``; a flagged frame carries its reason. The
+        markers are looked for where the camera posed by the step's recorded
+        positions puts them, over the whole frame where that fails. On the
         Bonn lab a frame whose markers give no valid homography is registered from
         the camera the arm's and the rail's recorded state pose (reason
         ``FROM_RIG_POSE``).
@@ -113,8 +115,10 @@ def register_capture(
     view = np.asarray(step.views_deg[camera_id], dtype=np.float64)
     light = None if step.light_deg is None else np.asarray(step.light_deg, dtype=np.float64)
     posed = _posed(config, step, camera_id, camera)
+    expected = posed if posed is not None else _turned(config, step, camera_id, camera)
     registration = register_frame(
-        frame, config.holder, size=size, camera=camera, posed=posed, region=region,
+        frame, config.holder, size=size, camera=camera, posed=posed, expected=expected,
+        region=region,
         extend_texels=extend_texels, order=order, min_markers=min_markers,
         max_reprojection_px=max_reprojection_px, max_noise_gain=max_noise_gain,
     )  # fmt: skip
@@ -133,4 +137,13 @@ def _posed(
         raise RegistrationError(f"step {step.index}: {err}") from err
     if pose is None:
         return None
+    return PinholeCamera(lens.K, lens.dist, pose.R, pose.t, lens.width, lens.height)
+
+
+def _turned(
+    config: RigConfig, step: StepRecord, camera_id: str, lens: PinholeCamera
+) -> PinholeCamera:
+    """On a turntable rig, the nominal camera seen from the sample turned to the step's
+    recorded ``turntable_deg``, with ``lens``'s intrinsics: where to look for the markers."""
+    pose = config.camera_model(camera_id, turntable_deg=step.actuators.get("turntable_deg", 0.0))
     return PinholeCamera(lens.K, lens.dist, pose.R, pose.t, lens.width, lens.height)

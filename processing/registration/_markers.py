@@ -16,13 +16,15 @@ References
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import cv2
 import numpy as np
 
-from processing.registration._edges import refine_corners
+from processing.registration._edges import gray_image, refine_corners
 from processing.registration._errors import RegistrationError
+from processing.registration._sampling import kernel_frame
 from rig.config import Holder
 
 __all__ = ["MarkerDetection", "aruco_dictionary", "detect_markers", "marker_corners_mm"]
@@ -32,20 +34,25 @@ __all__ = ["MarkerDetection", "aruco_dictionary", "detect_markers", "marker_corn
 _CORNER_SIGNS = np.array([[-1.0, 1.0], [1.0, 1.0], [1.0, -1.0], [-1.0, -1.0]])
 
 
+@functools.lru_cache(maxsize=16)
 def marker_corners_mm(holder: Holder) -> np.ndarray:
     """Sample-frame (x, y) in mm of every marker corner on the plate (z = 0).
 
     Returns
     -------
-    (n_markers, 4, 2) float64
+    (n_markers, 4, 2) float64, read-only
         ``[i, k]`` is corner ``k`` of marker id ``i`` in OpenCV's corner order.
+        One array per holder (a frozen config), kept: every frame asks for it.
     """
     centers = np.asarray(holder.marker_centers_mm(), dtype=np.float64)
-    return centers[:, None, :] + 0.5 * holder.marker_mm * _CORNER_SIGNS[None, :, :]
+    corners = centers[:, None, :] + 0.5 * holder.marker_mm * _CORNER_SIGNS[None, :, :]
+    corners.setflags(write=False)
+    return corners
 
 
+@functools.lru_cache(maxsize=16)
 def aruco_dictionary(holder: Holder) -> cv2.aruco.Dictionary:
-    """The OpenCV ArUco dictionary named by ``holder.aruco_dictionary``."""
+    """The OpenCV ArUco dictionary named by ``holder.aruco_dictionary`` (one per holder)."""
     name = holder.aruco_dictionary
     code = getattr(cv2.aruco, name, None) if name.startswith("DICT_") else None
     if not isinstance(code, int):
@@ -55,7 +62,7 @@ def aruco_dictionary(holder: Holder) -> cv2.aruco.Dictionary:
             f"valid names include {valid[:6]}…"
         )
     dictionary = cv2.aruco.getPredefinedDictionary(code)
-    n = len(holder.marker_centers_mm())
+    n = len(marker_corners_mm(holder))
     if dictionary.bytesList.shape[0] < n:
         raise RegistrationError(
             f"holder.aruco_dictionary = {name!r} has {dictionary.bytesList.shape[0]} ids "
@@ -88,27 +95,21 @@ class MarkerDetection:
 
 
 def to_gray(frame: np.ndarray) -> np.ndarray:
-    """(H, W) float64 grey level of an (H, W), (H, W, 1) or (H, W, 3) frame; NaN → 0."""
+    """(H, W) float64 grey level of an (H, W), (H, W, 1) or (H, W, 3) frame; NaN, ±inf → 0.
+
+    The channel mean, summed in channel order ((r + g) + b) / 3.
+    """
     image = np.asarray(frame)
     if not np.issubdtype(image.dtype, np.number) or np.iscomplexobj(image):
         raise RegistrationError(f"frame: expected a real-valued image, got dtype {image.dtype}")
-    if image.ndim == 3 and image.shape[2] == 1:
-        image = image[:, :, 0]
-    elif image.ndim == 3 and image.shape[2] == 3:
-        # The channel mean summed plane by plane ((r + g) + b) / 3, as a mean over
-        # the short last axis sums it, without walking memory three values at a time.
-        total = image[:, :, 0].astype(np.float64)
-        total += image[:, :, 1]
-        total += image[:, :, 2]
-        image = total / 3
-    if image.ndim != 2 or min(image.shape) < 8:
+    if image.ndim == 2:
+        image = image[:, :, None]
+    if image.ndim != 3 or image.shape[2] not in (1, 3) or min(image.shape[:2]) < 8:
         raise RegistrationError(
             f"frame: expected an (H, W), (H, W, 1) or (H, W, 3) image at least 8 px "
             f"on a side, got shape {np.shape(frame)}"
         )
-    if np.issubdtype(image.dtype, np.integer):  # nothing to replace
-        return image.astype(np.float64)
-    return np.nan_to_num(image.astype(np.float64), nan=0.0, posinf=0.0, neginf=0.0)
+    return gray_image(kernel_frame(image))
 
 
 def to_gray8(gray: np.ndarray) -> np.ndarray:
@@ -162,7 +163,7 @@ def detect_markers(
     dictionary = aruco_dictionary(holder)
     detector = cv2.aruco.ArucoDetector(dictionary, params)
     corners, ids, _ = detector.detectMarkers(to_gray8(gray))
-    n_markers = len(holder.marker_centers_mm())
+    n_markers = len(marker_corners_mm(holder))
     if ids is None or len(ids) == 0:
         empty = np.zeros(0, np.int64)
         return MarkerDetection(empty, np.zeros((0, 4, 2)), empty)

@@ -23,6 +23,11 @@ from scipy import ndimage
 
 from processing.registration._errors import RegistrationError
 from processing.registration._homography import PlaneHomography, distort_px
+from processing.registration._sampling import (
+    box_bilinear,
+    homography_footprint_px,
+    project_box_bilinear,
+)
 from rig.camera import PinholeCamera
 from rig.geometry import texel_centers_mm
 
@@ -174,7 +179,13 @@ def rectify(
     if region is not None:
         grid = grid + np.asarray(region.center_mm, dtype=np.float64)
     H = homography.plane_to_image
-    fx, fy = _footprint_px(H, grid, step, camera)
+    # Without a lens model the sample positions are the homography's alone: footprint,
+    # positions and samples come from compiled passes without (n, 2) temporaries.
+    pinhole = camera is None or not np.any(camera.dist)
+    if pinhole:
+        fx, fy = homography_footprint_px(H, grid.reshape(-1, 2), step)
+    else:
+        fx, fy = _footprint_px(H, grid, step, camera)
     sx = int(np.clip(np.ceil(fx), 1, max_supersample))
     sy = int(np.clip(np.ceil(fy), 1, max_supersample))
     offsets_x = ((np.arange(sx) + 0.5) / sx - 0.5) * step
@@ -182,11 +193,18 @@ def rectify(
     sub = np.stack(np.meshgrid(offsets_x, offsets_y), axis=-1).reshape(-1, 2)  # (sx*sy, 2)
 
     height, width, channels = image.shape
-    planes = [np.asarray(image[:, :, c], dtype=np.float64) for c in range(channels)]
     if order == 3:
-        planes = [ndimage.spline_filter(p, order=3, mode="nearest") for p in planes]
+        planes = [
+            ndimage.spline_filter(np.asarray(image[:, :, c], dtype=np.float64), mode="nearest")
+            for c in range(channels)
+        ]
     texture = np.zeros((n_out, n_out, channels), np.float64)
     valid = np.ones((n_out, n_out), bool)
+    if order == 1 and pinhole:
+        flat = texture.reshape(-1, channels)
+        project_box_bilinear(image, H, grid.reshape(-1, 2), sub, flat, valid.reshape(-1))
+        texture[~valid] = 0.0
+        return Normtexture(texture.astype(np.float32), valid, (sx, sy))
     rows_per_strip = max(1, _MAX_SAMPLES_PER_STRIP // (n_out * len(sub)))
     for r0 in range(0, n_out, rows_per_strip):
         block = grid[r0 : r0 + rows_per_strip]  # (r, n_out, 2)
@@ -196,14 +214,18 @@ def rectify(
             (pix[:, 0] >= -0.5) & (pix[:, 0] <= width - 0.5)
             & (pix[:, 1] >= -0.5) & (pix[:, 1] <= height - 0.5)
         )  # fmt: skip
-        coords = np.stack([pix[:, 1], pix[:, 0]])
         shape = (*block.shape[:2], len(sub))
         valid[r0 : r0 + len(block)] = inside.reshape(shape).all(axis=2)
+        strip = texture[r0 : r0 + len(block)]
+        if order == 1:
+            box_bilinear(image, pix, len(sub), strip.reshape(-1, channels))
+            continue
+        coords = np.stack([pix[:, 1], pix[:, 0]])
         for c, plane in enumerate(planes):
             values = ndimage.map_coordinates(
-                plane, coords, order=order, mode="nearest", prefilter=False
+                plane, coords, order=3, mode="nearest", prefilter=False
             )
-            texture[r0 : r0 + len(block), :, c] = values.reshape(shape).mean(axis=2)
+            strip[:, :, c] = values.reshape(shape).mean(axis=2)
     texture[~valid] = 0.0
     return Normtexture(texture.astype(np.float32), valid, (sx, sy))
 

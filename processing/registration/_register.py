@@ -13,6 +13,7 @@ from processing.registration._homography import (
     pose_plane_homography,
 )
 from processing.registration._markers import MarkerDetection, detect_markers
+from processing.registration._predicted import expected_corners_px, track_markers
 from processing.registration._rectify import Normtexture, Region, rectify
 from rig.camera import PinholeCamera
 from rig.config import Holder
@@ -56,6 +57,7 @@ def register_frame(
     size: int,
     camera: PinholeCamera | None = None,
     posed: PinholeCamera | None = None,
+    expected: PinholeCamera | None = None,
     region: Region | None = None,
     extend_texels: int = 0,
     order: int = 1,
@@ -83,6 +85,12 @@ def register_frame(
         homography (:func:`pose_plane_homography`, its lens for the sampling)
         and flagged ``Reason.FROM_RIG_POSE``: valid, but distinguishable.
         Without it such a frame keeps the markers' reason.
+    expected : PinholeCamera, optional
+        The camera model (lens included) posed in the sample frame from the
+        rig's recorded positions, good to about a third of a marker module.
+        The markers are then refined where it puts them and checked by their
+        bits (:func:`track_markers`, without OpenCV's detector); where
+        they give no valid homography, the detector searches the whole frame.
     region, extend_texels, order :
         Passed to :func:`rectify`.
     min_markers, max_reprojection_px, max_noise_gain :
@@ -102,15 +110,24 @@ def register_frame(
     >>> register_frame(blank, default_rig_config().holder, size=16).reason.name
     'TOO_FEW_MARKERS'
     """
-    detection = detect_markers(frame, holder)
-    homography = fit_plane_homography(
-        detection,
-        holder,
-        camera=camera,
-        min_markers=min_markers,
-        max_reprojection_px=max_reprojection_px,
-        max_noise_gain=max_noise_gain,
-    )
+
+    def fit(detection: MarkerDetection) -> PlaneHomography:
+        return fit_plane_homography(
+            detection,
+            holder,
+            camera=camera,
+            min_markers=min_markers,
+            max_reprojection_px=max_reprojection_px,
+            max_noise_gain=max_noise_gain,
+        )
+
+    homography = None
+    if expected is not None:
+        detection = track_markers(frame, holder, expected_corners_px(expected, holder))
+        homography = fit(detection)
+    if homography is None or not homography.valid:
+        detection = detect_markers(frame, holder)
+        homography = fit(detection)
     n = size + extend_texels
     if not homography.valid and posed is not None:
         from_pose = pose_plane_homography(posed, holder)

@@ -1,11 +1,14 @@
-"""A fixed sequence of frames of the default scene at 1/16 scale, and its reference.
+"""A fixed sequence of frames of the default scene at 1/16 scale, and its references.
 
 ``reference_frames.npz`` (beside this file) holds the frames the simulator gave
-before it reused hits, visibility and shading between frames; the test in
-``test_frame_reuse.py`` renders the same sequence and compares. The order is
-part of the sequence: the noise stream of each camera advances per frame.
+before it reused hits, visibility and shading between frames, with the scene's
+noise (then drawn from the exact Poisson law); ``reference_clean_frames.npz``
+the same sequence without the noise effect. The test in ``test_frame_reuse.py``
+renders the sequence and compares. The order is part of the sequence: the noise
+stream of each camera advances per frame.
 
-Regenerate (only when the image formation is meant to change)::
+Regenerate (only when the image formation is meant to change; ``--clean`` for
+the noise-free one)::
 
     PYTHONPATH=. python -m tests.sim.frame_sequence tests/sim/data/reference_frames.npz
 """
@@ -21,6 +24,7 @@ import numpy as np
 from sim import Simulator, scene_from_dict
 
 REFERENCE = Path(__file__).parent / "data" / "reference_frames.npz"
+CLEAN_REFERENCE = Path(__file__).parent / "data" / "reference_clean_frames.npz"
 DEFAULT_SCENE = Path(__file__).parents[2] / "examples" / "scenes" / "default.toml"
 
 # (camera, turntable °, arc °, lamps, laser): two poses, several lamps and cameras
@@ -37,10 +41,14 @@ SEQUENCE = [
 ]
 
 
-def sequence_scene(**render):
-    """The default scene (weave; shadows, specular, laser, noise, saturation) at 1/16."""
+def sequence_scene(*, noise: bool = True, **render):
+    """The default scene (weave; shadows, specular, laser, noise, saturation) at 1/16;
+    without ``noise``, the same scene noise-free."""
     data = tomllib.loads(DEFAULT_SCENE.read_text())
     data["render"] = {**data["render"], "scale": 0.0625, **render}
+    if not noise:
+        data["effects"] = [e for e in data["effects"] if e != "noise"]
+        del data["noise"]
     return scene_from_dict(data)
 
 
@@ -55,5 +63,5 @@ def render_sequence(sim: Simulator) -> dict[str, np.ndarray]:
 
 
 if __name__ == "__main__":
-    with Simulator(sequence_scene()) as simulator:
+    with Simulator(sequence_scene(noise="--clean" not in sys.argv)) as simulator:
         np.savez_compressed(sys.argv[1], **render_sequence(simulator))

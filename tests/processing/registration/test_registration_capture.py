@@ -23,8 +23,11 @@ def test_capture_registers_like_the_frame_with_the_config_camera(frames, rig_con
     step = StepRecord(7, "btf", ("cam3",), {"cam3": (45.0, 330.0)}, (15.0, 90.0),
                       {"turntable_deg": 30.0})  # fmt: skip
     out = register_capture(frame, rig_config, step, "cam3", size=16)
+    # The markers are looked for where the recorded turntable angle puts them.
+    turned = rig_config.camera_model("cam3", turntable_deg=30.0)
     direct = register_frame(frame, rig_config.holder, size=16,
-                            camera=rig_config.camera_model("cam3"))  # fmt: skip
+                            camera=rig_config.camera_model("cam3"), expected=turned)  # fmt: skip
+    assert len(out.registration.detection) == len(direct.detection) >= 12
     assert out.registration.valid and out.step == 7 and out.camera == "cam3"
     np.testing.assert_array_equal(out.registration.normtexture.texture,
                                   direct.normtexture.texture)  # fmt: skip
