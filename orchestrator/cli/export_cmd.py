@@ -119,25 +119,35 @@ def material(
     console.print(f"material store: {written}")
 
 
-def _frames(fmt: str, what: str) -> None:
-    def command(archive: _Archive, out: _Out, overwrite: _Overwrite = False) -> None:
-        from rig.interchange import export_frames
+def _export_frames(fmt: str, what: str, archive: Path, out: Path, overwrite: bool) -> None:
+    """Every frame of ``archive`` as ``fmt`` files (``what``, for the report) in ``out``."""
+    from rig.interchange import export_frames
 
-        _check_archive(archive)
-        with _export_to(out, archive, overwrite=overwrite) as tmp, _bar(f"{fmt} frames") as bar:
-            manifest = export_frames(archive, tmp, fmt, progress=bar)
-        console.print(escape(f"wrote {out} ({what}, {manifest.name} lists them)"))
-
-    command.__doc__ = (
-        f"Every recorded frame, raw, as {what}, with a manifest of directions, camera, "
-        "lamp and exposure."
-    )
-    app.command(fmt)(command)
+    _check_archive(archive)
+    with _export_to(out, archive, overwrite=overwrite) as tmp, _bar(f"{fmt} frames") as bar:
+        manifest = export_frames(archive, tmp, fmt, progress=bar)
+    console.print(escape(f"wrote {out} ({what}, {manifest.name} lists them)"))
 
 
-_frames("png16", "16-bit PNG")
-_frames("tiff", "TIFF")
-_frames("exr", "32-bit float OpenEXR")
+@app.command()
+def png16(archive: _Archive, out: _Out, overwrite: _Overwrite = False) -> None:
+    """Every recorded frame, raw, as 16-bit PNG, with a manifest of directions, camera, lamp
+    and exposure."""
+    _export_frames("png16", "16-bit PNG", archive, out, overwrite)
+
+
+@app.command()
+def tiff(archive: _Archive, out: _Out, overwrite: _Overwrite = False) -> None:
+    """Every recorded frame, raw, as TIFF, with a manifest of directions, camera, lamp and
+    exposure."""
+    _export_frames("tiff", "TIFF", archive, out, overwrite)
+
+
+@app.command()
+def exr(archive: _Archive, out: _Out, overwrite: _Overwrite = False) -> None:
+    """Every recorded frame, raw, as 32-bit float OpenEXR, with a manifest of directions,
+    camera, lamp and exposure."""
+    _export_frames("exr", "32-bit float OpenEXR", archive, out, overwrite)
 
 
 @app.command()
