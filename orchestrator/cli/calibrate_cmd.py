@@ -76,12 +76,18 @@ def calibrate(
     scale: Annotated[float, typer.Option(min=0.05, max=1.0, help="--sim: image size factor")] = 0.5,
     apply: Annotated[
         list[Path] | None,
-        typer.Option("--apply", help="also store the calibration in these session archives"),
+        typer.Option(
+            "--apply",
+            metavar="<path>",
+            help="also store the calibration in this session archive; repeatable",
+        ),
     ] = None,
 ) -> None:
-    """Calibrate cameras, lamps, laser planes or the radiometric response.
+    """Calibrate cameras, lamps, laser planes or the camera response.
 
-    Captures a calibration session with the rig (or, with --sim, the simulated
+    TARGET is the cameras' geometry, the lamps' directions and intensities, the
+    laser planes, or each camera's radiometric response curve. Captures a
+    calibration session with the rig (or, with --sim, the simulated
     rig), computes from the archive, and updates the calibration file (its
     TARGET section, with date, software and residuals), a report and plots.
     --from ARCHIVE recomputes from a recorded (or replayed) session.

@@ -40,11 +40,11 @@ def import_(
         ),
     ] = None,
 ) -> None:
-    """Read rectified BTF images (normtextures) and their directions into an archive.
+    """Read a BTF data set's images and directions into an archive.
 
-    The frames are stored linear (sRGB-encoded files decoded), so that
-    `rig process --stages btf` (registration skipped) and `rig view` work on
-    it. Views missing lights are imported and listed; an unparseable name, a
+    The images are rectified (normtextures); they are stored linear (sRGB-encoded
+    files decoded), so that `rig process --stages btf` (registration skipped) and
+    `rig view` work on it. Views missing lights are imported and listed; an unparseable name, a
     non-image or an image of another size fails naming the file. An
     interrupted import (Ctrl-C or SIGTERM) leaves no archive behind.
     """

@@ -107,7 +107,7 @@ def process(
         ),
     ] = 15.0,
 ) -> None:
-    """Run processing stages over a recorded archive into its material/ group.
+    """Run processing stages over an archive into its material/ group.
 
     Re-running a stage replaces its output atomically; a failed run leaves the
     previous output as it was. Stages: ps (photometric stereo: normals, albedo,

@@ -122,7 +122,7 @@ def daemon(
         ),
     ] = None,
 ) -> None:
-    """Run the control daemon: owns the devices and one session at a time."""
+    """Run the daemon that owns the devices and one session at a time."""
     import zmq
     from pydantic import ValidationError
 
@@ -182,9 +182,10 @@ def status(
     server_key: ServerKey = None,
     secret_key: SecretKey = None,
 ) -> None:
-    """Show the daemon's session state; --follow draws progress until it ends or pauses.
+    """Show the daemon's session state, or follow it with --follow.
 
-    With --follow the exit status says how it stopped: 0 the session is done,
+    --follow draws progress until the session ends or pauses; the exit status
+    then says how it stopped: 0 the session is done,
     3 it paused (`rig resume` or `rig abort` it), 1 it failed or was aborted,
     or the daemon became unreachable (it stopped answering: killed, or gone).
     Piped, each event is printed as one line as it comes.
@@ -251,7 +252,11 @@ def resume(
     server_key: ServerKey = None,
     secret_key: SecretKey = None,
 ) -> None:
-    """Resume a paused session, or continue a crashed one from its archive."""
+    """Resume a paused session, or continue a crashed one from ARCHIVE.
+
+    With ARCHIVE the daemon runs only the steps the archive has not committed; the
+    rig config must describe the rig it recorded (devices may be on other ports).
+    """
     from orchestrator import client
 
     address = _daemon_at(connect, server_key, secret_key)
@@ -282,7 +287,11 @@ def run(
         ),
     ] = None,
 ) -> None:
-    """Daemon + workers + submit + follow in one process, for a local session."""
+    """Run a local session: daemon, workers and client in one process.
+
+    The client submits PLAN and follows the session to its end, as `rig submit`
+    and `rig status --follow` would; the exit status is 1 when it does not end done.
+    """
     from orchestrator.local import run_local
     from orchestrator.worker import worker_stages
     from rig.plan import load_plan
@@ -360,11 +369,11 @@ def worker(
     server_key: ServerKey = None,
     secret_key: SecretKey = None,
 ) -> None:
-    """Pull frames from a daemon, run live stages on them, push results (Ctrl-C stops).
+    """Run live stages on a daemon's frames and push the results back.
 
     Every worker of a session must run the same stages (frames go round robin).
     Stages other than stats read the session's archive: a worker on another machine
-    needs it at the same path (a shared file system).
+    needs it at the same path (a shared file system). Ctrl-C stops the worker.
     """
     from orchestrator.worker import run_worker
 

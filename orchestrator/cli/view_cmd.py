@@ -110,7 +110,9 @@ def view(
     ] = "cloth",
     light: Annotated[
         list[str] | None,
-        typer.Option(help=f"a light, repeatable (default {_DEFAULT_LIGHT}): {LIGHT_FORMS}"),
+        typer.Option(
+            metavar="<str>", help=f"a light, repeatable (default {_DEFAULT_LIGHT}): {LIGHT_FORMS}"
+        ),
     ] = None,
     camera: Annotated[str, typer.Option(help=CAMERA_FORMS)] = "orbit:60,-90",
     fov_deg: Annotated[
@@ -202,7 +204,11 @@ def view(
         ),
     ] = False,
 ) -> None:
-    """Render a material on a mesh under point and directional lights or an environment."""
+    """Render a material on a mesh under lights or an environment.
+
+    Draws a PNG or EXR image, a turntable GIF, or an interactive window, under
+    point and directional lights (--light), an environment map (--env), or both.
+    """
     if env_method not in ("visibility", "pca", "pem"):
         raise typer.BadParameter(
             f"{env_method!r}: valid are visibility, pca, pem", param_hint="--env-method"
