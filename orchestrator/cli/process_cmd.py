@@ -72,6 +72,10 @@ def archive_flagged_lines(archive_path: Path) -> list[str]:
         return flagged_lines(flag_summary(flags_of(archive.step_table())))
 
 
+#: the stages with preview PNGs, and what writes them
+_PREVIEWS = {"ps": write_ps_previews, "mdf": write_mdf_previews}
+
+
 def process(
     archive: Annotated[Path, typer.Argument(help="session archive")],
     stages: Annotated[str, typer.Option("--stages", help="comma-separated, e.g. ps")] = "ps",
@@ -137,8 +141,7 @@ def process(
         raise ConfigError(
             f"--stages {stages!r}: unknown stage(s) {unknown}; valid are {sorted(STAGES)}"
         )
-    writers = {"ps": write_ps_previews, "mdf": write_mdf_previews}
-    if previews is not None and any(n in writers for n in names):
+    if previews is not None and any(n in _PREVIEWS for n in names):
         prepare_folder(previews, f"--previews {previews}")
     flat = flat_beyond_mm or None
     options = {
@@ -160,6 +163,13 @@ def process(
             bar.update(tasks[stage], completed=done)
 
         runs = run_stages(archive, chosen, scheduler=scheduler, workers=workers, progress=progress)
+    _report(runs, archive, previews or archive.with_name(f"{archive.stem}_previews"))
+
+
+def _report(runs, archive: Path, previews: Path) -> None:
+    """Say what each stage run wrote or why it was skipped, list the archive's flagged
+    frames, write the previews into the folder ``previews``; a ``RigError`` when a
+    stage that had frames to use was skipped."""
     for run in runs:
         if run.skipped is not None:
             console.print(f"[yellow]{run.stage}: skipped[/yellow] — {escape(run.skipped)}")
@@ -169,10 +179,9 @@ def process(
         console.print(escape(f"{run.stage}: {run.items} item(s) → material/{run.stage} ({detail})"))
     for line in archive_flagged_lines(archive):
         console.print(escape(line), style="yellow")
-    folder = previews or archive.with_name(f"{archive.stem}_previews")
     for run in runs:
-        if run.skipped is None and run.stage in writers:
-            for path in writers[run.stage](archive, folder):
+        if run.skipped is None and run.stage in _PREVIEWS:
+            for path in _PREVIEWS[run.stage](archive, previews):
                 console.print(escape(f"wrote {path}"))
     skipped = [run.stage for run in runs if run.skipped is not None and not run.absent]
     if skipped:
