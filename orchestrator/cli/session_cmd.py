@@ -1,4 +1,4 @@
-"""Session commands: the daemon, its clients, local runs and workers."""
+"""Session commands: the daemon, its clients and workers."""
 
 from __future__ import annotations
 
@@ -12,14 +12,13 @@ from rich.markup import escape
 
 from orchestrator.cli.common import (
     SessionProgress,
-    check_new_archive,
     console,
     flagged_lines,
     readable,
 )
 from rig.errors import ConfigError, RigError
 
-__all__ = ["FaultHints", "register"]
+__all__ = ["FaultHints", "print_status", "register"]
 
 DEFAULT_CONNECT = "tcp://127.0.0.1"
 # The options of every command that talks to a running daemon.
@@ -64,7 +63,8 @@ def _stops_following(event: dict) -> bool:
     return session_ended(event) or session_paused(event)
 
 
-def _print_status(state: dict) -> None:
+def print_status(state: dict) -> None:
+    """The daemon's state and its session's fields, one per line."""
     session = state.get("session") or {}
     console.print(f"daemon: [bold]{state.get('state')}[/bold]")
     for key in ("session", "sample", "archive", "committed", "steps", "frames", "fault", "reason"):
@@ -76,28 +76,45 @@ def _print_status(state: dict) -> None:
 
 class FaultHints:
     """Passes each event on to ``view``; when a fault pauses the session, says what
-    happened and what the user can do, with the address of the daemon to do it at."""
+    happened and what the user can do, with the address of the daemon to do it at.
+
+    Said once per pause: on the fault's state event, or, for a follower that joined
+    after the fault (a fault at the first step can come before it subscribed), on the
+    first status that shows the session paused with a fault.
+    """
 
     def __init__(self, view, connect: str = DEFAULT_CONNECT):
         self.view = view
         self.connect = connect
+        self._said = False
 
     def __call__(self, event: dict) -> None:
         self.view(event)
-        if event.get("topic") == "daemon":
+        topic = event.get("topic")
+        if topic == "daemon":
             self.connect = event["control"]
-        elif event.get("topic") == "state" and event.get("event") == "fault":
-            where = "" if self.connect == DEFAULT_CONNECT else f" --connect {self.connect}"
-            console.print(
-                escape(
-                    f"paused: {event.get('device')} failed at step {event.get('step')} "
-                    f"({event.get('operation')}: {event.get('detail')}).\n"
-                    f"  Fix it, then `rig resume{where}` to retry that step, or "
-                    f"`rig abort{where}` to end the session: committed steps stay in the "
-                    "archive, and `rig resume ARCHIVE` with a daemon continues it later."
-                ),
-                style="yellow",
-            )
+        elif topic == "state":
+            self._said = False
+            if event.get("event") == "fault":
+                self._say(event)
+        elif topic == "status" and event.get("state") == "paused" and not self._said:
+            fault = (event.get("session") or {}).get("fault")
+            if fault:
+                self._say(fault)
+
+    def _say(self, fault: dict) -> None:
+        self._said = True
+        where = "" if self.connect == DEFAULT_CONNECT else f" --connect {self.connect}"
+        console.print(
+            escape(
+                f"paused: {fault.get('device')} failed at step {fault.get('step')} "
+                f"({fault.get('operation')}: {fault.get('detail')}).\n"
+                f"  Fix it, then `rig resume{where}` to retry that step, or "
+                f"`rig abort{where}` to end the session: committed steps stay in the "
+                "archive, and `rig resume ARCHIVE` with a daemon continues it later."
+            ),
+            style="yellow",
+        )
 
 
 def daemon(
@@ -173,7 +190,7 @@ def submit(
     from orchestrator import client
 
     address = _daemon_at(connect, server_key, secret_key)
-    _print_status(client.submit(plan, archive=archive, connect=address))
+    print_status(client.submit(plan, archive=archive, connect=address))
 
 
 def status(
@@ -194,14 +211,14 @@ def status(
 
     address = _daemon_at(connect, server_key, secret_key)
     if not follow:
-        _print_status(client.status(connect=address))
+        print_status(client.status(connect=address))
         return
     with SessionProgress() as view:
         hints = FaultHints(view, connect)
         for event in client.follow(address, until=_stops_following):
             hints(event)
     final = client.status(connect=address)
-    _print_status(final)
+    print_status(final)
     if final.get("state") == "paused":
         raise typer.Exit(EXIT_PAUSED)
     if final.get("state") != "done":
@@ -214,7 +231,7 @@ def pause(
     """Pause the running session after the current step."""
     from orchestrator import client
 
-    _print_status(client.pause(connect=_daemon_at(connect, server_key, secret_key)))
+    print_status(client.pause(connect=_daemon_at(connect, server_key, secret_key)))
 
 
 def abort(
@@ -223,7 +240,7 @@ def abort(
     """Abort the running session (committed steps stay in the archive)."""
     from orchestrator import client
 
-    _print_status(client.abort(connect=_daemon_at(connect, server_key, secret_key)))
+    print_status(client.abort(connect=_daemon_at(connect, server_key, secret_key)))
 
 
 def shutdown(
@@ -232,7 +249,7 @@ def shutdown(
     """Stop the daemon cleanly."""
     from orchestrator import client
 
-    _print_status(client.shutdown(connect=_daemon_at(connect, server_key, secret_key)))
+    print_status(client.shutdown(connect=_daemon_at(connect, server_key, secret_key)))
 
 
 def resume(
@@ -260,104 +277,7 @@ def resume(
     from orchestrator import client
 
     address = _daemon_at(connect, server_key, secret_key)
-    _print_status(client.resume(archive, config=config, connect=address))
-
-
-def run(
-    plan: Annotated[Path, typer.Argument(help="plan TOML")],
-    config: Annotated[
-        Path | None, typer.Option("--config", "-c", help="rig config TOML (default rig)")
-    ] = None,
-    archive: Annotated[
-        Path | None, typer.Option("--archive", help="where to write (default: the plan's)")
-    ] = None,
-    workers: Annotated[
-        int, typer.Option(min=1, help="live workers to run (frames wait for one)")
-    ] = 1,
-    stages: Annotated[
-        str,
-        typer.Option("--stages", help="the workers' live stages: stats, register, laser, ps"),
-    ] = "stats",
-    sim: Annotated[
-        Path | None,
-        typer.Option(
-            "--sim",
-            help="run against the simulated rig of this scene TOML, in virtual time "
-            "(instead of --config's hardware)",
-        ),
-    ] = None,
-) -> None:
-    """Run a local session: daemon, workers and client in one process.
-
-    The client submits PLAN and follows the session to its end, as `rig submit`
-    and `rig status --follow` would; the exit status is 1 when it does not end done.
-    """
-    from orchestrator.local import run_local
-    from orchestrator.worker import worker_stages
-    from rig.plan import load_plan
-
-    if config is not None and sim is not None:
-        raise ConfigError("--config and --sim: give one (the scene names its rig)")
-    try:
-        worker_stages(stages)
-    except ConfigError as err:
-        raise ConfigError(f"--stages: {err}") from None
-    # The daemon runs here: its archive's folder must be one this machine can make.
-    option = "--archive" if archive is not None else "the plan's output.archive"
-    archive = archive if archive is not None else load_plan(plan).archive_path()
-    check_new_archive(archive, option, otherwise="`rig resume` an unfinished one")
-    with SessionProgress() as progress:
-        view = FaultHints(progress)
-        if sim is None:
-            final = run_local(
-                plan, config, archive=archive, workers=workers, stages=stages, on_event=view
-            )
-        else:
-            from rig.clock import VirtualClock
-            from sim.rig import SimulatedRig
-
-            clock = VirtualClock()
-            with SimulatedRig(sim, clock=clock) as rig:
-                final = run_local(
-                    plan, rig.rig_config(), archive=archive, workers=workers,
-                    stages=stages, on_event=view, clock=clock,
-                )  # fmt: skip
-    _print_status(final)
-    if final.get("state") != "done":
-        raise typer.Exit(1)
-
-
-def replay(
-    archive: Annotated[Path, typer.Argument(help="session archive to replay")],
-    out: Annotated[
-        Path | None,
-        typer.Option("--out", help="the replay's archive (default: ARCHIVE.replay.zarr)"),
-    ] = None,
-    speed: Annotated[
-        float, typer.Option("--speed", min=0.001, help="pace: N times the recorded speed")
-    ] = 1.0,
-    max_speed: Annotated[
-        bool, typer.Option("--max", help="as fast as the archive reads (ignores --speed)")
-    ] = False,
-    workers: Annotated[int, typer.Option(min=1, help="statistics workers to run")] = 1,
-) -> None:
-    """Run a recorded session back through the daemon and workers.
-
-    The plan, rig config and frames come from ARCHIVE; moves, lamps, cameras and
-    exposures are checked against the recording, and a mismatch fails the replay.
-    """
-    from orchestrator.local import replay_local
-
-    target = out if out is not None else archive.with_suffix(".replay.zarr")
-    check_new_archive(target, "--out", otherwise="remove that replay first")
-    with SessionProgress() as view:
-        final = replay_local(
-            archive, out=target, speed=None if max_speed else speed, workers=workers,
-            on_event=view,
-        )  # fmt: skip
-    _print_status(final)
-    if final.get("state") != "done":
-        raise typer.Exit(1)
+    print_status(client.resume(archive, config=config, connect=address))
 
 
 def worker(
@@ -388,5 +308,5 @@ def worker(
 
 def register(app: typer.Typer) -> None:
     """Add the session commands to ``app``, in the order `rig --help` lists them."""
-    for command in (daemon, submit, status, pause, abort, shutdown, resume, run, replay, worker):
+    for command in (daemon, submit, status, pause, abort, shutdown, resume, worker):
         app.command()(command)
