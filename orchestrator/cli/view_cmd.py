@@ -40,9 +40,13 @@ _MAX_EXPOSURE_EV = 64.0
 class ViewOptions:
     """What `rig view` draws, parsed and checked once from its options.
 
-    ``environment`` is a ``render.EnvironmentMap`` or None (lamps only); ``lights`` are
-    the lamps, under an environment only those given; ``size`` is (width, height) in
-    pixels; ``exposure_ev`` None picks one from the first image.
+    ``environment`` is a ``render.EnvironmentMap`` or None (lamps only), drawn by
+    ``env_method`` (visibility, pca or pem) with ``vis_res`` hemicubes or ``median_cut``
+    lights; ``lights`` are the lamps, under an environment only those given; ``size``
+    is (width, height) in pixels; ``tile_mm`` None draws the sample at true scale;
+    ``mdf`` None uses the MDF when the material holds one; ``exposure_ev`` None picks
+    one from the first image; the image goes to ``out``, a GIF of ``turntable`` frames,
+    or a ``window``.
     """
 
     material: Path
