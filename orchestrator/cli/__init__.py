@@ -17,6 +17,7 @@ from orchestrator.cli import (
     calibrate_cmd,
     export_cmd,
     import_cmd,
+    local_cmd,
     plan_cmd,
     process_cmd,
     repair_cmd,
@@ -50,6 +51,7 @@ def _options(
 
 plan_cmd.register(app)
 session_cmd.register(app)
+local_cmd.register(app)
 process_cmd.register(app)
 repair_cmd.register(app)
 calibrate_cmd.register(app)

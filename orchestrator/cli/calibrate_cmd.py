@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Annotated
 
@@ -19,81 +20,93 @@ from orchestrator.cli.common import (
 )
 from rig.errors import ConfigError, RigError
 
-__all__ = ["register"]
+__all__ = ["CaptureOptions", "register"]
 
 _TARGETS = ("cameras", "lamps", "laser", "response")
 
 
-def register(app: typer.Typer) -> None:
-    @app.command()
-    def calibrate(
-        target: Annotated[str, typer.Argument(help="cameras | lamps | laser | response")],
-        config: Annotated[
-            Path | None, typer.Option("--config", "-c", help="rig config TOML (default rig)")
-        ] = None,
-        sim: Annotated[
-            bool, typer.Option("--sim", help="capture from the simulated rig (virtual time)")
-        ] = False,
-        from_archive: Annotated[
-            Path | None,
-            typer.Option("--from", help="compute from this recorded session instead of capturing"),
-        ] = None,
-        archive: Annotated[
-            Path | None,
-            typer.Option(
-                "--archive",
-                help="where the calibration session is recorded (default calibrations/TARGET.zarr)",
-            ),
-        ] = None,
-        out: Annotated[
-            Path | None,
-            typer.Option(
-                "--out",
-                help="calibration file to update (default: the config's, "
-                "else calibrations/calibration.toml)",
-            ),
-        ] = None,
-        poses: Annotated[int, typer.Option(min=3, help="cameras: turntable angles")] = 12,
-        cameras: Annotated[
-            str | None,
-            typer.Option(
-                "--cameras",
-                help="comma-separated camera ids: cameras, lamps use them (default all); "
-                "laser, response the first (default the one nearest the zenith)",
-            ),
-        ] = None,
-        scale: Annotated[
-            float, typer.Option(min=0.05, max=1.0, help="--sim: image size factor")
-        ] = 0.5,
-        apply: Annotated[
-            list[Path] | None,
-            typer.Option("--apply", help="also store the calibration in these session archives"),
-        ] = None,
-    ) -> None:
-        """Calibrate cameras, lamps, laser planes or the radiometric response.
+@dataclass(frozen=True)
+class CaptureOptions:
+    """How `rig calibrate` captures its sessions: ``poses`` turntable angles (cameras),
+    the ``cameras`` ids to use (None: the target's default), and with ``sim`` from the
+    simulated rig at ``scale`` times the cameras' image size."""
 
-        Captures a calibration session with the rig (or, with --sim, the simulated
-        rig), computes from the archive, and updates the calibration file (its
-        TARGET section, with date, software and residuals), a report and plots.
-        --from ARCHIVE recomputes from a recorded (or replayed) session.
-        """
-        if target not in _TARGETS:
-            raise ConfigError(f"unknown target {target!r}; valid are {', '.join(_TARGETS)}")
-        rig = load_config_option(config)
-        ids = None if cameras is None else [c.strip() for c in cameras.split(",") if c.strip()]
-        if from_archive is None:
-            source = archive or Path(f"calibrations/{target}.zarr")
-            plan = _plan(target, rig, source, poses=poses, cameras=ids)
-            _capture(target, rig, plan, source, sim=sim, scale=scale)
-            if target == "lamps":  # the white target: a second session
-                white = _white_archive(source)
-                plan = _plan("white", rig, white, poses=poses, cameras=ids)
-                _capture("white", rig, plan, white, sim=sim, scale=scale)
-        else:
-            source = from_archive
-        failed = _compute(target, source, rig, out, apply or [])
-        if failed:
-            raise typer.Exit(EXIT_FAILURE)
+    poses: int
+    cameras: tuple[str, ...] | None
+    sim: bool
+    scale: float
+
+
+def calibrate(
+    target: Annotated[str, typer.Argument(help="cameras | lamps | laser | response")],
+    config: Annotated[
+        Path | None, typer.Option("--config", "-c", help="rig config TOML (default rig)")
+    ] = None,
+    sim: Annotated[
+        bool, typer.Option("--sim", help="capture from the simulated rig (virtual time)")
+    ] = False,
+    from_archive: Annotated[
+        Path | None,
+        typer.Option("--from", help="compute from this recorded session instead of capturing"),
+    ] = None,
+    archive: Annotated[
+        Path | None,
+        typer.Option(
+            "--archive",
+            help="where the calibration session is recorded (default calibrations/TARGET.zarr)",
+        ),
+    ] = None,
+    out: Annotated[
+        Path | None,
+        typer.Option(
+            "--out",
+            help="calibration file to update (default: the config's, "
+            "else calibrations/calibration.toml)",
+        ),
+    ] = None,
+    poses: Annotated[int, typer.Option(min=3, help="cameras: turntable angles")] = 12,
+    cameras: Annotated[
+        str | None,
+        typer.Option(
+            "--cameras",
+            help="comma-separated camera ids: cameras, lamps use them (default all); "
+            "laser, response the first (default the one nearest the zenith)",
+        ),
+    ] = None,
+    scale: Annotated[float, typer.Option(min=0.05, max=1.0, help="--sim: image size factor")] = 0.5,
+    apply: Annotated[
+        list[Path] | None,
+        typer.Option(
+            "--apply",
+            metavar="<path>",
+            help="also store the calibration in this session archive; repeatable",
+        ),
+    ] = None,
+) -> None:
+    """Calibrate cameras, lamps, laser planes or the camera response.
+
+    TARGET is the cameras' geometry, the lamps' directions and intensities, the
+    laser planes, or each camera's radiometric response curve. Captures a
+    calibration session with the rig (or, with --sim, the simulated
+    rig), computes from the archive, and updates the calibration file (its
+    TARGET section, with date, software and residuals), a report and plots.
+    --from ARCHIVE recomputes from a recorded (or replayed) session.
+    """
+    if target not in _TARGETS:
+        raise ConfigError(f"unknown target {target!r}; valid are {', '.join(_TARGETS)}")
+    rig = load_config_option(config)
+    ids = None if cameras is None else tuple(c.strip() for c in cameras.split(",") if c.strip())
+    capture = CaptureOptions(poses=poses, cameras=ids, sim=sim, scale=scale)
+    if from_archive is None:
+        source = archive or Path(f"calibrations/{target}.zarr")
+        _capture(target, rig, source, capture)
+        if target == "lamps":  # the white target: a second session
+            _capture("white", rig, _white_archive(source), capture)
+    else:
+        source = from_archive
+    failed = _compute(target, source, rig, out, apply or [])
+    if failed:
+        raise typer.Exit(EXIT_FAILURE)
 
 
 def _white_archive(lamps_archive: Path) -> Path:
@@ -101,32 +114,35 @@ def _white_archive(lamps_archive: Path) -> Path:
     return lamps_archive.with_name(lamps_archive.stem + "-white.zarr")
 
 
-def _plan(target: str, rig, archive: Path, *, poses: int, cameras) -> str:
+def _plan(target: str, rig, archive: Path, capture: CaptureOptions) -> str:
     from calibration.plans import camera_plan, lamp_plan, laser_plan, response_plan, white_plan
 
+    cameras = capture.cameras
     if target == "cameras":
-        return camera_plan(rig, poses=poses, cameras=cameras, archive=str(archive))
+        return camera_plan(rig, poses=capture.poses, cameras=cameras, archive=str(archive))
     if target == "lamps":
         return lamp_plan(rig, archive=str(archive), cameras=cameras)
     make = {"laser": laser_plan, "response": response_plan, "white": white_plan}[target]
     return make(rig, archive=str(archive), camera=cameras[0] if cameras else None)
 
 
-def _capture(target: str, rig, plan: str, archive: Path, *, sim: bool, scale: float) -> None:
+def _capture(target: str, rig, archive: Path, capture: CaptureOptions) -> None:
+    """Plan the calibration session of ``target`` (or "white") and record it into
+    ``archive``; a ``RigError`` when the session does not end done."""
     from orchestrator.local import run_local
 
     check_new_archive(archive, "--archive", otherwise=f"compute from it with --from {archive}")
     prepare_folder(archive.parent, "--archive")  # calibrations/ on a fresh clone
     plan_path = archive.with_suffix(".plan.toml")
-    plan_path.write_text(plan)
+    plan_path.write_text(_plan(target, rig, archive, capture))
     console.print(escape(f"plan: {plan_path}"))
-    if sim:
+    if capture.sim:
         from rig.clock import VirtualClock
         from sim.calibration import target_scene
         from sim.rig import SimulatedRig
 
         clock = VirtualClock()
-        scene = target_scene(target, rig, scale=scale)
+        scene = target_scene(target, rig, scale=capture.scale)
         with SimulatedRig(scene, clock=clock) as simulated, SessionProgress() as view:
             final = run_local(plan_path, simulated.rig_config(), archive=archive, on_event=view,
                               clock=clock)  # fmt: skip
@@ -225,3 +241,8 @@ def _lamps(source: Path, path: Path):
         console.print(escape(f"flat fields: {maps} (seen by {run.flat_field.camera})"))
         extra = {"lamps_flat_field": maps.name}
     return results, failed, extra
+
+
+def register(app: typer.Typer) -> None:
+    """Add `rig calibrate` to ``app``."""
+    app.command()(calibrate)

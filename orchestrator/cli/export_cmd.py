@@ -26,7 +26,7 @@ from rig.errors import ConfigError
 __all__ = ["app"]
 
 app = typer.Typer(
-    help="Write a session's frames, normtextures or material in other formats.",
+    help="Write frames, normtextures or material in other tools' formats.",
     no_args_is_help=True,
     rich_markup_mode=PLAIN_HELP,
 )
@@ -105,7 +105,11 @@ def material(
     archive: _Archive,
     out: Annotated[Path, typer.Option("--out", help="material store to create (M.zarr)")],
 ) -> None:
-    """The material (btf, ps, mdf, pbr, sample size, calibration provenance), no frames."""
+    """The material without the frames, as a store rig view reads.
+
+    Its btf, ps, mdf and pbr groups, the sample's size and the calibration's
+    provenance.
+    """
     from rig.archive import overlaps_archive
     from rig.material import export_material
 
@@ -119,25 +123,41 @@ def material(
     console.print(f"material store: {written}")
 
 
-def _frames(fmt: str, what: str) -> None:
-    def command(archive: _Archive, out: _Out, overwrite: _Overwrite = False) -> None:
-        from rig.interchange import export_frames
+def _export_frames(fmt: str, what: str, archive: Path, out: Path, overwrite: bool) -> None:
+    """Every frame of ``archive`` as ``fmt`` files (``what``, for the report) in ``out``."""
+    from rig.interchange import export_frames
 
-        _check_archive(archive)
-        with _export_to(out, archive, overwrite=overwrite) as tmp, _bar(f"{fmt} frames") as bar:
-            manifest = export_frames(archive, tmp, fmt, progress=bar)
-        console.print(escape(f"wrote {out} ({what}, {manifest.name} lists them)"))
-
-    command.__doc__ = (
-        f"Every recorded frame, raw, as {what}, with a manifest of directions, camera, "
-        "lamp and exposure."
-    )
-    app.command(fmt)(command)
+    _check_archive(archive)
+    with _export_to(out, archive, overwrite=overwrite) as tmp, _bar(f"{fmt} frames") as bar:
+        manifest = export_frames(archive, tmp, fmt, progress=bar)
+    console.print(escape(f"wrote {out} ({what}, {manifest.name} lists them)"))
 
 
-_frames("png16", "16-bit PNG")
-_frames("tiff", "TIFF")
-_frames("exr", "32-bit float OpenEXR")
+@app.command()
+def png16(archive: _Archive, out: _Out, overwrite: _Overwrite = False) -> None:
+    """Every recorded frame, raw, as 16-bit PNG.
+
+    A manifest lists each frame's directions, camera, lamp and exposure.
+    """
+    _export_frames("png16", "16-bit PNG", archive, out, overwrite)
+
+
+@app.command()
+def tiff(archive: _Archive, out: _Out, overwrite: _Overwrite = False) -> None:
+    """Every recorded frame, raw, as TIFF.
+
+    A manifest lists each frame's directions, camera, lamp and exposure.
+    """
+    _export_frames("tiff", "TIFF", archive, out, overwrite)
+
+
+@app.command()
+def exr(archive: _Archive, out: _Out, overwrite: _Overwrite = False) -> None:
+    """Every recorded frame, raw, as 32-bit float OpenEXR.
+
+    A manifest lists each frame's directions, camera, lamp and exposure.
+    """
+    _export_frames("exr", "32-bit float OpenEXR", archive, out, overwrite)
 
 
 @app.command()
@@ -161,7 +181,7 @@ def ubo2003(
     ] = None,
     overwrite: _Overwrite = False,
 ) -> None:
-    """The normtextures in the Bonn UBO2003 folder layout (8-bit sRGB PNG).
+    """The normtextures in the Bonn UBO2003 layout (8-bit sRGB PNG).
 
     An imported archive's frames are written as they are; a captured session's
     are registered onto --size texels (flagged captures become listed gaps);
@@ -253,11 +273,11 @@ def gltf(
 
 @app.command()
 def materialx(archive: _Archive, out: _Out, overwrite: _Overwrite = False) -> None:
-    """The PBR fit (`rig process --stages pbr`) as a MaterialX standard_surface.
+    """The PBR fit (rig process --stages pbr) as a MaterialX material.
 
-    material.mtlx and its PNG textures (colour maps sRGB, the others raw), with a
-    manifest of the fit's error against the BTF; needs the materialx package
-    (pip install 'btfrig[export]').
+    material.mtlx (a standard_surface) and its PNG textures (colour maps sRGB, the
+    others raw), with a manifest of the fit's error against the BTF; needs the
+    materialx package (pip install 'btfrig[export]').
     """
     from orchestrator.cli.export_sources import pbr_maps
     from rig.interchange import write_manifest, write_materialx
@@ -282,7 +302,7 @@ def web(
     ] = 256,
     overwrite: _Overwrite = False,
 ) -> None:
-    """A static web site of the materials: their BTF and PBR fit in the browser.
+    """A static web site that draws the materials in the browser.
 
     One page per material draws its measured BTF (per-view PCA, the renderer's
     nearest-four blends) or its PBR fit on the built-in meshes in WebGL2: drag to

@@ -72,119 +72,125 @@ def archive_flagged_lines(archive_path: Path) -> list[str]:
         return flagged_lines(flag_summary(flags_of(archive.step_table())))
 
 
+#: the stages with preview PNGs, and what writes them
+_PREVIEWS = {"ps": write_ps_previews, "mdf": write_mdf_previews}
+
+
+def process(
+    archive: Annotated[Path, typer.Argument(help="session archive")],
+    stages: Annotated[str, typer.Option("--stages", help="comma-separated, e.g. ps")] = "ps",
+    size: Annotated[int, typer.Option(min=8, max=4096, help="texels per side of the maps")] = 128,
+    scheduler: Annotated[
+        str | None,
+        typer.Option("--scheduler", help="a running Dask scheduler (default: local cluster)"),
+    ] = None,
+    components: Annotated[
+        int, typer.Option(min=1, max=64, help="btf: PCA components per view slot")
+    ] = 8,
+    workers: Annotated[int, typer.Option(min=1, help="local cluster threads")] = 2,
+    previews: Annotated[
+        Path | None,
+        typer.Option("--previews", help="folder for preview PNGs (default: ARCHIVE_previews)"),
+    ] = None,
+    raw: Annotated[
+        bool,
+        typer.Option(
+            "--raw",
+            help="ps, btf: frames as recorded, without the calibration's response "
+            "linearisation and lamp flat fields (btf: nor the near lamps' irradiance "
+            "per texel)",
+        ),
+    ] = False,
+    flat_beyond_mm: Annotated[
+        float,
+        typer.Option(
+            "--flat-beyond-mm",
+            min=0.0,
+            help="ps: the sample is flat beyond this wavelength (mm); its height keeps "
+            "no longer shape (0: the height as integrated)",
+        ),
+    ] = 15.0,
+) -> None:
+    """Run processing stages over an archive into its material/ group.
+
+    Re-running a stage replaces its output atomically; a failed run leaves the
+    previous output as it was. Stages: ps (photometric stereo: normals, albedo,
+    height on the sample's texel grid, with preview PNGs); btf (registered
+    normtextures of every view slot, compressed by per-view PCA, --components);
+    mdf (the mesostructure distance function of the laser scans, with previews);
+    pbr (the BTF fitted per texel by a glTF PBR material — base colour, roughness,
+    specular, sheen, anisotropy, normal, height — with its fit error; needs btf,
+    which may run first in the same command; the fit keeps the BTF's texel grid).
+    A stage that can use none of its frames (all flagged: saturated, black…) is
+    skipped with the reason, the others still run, and the exit code is 1. A
+    stage the session captured nothing for (btf or mdf of a PS-only rig) is
+    skipped with the reason too, and is no failure.
+    Frames the session flagged as not recording their step's state (the laser
+    tilt, the lamp, the axes) are listed; mdf leaves out those never re-captured.
+    When the archive's calibration has them, ps and btf frames are linearised
+    by the camera's response curve and divided by their lamp's flat field; btf
+    texels are divided by their near lamp's irradiance (calibrated or nominal
+    lamp positions). --raw: none of it; the material records what was applied.
+    """
+    quiet_dask_logs()
+    from processing.offline import STAGES, run_stages
+
+    names = [s.strip() for s in stages.split(",") if s.strip()]
+    unknown = [n for n in names if n not in STAGES]
+    if unknown or not names:
+        raise ConfigError(
+            f"--stages {stages!r}: unknown stage(s) {unknown}; valid are {sorted(STAGES)}"
+        )
+    if previews is not None and any(n in _PREVIEWS for n in names):
+        prepare_folder(previews, f"--previews {previews}")
+    flat = flat_beyond_mm or None
+    options = {
+        "btf": {"size": size, "components": components, "raw": raw},
+        "ps": {"size": size, "raw": raw, "flat_beyond_mm": flat},
+        "mdf": {"size": size}, "pbr": {},
+    }  # fmt: skip
+    chosen = [STAGES[n](**options[n]) for n in names]
+    columns = (
+        TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
+        TimeElapsedColumn(),
+    )  # fmt: skip
+    with Progress(*columns, console=console) as bar:
+        tasks: dict[str, int] = {}
+
+        def progress(stage: str, done: int, total: int) -> None:
+            if stage not in tasks:
+                tasks[stage] = bar.add_task(stage, total=total)
+            bar.update(tasks[stage], completed=done)
+
+        runs = run_stages(archive, chosen, scheduler=scheduler, workers=workers, progress=progress)
+    _report(runs, archive, previews or archive.with_name(f"{archive.stem}_previews"))
+
+
+def _report(runs, archive: Path, previews: Path) -> None:
+    """Say what each stage run wrote or why it was skipped, list the archive's flagged
+    frames, write the previews into the folder ``previews``; a ``RigError`` when a
+    stage that had frames to use was skipped."""
+    for run in runs:
+        if run.skipped is not None:
+            console.print(f"[yellow]{run.stage}: skipped[/yellow] — {escape(run.skipped)}")
+            continue
+        detail = ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}"
+                           for k, v in run.summary.items())  # fmt: skip
+        console.print(escape(f"{run.stage}: {run.items} item(s) → material/{run.stage} ({detail})"))
+    for line in archive_flagged_lines(archive):
+        console.print(escape(line), style="yellow")
+    for run in runs:
+        if run.skipped is None and run.stage in _PREVIEWS:
+            for path in _PREVIEWS[run.stage](archive, previews):
+                console.print(escape(f"wrote {path}"))
+    skipped = [run.stage for run in runs if run.skipped is not None and not run.absent]
+    if skipped:
+        raise RigError(
+            f"{len(skipped)} of {len(runs)} stage(s) skipped: {', '.join(skipped)} "
+            "(the reasons are above); the other stages' results are in material/"
+        )
+
+
 def register(app: typer.Typer) -> None:
-    @app.command()
-    def process(
-        archive: Annotated[Path, typer.Argument(help="session archive")],
-        stages: Annotated[str, typer.Option("--stages", help="comma-separated, e.g. ps")] = "ps",
-        size: Annotated[
-            int, typer.Option(min=8, max=4096, help="texels per side of the maps")
-        ] = 128,
-        scheduler: Annotated[
-            str | None,
-            typer.Option("--scheduler", help="a running Dask scheduler (default: local cluster)"),
-        ] = None,
-        components: Annotated[
-            int, typer.Option(min=1, max=64, help="btf: PCA components per view slot")
-        ] = 8,
-        workers: Annotated[int, typer.Option(min=1, help="local cluster threads")] = 2,
-        previews: Annotated[
-            Path | None,
-            typer.Option("--previews", help="folder for preview PNGs (default: ARCHIVE_previews)"),
-        ] = None,
-        raw: Annotated[
-            bool,
-            typer.Option(
-                "--raw",
-                help="ps, btf: frames as recorded, without the calibration's response "
-                "linearisation and lamp flat fields (btf: nor the near lamps' irradiance "
-                "per texel)",
-            ),
-        ] = False,
-        flat_beyond_mm: Annotated[
-            float,
-            typer.Option(
-                "--flat-beyond-mm",
-                min=0.0,
-                help="ps: the sample is flat beyond this wavelength (mm); its height keeps "
-                "no longer shape (0: the height as integrated)",
-            ),
-        ] = 15.0,
-    ) -> None:
-        """Run processing stages over a recorded archive into its material/ group.
-
-        Re-running a stage replaces its output atomically; a failed run leaves the
-        previous output as it was. Stages: ps (photometric stereo: normals, albedo,
-        height on the sample's texel grid, with preview PNGs); btf (registered
-        normtextures of every view slot, compressed by per-view PCA, --components);
-        mdf (the mesostructure distance function of the laser scans, with previews);
-        pbr (the BTF fitted per texel by a glTF PBR material — base colour, roughness,
-        specular, sheen, anisotropy, normal, height — with its fit error; needs btf,
-        which may run first in the same command; the fit keeps the BTF's texel grid).
-        A stage that can use none of its frames (all flagged: saturated, black…) is
-        skipped with the reason, the others still run, and the exit code is 1. A
-        stage the session captured nothing for (btf or mdf of a PS-only rig) is
-        skipped with the reason too, and is no failure.
-        Frames the session flagged as not recording their step's state (the laser
-        tilt, the lamp, the axes) are listed; mdf leaves out those never re-captured.
-        When the archive's calibration has them, ps and btf frames are linearised
-        by the camera's response curve and divided by their lamp's flat field; btf
-        texels are divided by their near lamp's irradiance (calibrated or nominal
-        lamp positions). --raw: none of it; the material records what was applied.
-        """
-        quiet_dask_logs()
-        from processing.offline import STAGES, run_stages
-
-        names = [s.strip() for s in stages.split(",") if s.strip()]
-        unknown = [n for n in names if n not in STAGES]
-        if unknown or not names:
-            raise ConfigError(
-                f"--stages {stages!r}: unknown stage(s) {unknown}; valid are {sorted(STAGES)}"
-            )
-        writers = {"ps": write_ps_previews, "mdf": write_mdf_previews}
-        if previews is not None and any(n in writers for n in names):
-            prepare_folder(previews, f"--previews {previews}")
-        flat = flat_beyond_mm or None
-        options = {
-            "btf": {"size": size, "components": components, "raw": raw},
-            "ps": {"size": size, "raw": raw, "flat_beyond_mm": flat},
-            "mdf": {"size": size}, "pbr": {},
-        }  # fmt: skip
-        chosen = [STAGES[n](**options[n]) for n in names]
-        columns = (
-            TextColumn("[bold]{task.description}"), BarColumn(), MofNCompleteColumn(),
-            TimeElapsedColumn(),
-        )  # fmt: skip
-        with Progress(*columns, console=console) as bar:
-            tasks: dict[str, int] = {}
-
-            def progress(stage: str, done: int, total: int) -> None:
-                if stage not in tasks:
-                    tasks[stage] = bar.add_task(stage, total=total)
-                bar.update(tasks[stage], completed=done)
-
-            runs = run_stages(
-                archive, chosen, scheduler=scheduler, workers=workers, progress=progress
-            )
-        for run in runs:
-            if run.skipped is not None:
-                console.print(f"[yellow]{run.stage}: skipped[/yellow] — {escape(run.skipped)}")
-                continue
-            detail = ", ".join(f"{k} {v:.3g}" if isinstance(v, float) else f"{k} {v}"
-                               for k, v in run.summary.items())  # fmt: skip
-            console.print(
-                escape(f"{run.stage}: {run.items} item(s) → material/{run.stage} ({detail})")
-            )
-        for line in archive_flagged_lines(archive):
-            console.print(escape(line), style="yellow")
-        folder = previews or archive.with_name(f"{archive.stem}_previews")
-        for run in runs:
-            if run.skipped is None and run.stage in writers:
-                for path in writers[run.stage](archive, folder):
-                    console.print(escape(f"wrote {path}"))
-        skipped = [run.stage for run in runs if run.skipped is not None and not run.absent]
-        if skipped:
-            raise RigError(
-                f"{len(skipped)} of {len(runs)} stage(s) skipped: {', '.join(skipped)} "
-                "(the reasons are above); the other stages' results are in material/"
-            )
+    """Add `rig process` to ``app``."""
+    app.command()(process)

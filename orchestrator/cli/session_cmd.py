@@ -1,4 +1,4 @@
-"""Session commands: the daemon, its clients, local runs and workers."""
+"""Session commands: the daemon, its clients and workers."""
 
 from __future__ import annotations
 
@@ -12,24 +12,32 @@ from rich.markup import escape
 
 from orchestrator.cli.common import (
     SessionProgress,
-    check_new_archive,
     console,
     flagged_lines,
     readable,
 )
 from rig.errors import ConfigError, RigError
 
-__all__ = ["FaultHints", "register"]
+__all__ = ["FaultHints", "print_status", "register"]
 
-CONNECT = typer.Option("--connect", help="the daemon's control address, tcp://HOST[:PORT]")
 DEFAULT_CONNECT = "tcp://127.0.0.1"
-SERVER_KEY = typer.Option(
-    "--curve-server-key", help="the daemon's public CURVE certificate (a daemon with keys)"
-)
-SECRET_KEY = typer.Option(
-    "--curve-secret-key",
-    help="this client's secret CURVE certificate (its public half in the daemon's clients dir)",
-)
+# The options of every command that talks to a running daemon.
+Connect = Annotated[
+    str, typer.Option("--connect", help="the daemon's control address, tcp://HOST[:PORT]")
+]
+ServerKey = Annotated[
+    Path | None,
+    typer.Option(
+        "--curve-server-key", help="the daemon's public CURVE certificate (a daemon with keys)"
+    ),
+]
+SecretKey = Annotated[
+    Path | None,
+    typer.Option(
+        "--curve-secret-key",
+        help="this client's secret CURVE certificate (its public half in the daemon's clients dir)",
+    ),
+]
 
 
 def _daemon_at(connect: str, server_key: Path | None, secret_key: Path | None):
@@ -55,7 +63,8 @@ def _stops_following(event: dict) -> bool:
     return session_ended(event) or session_paused(event)
 
 
-def _print_status(state: dict) -> None:
+def print_status(state: dict) -> None:
+    """The daemon's state and its session's fields, one per line."""
     session = state.get("session") or {}
     console.print(f"daemon: [bold]{state.get('state')}[/bold]")
     for key in ("session", "sample", "archive", "committed", "steps", "frames", "fault", "reason"):
@@ -65,305 +74,239 @@ def _print_status(state: dict) -> None:
         console.print(escape(f"  {line}"))
 
 
-def _steering(request: str):
-    """The command that sends ``request`` (pause, abort, shutdown) to the daemon; the
-    request is bound here, not as a parameter, so it is no option of the command."""
-
-    def command(
-        connect: Annotated[str, CONNECT] = DEFAULT_CONNECT,
-        server_key: Annotated[Path | None, SERVER_KEY] = None,
-        secret_key: Annotated[Path | None, SECRET_KEY] = None,
-    ) -> None:
-        from orchestrator import client
-
-        daemon = _daemon_at(connect, server_key, secret_key)
-        _print_status(getattr(client, request)(connect=daemon))
-
-    return command
-
-
 class FaultHints:
     """Passes each event on to ``view``; when a fault pauses the session, says what
-    happened and what the user can do, with the address of the daemon to do it at."""
+    happened and what the user can do, with the address of the daemon to do it at.
+
+    Said once per pause: on the fault's state event, or, for a follower that joined
+    after the fault (a fault at the first step can come before it subscribed), on the
+    first status that shows the session paused with a fault.
+    """
 
     def __init__(self, view, connect: str = DEFAULT_CONNECT):
         self.view = view
         self.connect = connect
+        self._said = False
 
     def __call__(self, event: dict) -> None:
         self.view(event)
-        if event.get("topic") == "daemon":
+        topic = event.get("topic")
+        if topic == "daemon":
             self.connect = event["control"]
-        elif event.get("topic") == "state" and event.get("event") == "fault":
-            where = "" if self.connect == DEFAULT_CONNECT else f" --connect {self.connect}"
-            console.print(
-                escape(
-                    f"paused: {event.get('device')} failed at step {event.get('step')} "
-                    f"({event.get('operation')}: {event.get('detail')}).\n"
-                    f"  Fix it, then `rig resume{where}` to retry that step, or "
-                    f"`rig abort{where}` to end the session: committed steps stay in the "
-                    "archive, and `rig resume ARCHIVE` with a daemon continues it later."
-                ),
-                style="yellow",
+        elif topic == "state":
+            self._said = False
+            if event.get("event") == "fault":
+                self._say(event)
+        elif topic == "status" and event.get("state") == "paused" and not self._said:
+            fault = (event.get("session") or {}).get("fault")
+            if fault:
+                self._say(fault)
+
+    def _say(self, fault: dict) -> None:
+        self._said = True
+        where = "" if self.connect == DEFAULT_CONNECT else f" --connect {self.connect}"
+        console.print(
+            escape(
+                f"paused: {fault.get('device')} failed at step {fault.get('step')} "
+                f"({fault.get('operation')}: {fault.get('detail')}).\n"
+                f"  Fix it, then `rig resume{where}` to retry that step, or "
+                f"`rig abort{where}` to end the session: committed steps stay in the "
+                "archive, and `rig resume ARCHIVE` with a daemon continues it later."
+            ),
+            style="yellow",
+        )
+
+
+def daemon(
+    config: Annotated[
+        Path | None, typer.Option("--config", "-c", help="rig config TOML (default rig)")
+    ] = None,
+    host: Annotated[
+        str, typer.Option(help="address to bind; beyond loopback needs CURVE")
+    ] = "127.0.0.1",
+    port: Annotated[int, typer.Option(help="control port; the next three carry the rest")] = 5570,
+    on_fault: Annotated[
+        str, typer.Option("--on-fault", help="pause (resume retries the step) or fail")
+    ] = "pause",
+    curve_secret_key: Annotated[
+        Path | None,
+        typer.Option(exists=True, dir_okay=False, help="the server's secret CURVE certificate"),
+    ] = None,
+    curve_clients_dir: Annotated[
+        Path | None,
+        typer.Option(
+            exists=True, file_okay=False, help="folder of the allowed clients' public certs"
+        ),
+    ] = None,
+) -> None:
+    """Run the daemon that owns the devices and one session at a time."""
+    import zmq
+    from pydantic import ValidationError
+
+    from orchestrator.local import run_daemon
+    from orchestrator.wire.endpoints import DaemonSettings
+
+    options = {
+        "host": host,
+        "port": port,
+        "on_fault": on_fault,
+        "curve_secret_key": curve_secret_key,
+        "curve_clients_dir": curve_clients_dir,
+    }
+    try:
+        settings = DaemonSettings(**options)
+    except ValidationError as err:
+        raise ConfigError(
+            "; ".join(
+                f"--{str(e['loc'][0]).replace('_', '-')} {e['input']}: {e['msg']}"
+                for e in err.errors()
             )
+        ) from None
+    try:
+        run_daemon(
+            config,
+            settings=settings,
+            on_ready=lambda ep: console.print(f"daemon listening on {ep.control}"),
+        )
+    except zmq.ZMQError as err:
+        if err.errno != zmq.EADDRINUSE:
+            raise
+        raise RigError(
+            f"cannot listen on {host} ports {port}–{port + 3}: {err.strerror} (another "
+            "`rig daemon` or program holds one); stop it, or give another --port"
+        ) from None
+
+
+def submit(
+    plan: Annotated[Path, typer.Argument(help="plan TOML")],
+    archive: Annotated[
+        Path | None, typer.Option("--archive", help="where to write (default: the plan's)")
+    ] = None,
+    connect: Connect = DEFAULT_CONNECT,
+    server_key: ServerKey = None,
+    secret_key: SecretKey = None,
+) -> None:
+    """Submit a plan to the running daemon."""
+    from orchestrator import client
+
+    address = _daemon_at(connect, server_key, secret_key)
+    print_status(client.submit(plan, archive=archive, connect=address))
+
+
+def status(
+    follow: Annotated[bool, typer.Option("--follow", "-f", help="keep following")] = False,
+    connect: Connect = DEFAULT_CONNECT,
+    server_key: ServerKey = None,
+    secret_key: SecretKey = None,
+) -> None:
+    """Show the daemon's session state, or follow it with --follow.
+
+    --follow draws progress until the session ends or pauses; the exit status
+    then says how it stopped: 0 the session is done,
+    3 it paused (`rig resume` or `rig abort` it), 1 it failed or was aborted,
+    or the daemon became unreachable (it stopped answering: killed, or gone).
+    Piped, each event is printed as one line as it comes.
+    """
+    from orchestrator import client
+
+    address = _daemon_at(connect, server_key, secret_key)
+    if not follow:
+        print_status(client.status(connect=address))
+        return
+    with SessionProgress() as view:
+        hints = FaultHints(view, connect)
+        for event in client.follow(address, until=_stops_following):
+            hints(event)
+    final = client.status(connect=address)
+    print_status(final)
+    if final.get("state") == "paused":
+        raise typer.Exit(EXIT_PAUSED)
+    if final.get("state") != "done":
+        raise typer.Exit(1)
+
+
+def pause(
+    connect: Connect = DEFAULT_CONNECT, server_key: ServerKey = None, secret_key: SecretKey = None
+) -> None:
+    """Pause the running session after the current step."""
+    from orchestrator import client
+
+    print_status(client.pause(connect=_daemon_at(connect, server_key, secret_key)))
+
+
+def abort(
+    connect: Connect = DEFAULT_CONNECT, server_key: ServerKey = None, secret_key: SecretKey = None
+) -> None:
+    """Abort the running session (committed steps stay in the archive)."""
+    from orchestrator import client
+
+    print_status(client.abort(connect=_daemon_at(connect, server_key, secret_key)))
+
+
+def shutdown(
+    connect: Connect = DEFAULT_CONNECT, server_key: ServerKey = None, secret_key: SecretKey = None
+) -> None:
+    """Stop the daemon cleanly."""
+    from orchestrator import client
+
+    print_status(client.shutdown(connect=_daemon_at(connect, server_key, secret_key)))
+
+
+def resume(
+    archive: Annotated[
+        Path | None, typer.Argument(help="continue a crashed session from its archive")
+    ] = None,
+    config: Annotated[
+        Path | None,
+        typer.Option(
+            "--config",
+            "-c",
+            help="with ARCHIVE: the rig config whose connections to use (devices on new "
+            "ports); its geometry must be the recorded one (default: the daemon's config)",
+        ),
+    ] = None,
+    connect: Connect = DEFAULT_CONNECT,
+    server_key: ServerKey = None,
+    secret_key: SecretKey = None,
+) -> None:
+    """Resume a paused session, or continue a crashed one from ARCHIVE.
+
+    With ARCHIVE the daemon runs only the steps the archive has not committed; the
+    rig config must describe the rig it recorded (devices may be on other ports).
+    """
+    from orchestrator import client
+
+    address = _daemon_at(connect, server_key, secret_key)
+    print_status(client.resume(archive, config=config, connect=address))
+
+
+def worker(
+    stage: Annotated[
+        str,
+        typer.Argument(help="live stage(s), comma-separated: stats, register, laser, ps"),
+    ],
+    connect: Connect = DEFAULT_CONNECT,
+    server_key: ServerKey = None,
+    secret_key: SecretKey = None,
+) -> None:
+    """Run live stages on a daemon's frames and push the results back.
+
+    Every worker of a session must run the same stages (frames go round robin).
+    Stages other than stats read the session's archive: a worker on another machine
+    needs it at the same path (a shared file system). Ctrl-C stops the worker.
+    """
+    from orchestrator.worker import run_worker
+
+    stop = threading.Event()
+    previous = signal.signal(signal.SIGINT, lambda *_: stop.set())
+    try:
+        done = run_worker(stage, _daemon_at(connect, server_key, secret_key), stop=stop)
+    finally:
+        signal.signal(signal.SIGINT, previous)
+    console.print(f"worker processed {done} frame(s)")
 
 
 def register(app: typer.Typer) -> None:
-    @app.command()
-    def daemon(
-        config: Annotated[
-            Path | None, typer.Option("--config", "-c", help="rig config TOML (default rig)")
-        ] = None,
-        host: Annotated[str, typer.Option(help="address to bind; beyond loopback needs CURVE")] = (
-            "127.0.0.1"
-        ),
-        port: Annotated[int, typer.Option(help="control port; the next three carry the rest")] = (
-            5570
-        ),
-        on_fault: Annotated[
-            str, typer.Option("--on-fault", help="pause (resume retries the step) or fail")
-        ] = "pause",
-        curve_secret_key: Annotated[
-            Path | None,
-            typer.Option(exists=True, dir_okay=False, help="the server's secret CURVE certificate"),
-        ] = None,
-        curve_clients_dir: Annotated[
-            Path | None,
-            typer.Option(
-                exists=True, file_okay=False, help="folder of the allowed clients' public certs"
-            ),
-        ] = None,
-    ) -> None:
-        """Run the control daemon: owns the devices and one session at a time."""
-        import zmq
-        from pydantic import ValidationError
-
-        from orchestrator.local import run_daemon
-        from orchestrator.wire.endpoints import DaemonSettings
-
-        options = {
-            "host": host,
-            "port": port,
-            "on_fault": on_fault,
-            "curve_secret_key": curve_secret_key,
-            "curve_clients_dir": curve_clients_dir,
-        }
-        try:
-            settings = DaemonSettings(**options)
-        except ValidationError as err:
-            raise ConfigError(
-                "; ".join(
-                    f"--{str(e['loc'][0]).replace('_', '-')} {e['input']}: {e['msg']}"
-                    for e in err.errors()
-                )
-            ) from None
-        try:
-            run_daemon(
-                config,
-                settings=settings,
-                on_ready=lambda ep: console.print(f"daemon listening on {ep.control}"),
-            )
-        except zmq.ZMQError as err:
-            if err.errno != zmq.EADDRINUSE:
-                raise
-            raise RigError(
-                f"cannot listen on {host} ports {port}–{port + 3}: {err.strerror} (another "
-                "`rig daemon` or program holds one); stop it, or give another --port"
-            ) from None
-
-    @app.command()
-    def submit(
-        plan: Annotated[Path, typer.Argument(help="plan TOML")],
-        archive: Annotated[
-            Path | None, typer.Option("--archive", help="where to write (default: the plan's)")
-        ] = None,
-        connect: Annotated[str, CONNECT] = DEFAULT_CONNECT,
-        server_key: Annotated[Path | None, SERVER_KEY] = None,
-        secret_key: Annotated[Path | None, SECRET_KEY] = None,
-    ) -> None:
-        """Submit a plan to the running daemon."""
-        from orchestrator import client
-
-        daemon = _daemon_at(connect, server_key, secret_key)
-        _print_status(client.submit(plan, archive=archive, connect=daemon))
-
-    @app.command()
-    def status(
-        follow: Annotated[bool, typer.Option("--follow", "-f", help="keep following")] = False,
-        connect: Annotated[str, CONNECT] = DEFAULT_CONNECT,
-        server_key: Annotated[Path | None, SERVER_KEY] = None,
-        secret_key: Annotated[Path | None, SECRET_KEY] = None,
-    ) -> None:
-        """Show the daemon's session state; --follow draws progress until it ends or pauses.
-
-        With --follow the exit status says how it stopped: 0 the session is done,
-        3 it paused (`rig resume` or `rig abort` it), 1 it failed or was aborted,
-        or the daemon became unreachable (it stopped answering: killed, or gone).
-        Piped, each event is printed as one line as it comes.
-        """
-        from orchestrator import client
-
-        daemon = _daemon_at(connect, server_key, secret_key)
-        if not follow:
-            _print_status(client.status(connect=daemon))
-            return
-        with SessionProgress() as view:
-            hints = FaultHints(view, connect)
-            for event in client.follow(daemon, until=_stops_following):
-                hints(event)
-        final = client.status(connect=daemon)
-        _print_status(final)
-        if final.get("state") == "paused":
-            raise typer.Exit(EXIT_PAUSED)
-        if final.get("state") != "done":
-            raise typer.Exit(1)
-
-    for name, doc in (
-        ("pause", "Pause the running session after the current step."),
-        ("abort", "Abort the running session (committed steps stay in the archive)."),
-        ("shutdown", "Stop the daemon cleanly."),
-    ):
-        app.command(name, help=doc)(_steering(name))
-
-    @app.command()
-    def resume(
-        archive: Annotated[
-            Path | None, typer.Argument(help="continue a crashed session from its archive")
-        ] = None,
-        config: Annotated[
-            Path | None,
-            typer.Option(
-                "--config",
-                "-c",
-                help="with ARCHIVE: the rig config whose connections to use (devices on new "
-                "ports); its geometry must be the recorded one (default: the daemon's config)",
-            ),
-        ] = None,
-        connect: Annotated[str, CONNECT] = DEFAULT_CONNECT,
-        server_key: Annotated[Path | None, SERVER_KEY] = None,
-        secret_key: Annotated[Path | None, SECRET_KEY] = None,
-    ) -> None:
-        """Resume a paused session, or continue a crashed one from its archive."""
-        from orchestrator import client
-
-        daemon = _daemon_at(connect, server_key, secret_key)
-        _print_status(client.resume(archive, config=config, connect=daemon))
-
-    @app.command()
-    def run(
-        plan: Annotated[Path, typer.Argument(help="plan TOML")],
-        config: Annotated[
-            Path | None, typer.Option("--config", "-c", help="rig config TOML (default rig)")
-        ] = None,
-        archive: Annotated[
-            Path | None, typer.Option("--archive", help="where to write (default: the plan's)")
-        ] = None,
-        workers: Annotated[
-            int, typer.Option(min=1, help="live workers to run (frames wait for one)")
-        ] = 1,
-        stages: Annotated[
-            str,
-            typer.Option("--stages", help="the workers' live stages: stats, register, laser, ps"),
-        ] = "stats",
-        sim: Annotated[
-            Path | None,
-            typer.Option(
-                "--sim",
-                help="run against the simulated rig of this scene TOML, in virtual time "
-                "(instead of --config's hardware)",
-            ),
-        ] = None,
-    ) -> None:
-        """Daemon + workers + submit + follow in one process, for a local session."""
-        from orchestrator.local import run_local
-        from orchestrator.worker import worker_stages
-        from rig.plan import load_plan
-
-        if config is not None and sim is not None:
-            raise ConfigError("--config and --sim: give one (the scene names its rig)")
-        try:
-            worker_stages(stages)
-        except ConfigError as err:
-            raise ConfigError(f"--stages: {err}") from None
-        # The daemon runs here: its archive's folder must be one this machine can make.
-        option = "--archive" if archive is not None else "the plan's output.archive"
-        archive = archive if archive is not None else load_plan(plan).archive_path()
-        check_new_archive(archive, option, otherwise="`rig resume` an unfinished one")
-        with SessionProgress() as progress:
-            view = FaultHints(progress)
-            if sim is None:
-                final = run_local(
-                    plan, config, archive=archive, workers=workers, stages=stages, on_event=view
-                )
-            else:
-                from rig.clock import VirtualClock
-                from sim.rig import SimulatedRig
-
-                clock = VirtualClock()
-                with SimulatedRig(sim, clock=clock) as rig:
-                    final = run_local(
-                        plan, rig.rig_config(), archive=archive, workers=workers,
-                        stages=stages, on_event=view, clock=clock,
-                    )  # fmt: skip
-        _print_status(final)
-        if final.get("state") != "done":
-            raise typer.Exit(1)
-
-    @app.command()
-    def replay(
-        archive: Annotated[Path, typer.Argument(help="session archive to replay")],
-        out: Annotated[
-            Path | None,
-            typer.Option("--out", help="the replay's archive (default: ARCHIVE.replay.zarr)"),
-        ] = None,
-        speed: Annotated[
-            float, typer.Option("--speed", min=0.001, help="pace: N times the recorded speed")
-        ] = 1.0,
-        max_speed: Annotated[
-            bool, typer.Option("--max", help="as fast as the archive reads (ignores --speed)")
-        ] = False,
-        workers: Annotated[int, typer.Option(min=1, help="statistics workers to run")] = 1,
-    ) -> None:
-        """Run a recorded session back through the daemon and workers.
-
-        The plan, rig config and frames come from ARCHIVE; moves, lamps, cameras and
-        exposures are checked against the recording, and a mismatch fails the replay.
-        """
-        from orchestrator.local import replay_local
-
-        target = out if out is not None else archive.with_suffix(".replay.zarr")
-        check_new_archive(target, "--out", otherwise="remove that replay first")
-        with SessionProgress() as view:
-            final = replay_local(
-                archive, out=target, speed=None if max_speed else speed, workers=workers,
-                on_event=view,
-            )  # fmt: skip
-        _print_status(final)
-        if final.get("state") != "done":
-            raise typer.Exit(1)
-
-    @app.command()
-    def worker(
-        stage: Annotated[
-            str,
-            typer.Argument(help="live stage(s), comma-separated: stats, register, laser, ps"),
-        ],
-        connect: Annotated[str, CONNECT] = DEFAULT_CONNECT,
-        server_key: Annotated[Path | None, SERVER_KEY] = None,
-        secret_key: Annotated[Path | None, SECRET_KEY] = None,
-    ) -> None:
-        """Pull frames from a daemon, run live stages on them, push results (Ctrl-C stops).
-
-        Every worker of a session must run the same stages (frames go round robin).
-        Stages other than stats read the session's archive: a worker on another machine
-        needs it at the same path (a shared file system).
-        """
-        from orchestrator.worker import run_worker
-
-        stop = threading.Event()
-        previous = signal.signal(signal.SIGINT, lambda *_: stop.set())
-        try:
-            done = run_worker(stage, _daemon_at(connect, server_key, secret_key), stop=stop)
-        finally:
-            signal.signal(signal.SIGINT, previous)
-        console.print(f"worker processed {done} frame(s)")
+    """Add the session commands to ``app``, in the order `rig --help` lists them."""
+    for command in (daemon, submit, status, pause, abort, shutdown, resume, worker):
+        app.command()(command)

@@ -38,6 +38,7 @@ app = typer.Typer(
     cls=_DefaultServe,
     no_args_is_help=True,
     rich_markup_mode=PLAIN_HELP,
+    short_help="The simulated rig: serve its devices, draw or ray-cast a scene.",
     help="The simulated rig: `rig sim SCENE` serves its devices; `rig sim render` draws it.",
 )
 
@@ -79,6 +80,7 @@ def serve(
         list[str] | None,
         typer.Option(
             "--fault",
+            metavar="<str>",
             help="inject a fault, PEER.KEY=VALUE (peers: turntable, lamp_bank, light_arc, "
             "laser, cameras), e.g. cameras.dropped_frames=1; repeatable",
         ),
@@ -92,10 +94,11 @@ def serve(
         ),
     ] = None,
 ) -> None:
-    """Start all device peers and the camera server; write the rig config that reaches them.
+    """Serve the simulated rig: its device peers and camera server.
 
-    Then, in another shell: `rig daemon --config sim-rig.toml` and `rig submit PLAN`.
-    Ctrl-C stops the simulated rig.
+    Writes the rig config that reaches them (--config-out). Then, in another
+    shell: `rig daemon --config sim-rig.toml` and `rig submit PLAN`. Ctrl-C stops
+    the simulated rig.
     """
     from rig.clock import RealClock, ScaledClock
     from rig.config import write_rig_config
@@ -138,7 +141,7 @@ def render(
     cameras: Annotated[int, typer.Option(min=1, help="how many cameras, spread over the arc")] = 3,
     lamps: Annotated[int, typer.Option(min=1, help="how many lamps, spread over the arc")] = 2,
 ) -> None:
-    """Render a scene from the rig's cameras and write PNGs a person can look at.
+    """Render a scene from the rig's cameras into PNGs to look at.
 
     Writes one image per camera × lamp, a laser frame, and the true normals,
     height and albedo maps.
@@ -168,6 +171,7 @@ def coverage(
     mounts: Annotated[
         list[str] | None,
         typer.Option(
+            metavar="<str>",
             help="laser mount angles θ, e.g. 45,20 (repeat for several rigs; "
             "default: the scene's rig)"
         ),
@@ -180,9 +184,11 @@ def coverage(
     ),
     start: Annotated[int, typer.Option(min=1, help="even locations the choice completes")] = 5,
 ) -> None:
-    """Which texels MDF laser scans reach, against laser locations and mounts, beside
-    the capture time; prints a markdown table and, for several mounts, the chosen
-    locations for a plan's `laser_locations`.
+    """Which texels MDF laser scans reach, per locations and mounts.
+
+    Prints a markdown table of the coverage against laser locations and mounts,
+    beside the capture time, and, for several mounts, the chosen locations for a
+    plan's `laser_locations`.
 
     Ray casts the scene's sample (no rendering): a texel counts when the camera
     sees it and a sheet the rig can produce reaches it without grazing the view.

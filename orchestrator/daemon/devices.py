@@ -21,11 +21,11 @@ from __future__ import annotations
 import logging
 from collections.abc import Callable, Mapping, Sequence
 from concurrent.futures import Future, ThreadPoolExecutor
-from typing import Protocol, runtime_checkable
-
-import numpy as np
+from dataclasses import replace
+from typing import Protocol
 
 from drivers import DeviceError, open_device
+from drivers.camera import Camera, Frame
 from drivers.interfaces import Axis, LampBank, LaserUnit
 from orchestrator.daemon.kinds import DEVICE_SETS
 from orchestrator.daemon.scan import Captured, Scan, sweep_scan
@@ -34,7 +34,6 @@ from rig.config import RigConfig
 from rig.steps import AxesPose
 
 __all__ = [
-    "Camera",
     "Captured",
     "DeviceSet",
     "RigDevices",
@@ -46,51 +45,26 @@ __all__ = [
 log = logging.getLogger(__name__)
 
 
-class CameraFrame(Protocol):
-    image: np.ndarray
-    timestamp: float
-    exposure_s: float
-
-
-@runtime_checkable
-class Camera(Protocol):
-    """A camera the facade can trigger with the others, then read."""
-
-    def trigger(self, exposure_s: float) -> None:
-        """Start an exposure of ``exposure_s``; returns at once."""
-
-    def read(self) -> CameraFrame:
-        """Wait for the triggered frame and return it (``DeviceTimeout`` if none came)."""
-
-    def close(self) -> None: ...
-
-
-class CaptureCamera(Protocol):
-    """A ``drivers.camera.Camera``: configure, then a blocking software-triggered capture."""
-
-    def configure(self, *, exposure_s: float | None = None) -> object: ...
-    def capture(self) -> CameraFrame: ...
-    def close(self) -> None: ...
-
-
 class ThreadedCamera:
-    """Adapts a ``drivers.camera.Camera`` (blocking ``capture``) to trigger/read.
+    """The daemon's handle on a driver camera (``drivers.camera.Camera``): ``trigger``
+    starts its blocking ``capture`` and returns at once, ``read`` waits for the frame.
 
-    The capture runs on the adapter's own thread so that several cameras expose
+    The capture runs on the handle's own thread so that several cameras expose
     together. With ``scale`` < 1 each frame is binned in software (area
     averaging, ``cv2.INTER_AREA``) to the plan's resolution.
     """
 
-    def __init__(self, camera: CaptureCamera, name: str, *, scale: float = 1.0):
+    def __init__(self, camera: Camera, name: str, *, scale: float = 1.0):
         self._camera = camera
         self._scale = scale
         self._pool = ThreadPoolExecutor(1, thread_name_prefix=f"camera-{name}")
         self._pending: Future | None = None
 
     def trigger(self, exposure_s: float) -> None:
+        """Start an exposure of ``exposure_s``; returns at once."""
         self._pending = self._pool.submit(self._expose, exposure_s)
 
-    def _expose(self, exposure_s: float) -> CameraFrame:
+    def _expose(self, exposure_s: float) -> Frame:
         self._camera.configure(exposure_s=exposure_s)
         frame = self._camera.capture()
         if self._scale == 1.0:
@@ -99,10 +73,11 @@ class ThreadedCamera:
 
         h, w = frame.image.shape[:2]
         size = (max(1, round(w * self._scale)), max(1, round(h * self._scale)))
-        image = cv2.resize(frame.image, size, interpolation=cv2.INTER_AREA)
-        return Captured(image, 0, float(frame.exposure_s), float(frame.timestamp))
+        return replace(frame, image=cv2.resize(frame.image, size, interpolation=cv2.INTER_AREA))
 
-    def read(self) -> CameraFrame:
+    def read(self) -> Frame:
+        """Wait for the triggered frame and return it (the driver's ``DeviceError`` if
+        none came after its retries)."""
         pending, self._pending = self._pending, None
         if pending is None:
             raise RuntimeError("read() without a trigger()")
@@ -150,7 +125,7 @@ class RigDevices:
         arc: Axis | None,
         lamps: LampBank,
         laser: LaserUnit | None,
-        cameras: Mapping[str, Camera],
+        cameras: Mapping[str, ThreadedCamera],
     ):
         self.config = config
         self.clock = clock
@@ -323,7 +298,7 @@ class RigDevices:
             except DeviceError as err:
                 log.warning("closing: %s", err)
 
-    def _camera(self, camera: str) -> Camera:
+    def _camera(self, camera: str) -> ThreadedCamera:
         try:
             return self.cameras[camera]
         except KeyError:
@@ -370,12 +345,7 @@ def build_devices(
                 actuators[role] = opening(role, config.device_section(role))
         cameras = {}
         for spec in config.camera_arc.cameras:
-            camera = opening("camera", spec)
-            cameras[spec.id] = (
-                camera
-                if isinstance(camera, Camera)
-                else ThreadedCamera(camera, spec.id, scale=scale)
-            )
+            cameras[spec.id] = ThreadedCamera(opening("camera", spec), spec.id, scale=scale)
     except BaseException:
         for device in reversed(opened):
             device.close()

@@ -9,7 +9,7 @@ from typer.testing import CliRunner
 
 from orchestrator.cli import app
 from orchestrator.cli.common import EXTRAS, SessionProgress
-from orchestrator.cli.session_cmd import _print_status as print_status
+from orchestrator.cli.session_cmd import FaultHints, print_status
 from processing.offline import STAGES, MdfStage
 from rig.errors import KinematicsError
 
@@ -446,6 +446,25 @@ def test_session_events_and_status_are_printed_as_words(capsys):
     assert "session start: session abc, committed 0" in out, out
     assert "fault: device light arc, operation move, detail stalled, step 4" in out, out
     assert "{" not in out and "'" not in out, out
+
+
+def test_a_follower_that_joined_after_the_fault_is_told_what_to_do_once(capsys):
+    # A fault at the first step can come before `rig run`'s client subscribed: it sees
+    # no fault event, only statuses of the paused session (one a second).
+    fault = {"device": "lamp bank", "operation": "switch", "detail": "stays dark", "step": 0}
+    seen = []
+    hints = FaultHints(seen.append)
+    hints({"topic": "daemon", "control": "tcp://127.0.0.1:5999"})
+    for seq in (None, 7, 8):
+        hints({"topic": "status", "seq": seq, "state": "paused", "session": {"fault": fault}})
+    said = " ".join(capsys.readouterr().out.split())
+    assert len(seen) == 4
+    assert said.count("paused: lamp bank failed at step 0 (switch: stays dark)") == 1, said
+    assert "`rig resume --connect tcp://127.0.0.1:5999` to retry that step" in said
+    hints({"topic": "state", "event": "resume", "from": "paused", "to": "running"})
+    hints({"topic": "state", "event": "fault", "from": "running", "to": "paused", **fault})
+    hints({"topic": "status", "seq": 9, "state": "paused", "session": {"fault": fault}})
+    assert capsys.readouterr().out.count("paused: lamp bank failed") == 1
 
 
 def test_a_long_compile_says_what_it_is_doing():

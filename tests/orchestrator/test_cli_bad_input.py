@@ -106,6 +106,13 @@ def test_sim_config_out_under_a_file_exits_2_before_the_peers_start(tmp_path):
     )
 
 
+def test_view_of_no_material_exits_2_naming_the_path_whole(tmp_path):
+    missing = tmp_path / "take[one]" / "m.zarr"  # brackets: rich markup must not eat them
+    result = _run("view", missing, "--out", tmp_path / "v.png")
+    assert result.exit_code == 2, result.output
+    assert f"{missing}: no zarr.json here" in _said(result)
+
+
 def test_a_plan_the_rig_cannot_do_exits_2_from_run_and_submit(tmp_path):
     from orchestrator.local import daemon_thread
     from orchestrator.wire.endpoints import DaemonSettings

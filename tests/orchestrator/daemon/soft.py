@@ -1,7 +1,7 @@
 """Soft devices: in-process turntable, arc, lamps, laser and cameras on one clock.
 
 They implement the driver interfaces the facade uses (``drivers.interfaces``
-and ``orchestrator.daemon.devices``), model motion and exposure time on the injected
+and ``drivers.camera.Camera``), model motion and exposure time on the injected
 clock (parallel axes overlap: each wait sleeps only up to its own end), make
 deterministic frames from the rig's state, record any exposure taken while an
 axis moved, and inject faults on request (stall, timeout, dropped frame, a dark
@@ -15,12 +15,13 @@ import threading
 import time
 import zlib
 from collections import Counter
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
+from drivers.camera import CameraSettings, Frame
 from drivers.errors import DeviceFault, DeviceTimeout, MotionStalled
-from orchestrator.daemon import RigDevices, frame_formats
+from orchestrator.daemon import RigDevices, ThreadedCamera, frame_formats
 from rig.archive import FrameFormat
 from rig.clock import Clock
 from rig.config import Axis, RigConfig
@@ -196,50 +197,58 @@ class SoftLaser:
         self.rig.closed += 1
 
 
-@dataclass
-class _SoftFrame:
-    image: np.ndarray
-    timestamp: float
-    exposure_s: float
-
-
 class SoftCamera:
+    """A ``drivers.camera.Camera`` that exposes on the soft rig: its state at the start
+    of ``capture`` makes the frame, the exposure and readout pass on the rig's clock."""
+
     def __init__(self, rig: SoftRig, camera: str, fmt: FrameFormat):
-        self.rig, self.camera, self.fmt = rig, camera, fmt
-        self._pending = None
+        self.rig, self.camera_id, self.fmt = rig, camera, fmt
+        self.device = f"soft camera {camera}"
+        bit_depth = 8 * np.dtype(fmt.dtype).itemsize
+        self.settings = CameraSettings(exposure_s=0.01, gain=1.0, bit_depth=bit_depth)
+        self._sequence = 0
         self._last_t = 0.0
 
-    def trigger(self, exposure_s: float) -> None:
-        rig = self.rig
-        disturbance = rig.faults.take(f"{self.camera}.trigger")
+    def configure(
+        self,
+        *,
+        exposure_s: float | None = None,
+        gain: float | None = None,
+        bit_depth: int | None = None,
+    ) -> CameraSettings:
+        given = {"exposure_s": exposure_s, "gain": gain, "bit_depth": bit_depth}
+        self.settings = replace(self.settings, **{k: v for k, v in given.items() if v is not None})
+        return self.settings
+
+    def capture(self) -> Frame:
+        rig, camera, exposure = self.rig, self.camera_id, self.settings.exposure_s
+        disturbance = rig.faults.take(f"{camera}.trigger")
         if disturbance == "stray_lamp":  # a relay lights a second lamp
             stray = next(lamp for lamp in SoftLamps(rig).lamp_ids if lamp not in rig.lamps_on)
             rig.lamps_on = rig.lamps_on | {stray}
         elif disturbance == "bump":  # someone knocks the turntable half a degree on
             rig.turntable_deg += 0.5
         if rig.moving():
-            rig.violations.append(("exposed while moving", self.camera, rig.moving()))
+            rig.violations.append(("exposed while moving", camera, rig.moving()))
         if not (rig.lamps_on or rig.laser_on):
-            rig.violations.append(("exposed in the dark", self.camera))
-        readout = rig.config.camera(self.camera).readout_s * (self.fmt.height / 768)
-        state = (rig.turntable_deg, rig.arc_deg, tuple(sorted(rig.lamps_on)), rig.laser_on)
-        self._pending = (rig.clock.now(), exposure_s, rig.clock.now() + exposure_s + readout, state)
-
-    def read(self) -> _SoftFrame:
-        t, exposure, ready, state = self._pending
-        self.rig.clock.sleep(max(0.0, ready - self.rig.clock.now()))
-        if self.rig.real_delay_s:
-            time.sleep(self.rig.real_delay_s)
-        fault = self.rig.faults.take(f"{self.camera}.read")
+            rig.violations.append(("exposed in the dark", camera))
+        readout = rig.config.camera(camera).readout_s * (self.fmt.height / 768)
+        t = rig.clock.now()
+        tt, arc, lamps, laser = (rig.turntable_deg, rig.arc_deg, tuple(sorted(rig.lamps_on)),
+                                 rig.laser_on)  # fmt: skip
+        rig.clock.sleep(exposure + readout)
+        if rig.real_delay_s:
+            time.sleep(rig.real_delay_s)
+        fault = rig.faults.take(f"{camera}.read")
         if fault == "drop":
-            raise DeviceTimeout(self.camera, "read", "frame dropped (gave up after 4 tries)")
-        tt, arc, lamps, laser = state
-        image = soft_image(self.fmt, self.camera, tt, arc, lamps, laser, exposure)
-        self.rig.captures.append((self.camera, tt, arc, lamps, laser, exposure))
+            raise DeviceTimeout(camera, "read", "frame dropped (gave up after 4 tries)")
+        image = soft_image(self.fmt, camera, tt, arc, lamps, laser, exposure)
+        rig.captures.append((camera, tt, arc, lamps, laser, exposure))
         if fault == "stale":  # the buffer's last frame again
             t = self._last_t
         self._last_t = t
-        return _SoftFrame(image, t, exposure)
+        self._sequence += 1
+        return Frame(image, t, exposure, self.settings.gain, self._sequence, camera)
 
     def close(self) -> None:
         self.rig.closed += 1
@@ -268,7 +277,7 @@ def soft_devices(rig: SoftRig):
             arc=SoftAxis(rig, "arc", config.light_arc.axis),
             lamps=SoftLamps(rig),
             laser=SoftLaser(rig) if laser else None,
-            cameras={c: SoftCamera(rig, c, fmt) for c, fmt in formats.items()},
+            cameras={c: ThreadedCamera(SoftCamera(rig, c, fmt), c) for c, fmt in formats.items()},
         )
 
     return factory

@@ -130,7 +130,8 @@ def _live_rows(path: Path) -> set[tuple[str, int, int]]:
 
 def test_live_results_written_before_a_crash_survive_it(config, tmp_path):
     path = tmp_path / "live.zarr"
-    daemon = _spawn("tests.orchestrator.daemon.soft_daemon", "--delay", "0.1")
+    # a step's cameras read together: 0.5 s of real time a step, killed mid-session
+    daemon = _spawn("tests.orchestrator.daemon.soft_daemon", "--delay", "0.5")
     worker = None
     try:
         endpoints = Endpoints(**json.loads(daemon.stdout.readline()))

@@ -148,7 +148,9 @@ def test_rig_run_says_what_happened_and_what_to_do_after_a_fault(config, rig, tm
     resumers = []
 
     def resume_when_paused(event):  # the user, in another terminal, after reading the hint
-        if event.get("topic") == "state" and event.get("event") == "fault":
+        # A fault before the client subscribed shows only in the statuses of the pause.
+        paused = event.get("to") == "paused" or event.get("state") == "paused"
+        if event.get("topic") in ("state", "status") and paused and not resumers:
             resumer = threading.Thread(target=client.resume, kwargs={"connect": hints.connect})
             resumer.start()
             resumers.append(resumer)
