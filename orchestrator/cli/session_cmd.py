@@ -237,7 +237,7 @@ def pause(
 def abort(
     connect: Connect = DEFAULT_CONNECT, server_key: ServerKey = None, secret_key: SecretKey = None
 ) -> None:
-    """Abort the running session (committed steps stay in the archive)."""
+    """Abort the running session; its committed steps stay."""
     from orchestrator import client
 
     print_status(client.abort(connect=_daemon_at(connect, server_key, secret_key)))
@@ -269,7 +269,7 @@ def resume(
     server_key: ServerKey = None,
     secret_key: SecretKey = None,
 ) -> None:
-    """Resume a paused session, or continue a crashed one from ARCHIVE.
+    """Resume a paused session, or a crashed one from ARCHIVE.
 
     With ARCHIVE the daemon runs only the steps the archive has not committed; the
     rig config must describe the rig it recorded (devices may be on other ports).
