@@ -61,7 +61,13 @@ TERMS: dict[str, str] = {
     "noise": "the scene does not list the noise effect",
     "near lamps": "directional lamps (at infinity) instead of point lamps 650 mm away",
     "point pixels": "3 × 3 shaded points per pixel instead of the pixel centre",
+    "perspective": "cameras 50 × farther with 50 × the focal length (telecentric) "
+    "instead of pinholes 800 mm away",
 }
+
+#: How much farther, with how much longer a lens, the cameras stand when
+#: ``perspective`` is off: the view turns by ±0.07° across the sample, not ±3.6°.
+TELECENTRIC_FACTOR = 50.0
 
 #: Shaded points per pixel side when ``point pixels`` is off.
 PIXEL_SUPERSAMPLE = 3
@@ -81,10 +87,18 @@ def scene_without(name: str, off: tuple[str, ...]) -> dict:
     spec = dict(SCENES[name])
     if "noise" in off:
         spec["effects"] = [e for e in spec["effects"] if e != "noise"]
+    overrides = {}
     if "near lamps" in off:
         lamps = [lamp.model_dump() | {"kind": "directional"}
                  for lamp in RigConfig().light_arc.lamps]  # fmt: skip
-        spec["rig"] = {"overrides": {"light_arc": {"lamps": lamps}}}
+        overrides["light_arc"] = {"lamps": lamps}
+    if "perspective" in off:  # the same pixels on the sample, from (nearly) parallel rays
+        arc, k = RigConfig().camera_arc, TELECENTRIC_FACTOR
+        cameras = [cam.model_dump() | {"fx_px": cam.fx_px * k, "fy_px": cam.fy_px * k}
+                   for cam in arc.cameras]  # fmt: skip
+        overrides["camera_arc"] = {"radius_mm": arc.radius_mm * k, "cameras": cameras}
+    if overrides:
+        spec["rig"] = {"overrides": overrides}
     if "point pixels" in off:
         spec["render"] = spec["render"] | {"supersample": PIXEL_SUPERSAMPLE}
     return spec

@@ -69,6 +69,8 @@ class BtfStage:
     size: int = 128
     components: int = 8
     raw: bool = False
+    filter: str = "box"
+    from_pose: bool = False
     name: str = "btf"
 
     def plan(self, archive: Archive) -> list[BtfSlot]:
@@ -86,8 +88,9 @@ class BtfStage:
             corrections = frame_corrections(archive, config, raw=self.raw)
             positions = None if self.raw else _positions(archive, config)
             textures, flagged, dim = slot_normtextures(
-                archive, item, size=self.size, corrections=corrections, lamps=positions
-            )
+                archive, item, size=self.size, corrections=corrections, lamps=positions,
+                filter=self.filter, from_pose=self.from_pose,
+            )  # fmt: skip
             lamps = [r.lamp for r in archive.step_table() if r.index in dict(item.captures)]
         record = _with_irradiance(
             corrections.record(cameras=[c for _, c in item.captures], lamps=lamps), positions, dim
@@ -158,6 +161,8 @@ def slot_normtextures(
     size: int,
     corrections: FrameCorrections | None = None,
     lamps: LampPositions | None = None,
+    filter: str = "box",
+    from_pose: bool = False,
 ) -> tuple[list[np.ndarray], list[tuple], dict[str, int]]:
     """The (size, size, C) float32 normtextures of a view slot, one per light, in
     relative radiance per second of exposure; the flagged captures; and lamp id →
@@ -193,14 +198,18 @@ def slot_normtextures(
         # (a rig without a turntable, as the Bonn lab, records none)
         turntable = record.actuators.get("turntable_deg", 0.0)
         lens = frame_camera(archive, config, camera, turntable)
-        reg = register_capture(frame, config, record, camera, size=size, camera=lens).registration
+        reg = register_capture(
+            frame, config, record, camera, size=size, camera=lens, filter=filter,
+            from_pose=from_pose,
+        ).registration  # fmt: skip
         if not reg.valid:
             flagged.append((item.index, light, step, camera, reg.reason.name))
             continue
         # with the lamps placed, the flat field divides out only what 1/r² does not explain
         texture = corrections.normtexture(
-            frame, reg, record, camera, config, lens=lens, size=size, lamp_model=lamps is not None
-        )
+            frame, reg, record, camera, config, lens=lens, size=size,
+            lamp_model=lamps is not None, filter=filter,
+        )  # fmt: skip
         if lamps is not None:
             ratio, floored = texel_irradiance(
                 lamps, config, record.lamp, sample_mm=config.holder.sample_mm, size=size,

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from processing.registration._errors import Reason
+from processing.registration._errors import Reason, RegistrationError
 from processing.registration._homography import (
     PlaneHomography,
     fit_plane_homography,
@@ -59,6 +59,8 @@ def register_frame(
     region: Region | None = None,
     extend_texels: int = 0,
     order: int = 1,
+    filter: str = "box",
+    from_pose: bool = False,
     min_markers: int = 3,
     max_reprojection_px: float = 1.0,
     max_noise_gain: float = 2.0,
@@ -83,8 +85,12 @@ def register_frame(
         homography (:func:`pose_plane_homography`, its lens for the sampling)
         and flagged ``Reason.FROM_RIG_POSE``: valid, but distinguishable.
         Without it such a frame keeps the markers' reason.
-    region, extend_texels, order :
+    region, extend_texels, order, filter :
         Passed to :func:`rectify`.
+    from_pose : bool
+        Rectify through ``posed``'s homography even where the markers give one
+        (reason ``FROM_RIG_POSE``): where the pose is known exactly, as in the
+        simulator, registration without the markers' error.
     min_markers, max_reprojection_px, max_noise_gain :
         Passed to :func:`fit_plane_homography`.
 
@@ -112,7 +118,9 @@ def register_frame(
         max_noise_gain=max_noise_gain,
     )
     n = size + extend_texels
-    if not homography.valid and posed is not None:
+    if from_pose and posed is None:
+        raise RegistrationError("from_pose: no posed camera model to register from")
+    if (from_pose or not homography.valid) and posed is not None:
         from_pose = pose_plane_homography(posed, holder)
         if from_pose.valid:
             homography, camera = from_pose, posed
@@ -129,5 +137,6 @@ def register_frame(
         region=region,
         extend_texels=extend_texels,
         order=order,
+        filter=filter,
     )
     return Registration(texture, homography, detection)
