@@ -123,7 +123,11 @@ class FrameCorrections:
             texture = registration.normtexture.texture.astype(np.float64) / full_scale
         else:
             texture = rectify(
-                linear, registration.homography, sample_mm=sample_mm, size=size, camera=lens,
+                linear,
+                registration.homography,
+                sample_mm=sample_mm,
+                size=size,
+                camera=lens,
                 filter=filter,
             ).texture.astype(np.float64)
         if self.flat_field is None or step.lamp not in self.flat_field.lamps:

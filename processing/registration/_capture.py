@@ -120,8 +120,8 @@ def register_capture(
     light = None if step.light_deg is None else np.asarray(step.light_deg, dtype=np.float64)
     posed = _posed(config, step, camera_id, camera)
     if from_pose and posed is None:
-        posed = camera if given else config.camera_model(
-            camera_id, turntable_deg=step.actuators.get("turntable_deg", 0.0))
+        turntable = step.actuators.get("turntable_deg", 0.0)
+        posed = camera if given else config.camera_model(camera_id, turntable_deg=turntable)
     registration = register_frame(
         frame, config.holder, size=size, camera=camera, posed=posed, region=region,
         extend_texels=extend_texels, order=order, filter=filter, from_pose=from_pose,

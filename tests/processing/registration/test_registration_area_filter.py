@@ -76,7 +76,9 @@ def test_doubling_the_area_samples_changes_a_turned_footprint_little(frame, monk
     turn = np.array([[np.cos(0.3), -np.sin(0.3) * 0.8, 0.0],
                      [np.sin(0.3), np.cos(0.3), 0.0], [0.0, 0.0, 1.0]])  # fmt: skip
     turned = dataclasses.replace(
-        H, plane_to_image=H.plane_to_image @ turn, image_to_plane=np.linalg.inv(H.plane_to_image @ turn)
+        H,
+        plane_to_image=H.plane_to_image @ turn,
+        image_to_plane=np.linalg.inv(H.plane_to_image @ turn),
     )
     at = {}
     for density in (4, 8):
