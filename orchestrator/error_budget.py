@@ -256,7 +256,8 @@ def plot_budget(rows: list[dict], path: str | Path) -> None:
 
     scenes = list(dict.fromkeys(r["scene"] for r in rows))
     plans = list(dict.fromkeys(r["plan"] for r in rows))
-    fig = Figure(figsize=(5.5 * len(scenes), 4.2 * len(plans)))
+    groups = len({(r["run"], r["processing"]) for r in rows})  # bars' groups in a panel
+    fig = Figure(figsize=(max(5.5, 0.45 * groups) * len(scenes), 4.4 * len(plans)))
     axes = np.array(fig.subplots(len(plans), len(scenes), sharey=True, squeeze=False))
     series = (("psnr_captured_db", "lossless", "captured, lossless"),
               ("psnr_captured_db", COMPONENTS, f"captured, c = {COMPONENTS}"),
