@@ -67,7 +67,15 @@ from rig.plan import parse_plan
 from sim.scene import scene_from_dict
 from sim.simulator import Simulator
 
-__all__ = ["CONFIGS", "REGISTRATION_TERMS", "TERMS", "plot_budget", "run_bench", "scene_without"]
+__all__ = [
+    "CONFIGS",
+    "REGISTRATION_TERMS",
+    "TERMS",
+    "components_of",
+    "plot_budget",
+    "run_bench",
+    "scene_without",
+]
 
 #: The simulator's error terms, each as the scene change that switches it off.
 TERMS: dict[str, str] = {
@@ -127,6 +135,11 @@ def scene_without(name: str, off: tuple[str, ...]) -> dict:
     if "point pixels" in off:
         spec["render"] = spec["render"] | {"supersample": PIXEL_SUPERSAMPLE}
     return spec
+
+
+def components_of(btf) -> int:
+    """Every component the per-view PCA stored (basis: (views, c, N, N, C)): lossless."""
+    return btf.basis.shape[1]
 
 
 def _label(off: tuple[str, ...]) -> str:
@@ -237,7 +250,7 @@ def _plan_rows(name: str, plan: str, sim: Simulator, size: int, runs) -> list[di
     for off in runs:
         for raw in (True, False):
             material, scale = measured[off, raw]
-            lossless = material.btf.basis.shape[-1]
+            lossless = components_of(material.btf)
             for c, label in ((COMPONENTS, COMPONENTS), (lossless, "lossless")):
                 rows.append({
                     "scene": name, "plan": plan, "run": _label(off), "off": list(off),

@@ -7,6 +7,7 @@ from orchestrator.error_budget import (
     CONFIGS,
     REGISTRATION_TERMS,
     TERMS,
+    components_of,
     plot_budget,
     scene_without,
 )
@@ -106,3 +107,16 @@ def test_the_telecentric_camera_renders_the_sample_as_the_near_one():
     near, far = (f[h // 2 - 40 : h // 2 + 40, w // 2 - 40 : w // 2 + 40] for f in frames)
     assert near.mean() > 10  # lit
     assert abs(far.mean() / near.mean() - 1) < 0.05  # not clipped away by the depth range
+
+
+def test_lossless_is_every_component_not_the_colour_channels():
+    from processing.btf import CompressedBTF
+
+    views, c, n = 2, 5, 4
+    btf = CompressedBTF(
+        np.array([[0.0, 0.0], [45.0, 0.0]]), np.array([[30.0, 0.0]] * 7),
+        np.zeros((views, n, n, 3), np.float16), np.zeros((views, c, n, n, 3), np.float16),
+        np.zeros((views, 7, c), np.float32), np.zeros((views, 7), np.float32),
+        np.full(views, c, np.int32),
+    )  # fmt: skip
+    assert components_of(btf) == c
