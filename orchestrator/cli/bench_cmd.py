@@ -118,9 +118,10 @@ HELP = {
     "visibility maps, their PCA of rotations and the partial environment maps against "
     "a brute-force sum, beside the time per frame as a ratio to a point-light frame.",
     "error-budget": "The render loop's PSNR at captured and held-out directions with the "
-    "simulator's noise, near lamps and point-sampled pixels switched off one at a time and "
-    "together, each session processed raw and corrected, at c = 4 and lossless (coarse and "
-    "medium plans; --quick: the coarse plan at 32² texels).",
+    "simulator's noise, near lamps, point-sampled pixels and perspective, and registration's "
+    "markers and box filter, switched off one at a time and together, each session processed "
+    "raw and corrected, at c = 4 and lossless (coarse and medium plans; --quick: the coarse "
+    "plan at 32² texels).",
 }
 
 app = typer.Typer(
