@@ -169,3 +169,21 @@ def test_the_ubo2003_export_holds_the_registered_frames(archive, tmp_path):
             assert below.mean() > 0.99
             # half an 8-bit code of sRGB is at most 0.0045 of white in linear terms
             assert np.abs(got - want)[below].max() <= 0.0045 * white
+
+
+def test_per_texel_views_are_resampled_and_recorded(archive):
+    run_stages(archive, [BtfStage(size=SIZE, components=6, views="per texel")])
+    arrays, attrs = _material(archive)
+    radiometry = json.loads(json.dumps(attrs["radiometry"]))
+    assert radiometry["sources"]["view"] == "the rig config's camera geometry (nominal)"
+    assert "outside the hull" in radiometry["skipped"]["view"]
+    resampled = btf_from_arrays(arrays, attrs)
+    run_stages(archive, [BtfStage(size=SIZE, components=6)])
+    nominal = btf_from_arrays(*_material(archive))
+    assert "views 'nominal'" in json.dumps(_material(archive)[1])
+    for slot in range(3):
+        got = reconstruct(resampled, view=slot, light=2)
+        want = reconstruct(nominal, view=slot, light=2)
+        assert np.isfinite(got).all()
+        # a few degrees' turn: the texels move, by a few percent at most
+        assert 0 < np.abs(got - want).max() <= 0.1 * np.abs(want).max()
