@@ -120,3 +120,46 @@ def test_a_calibrated_camera_names_its_session(tmp_path):
                                 Radiometry(), sample_mm=SAMPLE_MM, components=2)  # fmt: skip
     assert record.sources["view"] == source
     assert RigConfig().camera_arc.radius_mm == 800.0  # the distance these tests assume
+
+
+def _archive(calibration):
+    """What ``slot_camera`` reads of an archive: one BTF step of cam3 at turntable 60°."""
+    from types import SimpleNamespace
+
+    from rig.archive import StepRecord
+
+    step = StepRecord(4, "btf", ("cam3",), {"cam3": (45.0, 300.0)}, (15.0, 0.0),
+                      {"turntable_deg": 60.0})  # fmt: skip
+    dumped = None if calibration is None else calibration.model_dump(mode="json")
+    return SimpleNamespace(plan={}, step_table=lambda: [step], calibration=dumped,
+                           path="session.zarr", calibration_version=1)  # fmt: skip
+
+
+def _calibrated(camera_id: str, config: RigConfig, shift_mm: float):
+    from rig.calfile import CalibrationFile, CameraResult
+
+    cam = config.camera_model("cam3")
+    result = CameraResult(K=cam.K.tolist(), dist=(0.0,) * 5, R=cam.R.tolist(),
+                          t=(cam.t + np.array([shift_mm, 0.0, 0.0])).tolist(),
+                          image_size=(cam.width, cam.height), rms_px=0.1, images=12)  # fmt: skip
+    return CalibrationFile(cameras={camera_id: result})
+
+
+def test_a_slot_camera_is_calibrated_where_the_calibration_has_it_else_nominal():
+    from types import SimpleNamespace
+
+    from processing.offline.texel_view import slot_camera
+
+    config = RigConfig()
+    slot = SimpleNamespace(captures=((4, "cam3"),))
+    nominal = config.camera_model("cam3", turntable_deg=60.0).center
+    missing = slot_camera(_archive(None), config, slot)
+    assert missing.source == "the rig config's camera geometry (nominal)"
+    np.testing.assert_allclose(missing.centre_mm, nominal, atol=1e-9)
+    elsewhere = slot_camera(_archive(_calibrated("camX", config, 5.0)), config, slot)
+    assert elsewhere.source == "the rig config's camera geometry (nominal)"
+    calibrated = slot_camera(_archive(_calibrated("cam3", config, 5.0)), config, slot)
+    assert calibrated.source.startswith("calibrated cameras, ")
+    assert 4.0 < np.linalg.norm(calibrated.centre_mm - nominal) < 6.0
+    bonn = slot_camera(_archive(None), RigConfig(kind="bonn", bonn={}), slot)
+    assert bonn.centre_mm is None and "arm" in bonn.source
