@@ -113,7 +113,7 @@ class BtfStage:
         cameras = [c for _, c in item.captures]
         record = _slot_record(corrections.record(cameras=cameras, lamps=lamps), positions, counts)
         result = {"slot": item, "flagged": flagged, "compressed": None, "radiometry": record,
-                  "camera": camera}  # fmt: skip
+                  "camera": camera, "saturated": counts["saturated"]}  # fmt: skip
         if flagged:
             return result
         stack = np.stack(textures).astype(np.float32)
@@ -146,6 +146,12 @@ class BtfStage:
         )
         flagged = [f for r in results for f in r["flagged"]]
         radiometry = _merged([r["radiometry"] for r in results])
+        saturated = sum(r["saturated"] for r in results)
+        if saturated:
+            radiometry.skipped["saturated"] = (
+                f"{saturated} texel captures touch clipped pixels: stored as clipped "
+                "(a lower bound of their radiance)"
+            )
         if self.raw or self.views == "nominal":
             why = "--raw" if self.raw else "views 'nominal'"
             radiometry = replace(radiometry, skipped=radiometry.skipped | {
@@ -273,14 +279,9 @@ def _positions(archive: Archive, config: RigConfig) -> LampPositions | None:
 def _slot_record(
     record: Radiometry, lamps: LampPositions | None, counts: dict[str, int]
 ) -> Radiometry:
-    """The slot's record with the per-texel irradiance correction (its source, or why
-    not) and the texels ``counts`` flags (:func:`slot_normtextures`)."""
+    """The slot's record with the per-texel irradiance correction: its source, or why not
+    (``counts``: :func:`slot_normtextures`'s, the texels lamps barely light)."""
     skipped = dict(record.skipped)
-    if counts.get("saturated"):
-        skipped["saturated"] = (
-            f"{counts['saturated']} texel captures touch clipped pixels: stored as clipped "
-            "(a lower bound of their radiance)"
-        )
     if lamps is None:
         skipped["irradiance"] = ("no near lamp placed (directional lamps, a Bonn lab or --raw): "
                                  "the centre's irradiance for every texel")  # fmt: skip
