@@ -29,6 +29,8 @@ __all__ = ["IdRasterizer", "camera_pose_gl"]
 
 _ZNEAR_MM = 5.0
 _ZFAR_MM = 20000.0
+#: Farther than anything the rasteriser draws is from the turntable centre (plate, holder).
+_SCENE_RADIUS_MM = 1000.0
 # OpenCV camera axes (x right, y down, z forward) → OpenGL (x right, y up, z back).
 _CV_TO_GL = np.diag([1.0, -1.0, -1.0])
 
@@ -158,10 +160,14 @@ class IdRasterizer:
         The camera's lens distortion is ignored here: this is the pinhole image.
         """
         K = camera.K
+        # A camera far away (a telecentric stand-in) keeps its depth buffer's precision
+        # with the clip planes around the sample: the planes' ratio sets it.
+        distance = float(np.linalg.norm(camera.center))
+        znear = max(_ZNEAR_MM, distance - _SCENE_RADIUS_MM)
+        zfar = max(_ZFAR_MM, distance + _SCENE_RADIUS_MM)
         # pyrender puts pixel i's centre at i + ½; OpenCV at i.
         gl_cam = pyrender.IntrinsicsCamera(
-            fx=K[0, 0], fy=K[1, 1], cx=K[0, 2] + 0.5, cy=K[1, 2] + 0.5,
-            znear=_ZNEAR_MM, zfar=_ZFAR_MM,
+            fx=K[0, 0], fy=K[1, 1], cx=K[0, 2] + 0.5, cy=K[1, 2] + 0.5, znear=znear, zfar=zfar,
         )  # fmt: skip
         pose = camera_pose_gl(camera, turntable_deg)
         with self._lock:

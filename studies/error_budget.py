@@ -12,7 +12,20 @@ and all together. A term is switched off in the *scene*, never in processing:
   instead of ``point`` lamps at the light arc's radius;
 - ``point pixels``: each pixel shades 3 × 3 points and averages them
   (``render.supersample``), as a sensor integrates over its pixel's area,
-  instead of its centre alone.
+  instead of its centre alone;
+- ``perspective``: the cameras stand :data:`TELECENTRIC_FACTOR` × farther with
+  as much longer a lens (the rig config says so too): the same pixels on the
+  sample, seen along nearly parallel rays, as an ideal orthographic camera.
+
+Two terms are registration's: the frames stay the same, and registration is
+handed what the simulator knows exactly (:data:`REGISTRATION_TERMS`):
+
+- ``marker registration``: each frame is registered from its camera's true
+  pose (the rig config's, where the simulator puts the camera) instead of from
+  the markers it detects;
+- ``box filter``: frames are resampled onto the texels with pixel-area weights
+  (``processing.registration.rectify``'s ``"area"`` filter) instead of the box
+  of bilinear samples.
 
 Three more terms are processing's own choices, read from every run: the
 per-texel near-lamp irradiance (each session processed as it is, and
@@ -55,14 +68,39 @@ from studies.render_loop import (
     truncated,
 )
 
-__all__ = ["CONFIGS", "TERMS", "plot", "run", "scene_without"]
+__all__ = [
+    "CONFIGS",
+    "REGISTRATION_TERMS",
+    "TERMS",
+    "components_of",
+    "plot",
+    "run",
+    "scene_without",
+]
 
 #: The simulator's error terms, each as the scene change that switches it off.
 TERMS: dict[str, str] = {
     "noise": "the scene does not list the noise effect",
     "near lamps": "directional lamps (at infinity) instead of point lamps 650 mm away",
     "point pixels": "3 × 3 shaded points per pixel instead of the pixel centre",
+    "perspective": "cameras 50 × farther with 50 × the focal length (telecentric) "
+    "instead of pinholes 800 mm away",
+    "marker registration": "registered from the cameras' true pose instead of the markers",
+    "box filter": "pixel-area resampling weights instead of a box of bilinear samples",
 }
+
+#: The terms that are registration's, not the scene's: each switched off by the
+#: btf stage option that hands registration what the simulator knows exactly
+#: (the pose the scene's rig config gives the cameras) or resamples without the
+#: bilinear tent. The frames are the same.
+REGISTRATION_TERMS: dict[str, dict] = {
+    "marker registration": {"from_pose": True},
+    "box filter": {"filter": "area"},
+}
+
+#: How much farther, with how much longer a lens, the cameras stand when
+#: ``perspective`` is off: the view turns by ±0.07° across the sample, not ±3.6°.
+TELECENTRIC_FACTOR = 50.0
 
 #: Shaded points per pixel side when ``point pixels`` is off.
 PIXEL_SUPERSAMPLE = 3
@@ -79,16 +117,30 @@ def scene_without(name: str, off: tuple[str, ...]) -> dict:
     unknown = [term for term in off if term not in TERMS]
     if unknown:
         raise RigError(f"unknown error terms {unknown}; valid terms {list(TERMS)}")
+    off = tuple(term for term in off if term not in REGISTRATION_TERMS)
     spec = dict(SCENES[name])
     if "noise" in off:
         spec["effects"] = [e for e in spec["effects"] if e != "noise"]
+    overrides = {}
     if "near lamps" in off:
         lamps = [lamp.model_dump() | {"kind": "directional"}
                  for lamp in RigConfig().light_arc.lamps]  # fmt: skip
-        spec["rig"] = {"overrides": {"light_arc": {"lamps": lamps}}}
+        overrides["light_arc"] = {"lamps": lamps}
+    if "perspective" in off:  # the same pixels on the sample, from (nearly) parallel rays
+        arc, k = RigConfig().camera_arc, TELECENTRIC_FACTOR
+        cameras = [cam.model_dump() | {"fx_px": cam.fx_px * k, "fy_px": cam.fy_px * k}
+                   for cam in arc.cameras]  # fmt: skip
+        overrides["camera_arc"] = {"radius_mm": arc.radius_mm * k, "cameras": cameras}
+    if overrides:
+        spec["rig"] = {"overrides": overrides}
     if "point pixels" in off:
         spec["render"] = spec["render"] | {"supersample": PIXEL_SUPERSAMPLE}
     return spec
+
+
+def components_of(btf) -> int:
+    """Every component the per-view PCA stored (basis: (views, c, N, N, C)): lossless."""
+    return btf.basis.shape[1]
 
 
 def _label(off: tuple[str, ...]) -> str:
@@ -178,15 +230,20 @@ def run(
 def _plan_rows(name: str, plan: str, sim: Simulator, size: int, runs) -> list[dict]:
     measured = {}
     lights = len(parse_plan(plan_toml(plan)).captures.btf.lights.resolve().directions)
+    sessions: dict[tuple, list] = {}  # runs that differ in registration share the frames
     for off in runs:
-        scene = scene_from_dict(scene_without(name, off))
+        sessions.setdefault(tuple(t for t in off if t not in REGISTRATION_TERMS), []).append(off)
+    for scene_off, group in sessions.items():
+        scene = scene_from_dict(scene_without(name, scene_off))
         with tempfile.TemporaryDirectory(prefix="rig-error-budget-") as tmp:
             archive, config = record(scene, plan_toml(plan), Path(tmp))
             scale = irradiance_scale(scene, config)
-            # as many components as lights: the per-view PCA is then lossless
-            for raw in (False, True):
-                material = process(archive, size=size, components=lights, raw=raw)
-                measured[off, raw] = (material, scale)
+            for off in group:
+                options = {k: v for t in off for k, v in REGISTRATION_TERMS.get(t, {}).items()}
+                # as many components as lights: the per-view PCA is then lossless
+                for raw in (False, True):
+                    material = process(archive, size=size, components=lights, raw=raw, **options)
+                    measured[off, raw] = (material, scale)
     strictest = max(runs, key=len)  # the highest scores ask the most of the truth
     first = measured[strictest, False]
     held_truth, captured_truth, rays, change = _converged(first[0], sim, first[1])
@@ -194,7 +251,7 @@ def _plan_rows(name: str, plan: str, sim: Simulator, size: int, runs) -> list[di
     for off in runs:
         for raw in (True, False):
             material, scale = measured[off, raw]
-            lossless = material.btf.basis.shape[-1]
+            lossless = components_of(material.btf)
             for c, label in ((COMPONENTS, COMPONENTS), (lossless, "lossless")):
                 rows.append({
                     "scene": name, "plan": plan, "run": _label(off), "off": list(off),
@@ -211,7 +268,8 @@ def plot(rows: list[dict], path: str | Path) -> None:
     at the captured pairs and at the held-out directions, at c and lossless."""
     scenes = list(dict.fromkeys(r["scene"] for r in rows))
     plans = list(dict.fromkeys(r["plan"] for r in rows))
-    fig = Figure(figsize=(5.5 * len(scenes), 4.2 * len(plans)))
+    groups = len({(r["run"], r["processing"]) for r in rows})  # bars' groups in a panel
+    fig = Figure(figsize=(max(5.5, 0.45 * groups) * len(scenes), 4.4 * len(plans)))
     axes = np.array(fig.subplots(len(plans), len(scenes), sharey=True, squeeze=False))
     series = (("psnr_captured_db", "lossless", "captured, lossless"),
               ("psnr_captured_db", COMPONENTS, f"captured, c = {COMPONENTS}"),

@@ -157,9 +157,10 @@ STUDIES: tuple[Study, ...] = (
         summary="Render-loop PSNR with each error term off",
         description=(
             "The render loop's PSNR at captured and held-out directions with the simulator's "
-            "noise, near lamps and point-sampled pixels switched off one at a time and "
-            "together, each session processed raw and corrected, at c = 4 and lossless (coarse "
-            "and medium plans; --quick: the coarse plan at 32² texels)."
+            "noise, near lamps, point-sampled pixels and perspective, and registration's "
+            "markers and box filter, switched off one at a time and together, each session "
+            "processed raw and corrected, at c = 4 and lossless (coarse and medium plans; "
+            "--quick: the coarse plan at 32² texels)."
         ),
         figure=True,
     ),

@@ -160,9 +160,11 @@ def record(scene: Scene, plan_text: str, folder: Path) -> tuple[Path, RigConfig]
     return archive, config
 
 
-def process(archive: Path, *, size: int, components: int, raw: bool = False) -> Material:
-    """The archive's ``btf`` stage (``raw``: without the calibration's corrections)."""
-    run_stages(archive, [BtfStage(size=size, components=components, raw=raw)], workers=1)
+def process(archive: Path, *, size: int, components: int, raw: bool = False, **options) -> Material:
+    """The archive's ``btf`` stage (``raw``: without the calibration's corrections;
+    ``options``: more :class:`~processing.offline.BtfStage` fields)."""
+    stage = BtfStage(size=size, components=components, raw=raw, **options)
+    run_stages(archive, [stage], workers=1)
     return read_material(archive)
 
 

@@ -39,14 +39,18 @@ from processing.offline.radiometry import (
 )
 from processing.offline.runner import StageSkipped, archive_calibration, frame_camera
 from processing.offline.texel_light import LampPositions, lamp_positions, texel_irradiance
-from processing.registration import register_capture
+from processing.offline.texel_view import per_texel_views, slot_camera
+from processing.registration import FILTERS, rectify, register_capture
 from rig.archive import Archive
 from rig.config import RigConfig
 from rig.interchange import imported_normtextures
 from rig.kinds import rig_kind
 from rig.material import Radiometry, write_btf
 
-__all__ = ["BtfSlot", "BtfStage", "resample_texels", "slot_normtextures", "slot_table"]
+__all__ = ["VIEWS", "BtfSlot", "BtfStage", "resample_texels", "slot_normtextures", "slot_table"]
+
+#: ``BtfStage.views``: each texel at its slot's nominal view, or resampled from its own.
+VIEWS = ("nominal", "per texel")
 
 
 @dataclass(frozen=True)
@@ -64,12 +68,26 @@ class BtfSlot:
 @dataclass(frozen=True)
 class BtfStage:
     """Per-view PCA of the registered BTF. ``size``: texels per side; ``components``: c;
-    ``raw``: frames as recorded, without the calibration's radiometric corrections."""
+    ``raw``: frames as recorded, without the calibration's corrections; ``filter``:
+    registration's resampling filter (``processing.registration.FILTERS``);
+    ``from_pose``: register every frame from its camera's pose, not its markers;
+    ``views``: ``"nominal"`` (each texel keeps its slot's view direction) or ``"per
+    texel"`` (each texel resampled from its own view directions onto the slots',
+    ``processing.offline.texel_view``; not with ``raw``)."""
 
     size: int = 128
     components: int = 8
     raw: bool = False
+    filter: str = "box"
+    from_pose: bool = False
+    views: str = "nominal"
     name: str = "btf"
+
+    def __post_init__(self) -> None:
+        if self.filter not in FILTERS:
+            raise ValueError(f"BtfStage filter = {self.filter!r}: valid are {list(FILTERS)}")
+        if self.views not in VIEWS:
+            raise ValueError(f"BtfStage views = {self.views!r}: valid are {list(VIEWS)}")
 
     def plan(self, archive: Archive) -> list[BtfSlot]:
         if not any(s.kind == "btf" for s in archive.step_table()):
@@ -85,18 +103,21 @@ class BtfStage:
             config = RigConfig.model_validate(archive.rig_config)
             corrections = frame_corrections(archive, config, raw=self.raw)
             positions = None if self.raw else _positions(archive, config)
-            textures, flagged, dim = slot_normtextures(
-                archive, item, size=self.size, corrections=corrections, lamps=positions
-            )
+            textures, flagged, counts = slot_normtextures(
+                archive, item, size=self.size, corrections=corrections, lamps=positions,
+                filter=self.filter, from_pose=self.from_pose,
+            )  # fmt: skip
             lamps = [r.lamp for r in archive.step_table() if r.index in dict(item.captures)]
-        record = _with_irradiance(
-            corrections.record(cameras=[c for _, c in item.captures], lamps=lamps), positions, dim
-        )
+            per_texel = self.views == "per texel" and not self.raw
+            camera = slot_camera(archive, config, item) if per_texel else None
+        cameras = [c for _, c in item.captures]
+        record = _slot_record(corrections.record(cameras=cameras, lamps=lamps), positions, counts)
+        result = {"slot": item, "flagged": flagged, "compressed": None, "radiometry": record,
+                  "camera": camera, "saturated": counts["saturated"]}  # fmt: skip
         if flagged:
-            return {"slot": item, "flagged": flagged, "compressed": None, "radiometry": record}
+            return result
         stack = np.stack(textures).astype(np.float32)
-        slot = compress_view(stack, components=self.components)
-        return {"slot": item, "flagged": [], "compressed": slot, "radiometry": record}
+        return result | {"compressed": compress_view(stack, components=self.components)}
 
     def write(self, group, archive: Archive, results) -> dict:
         results = sorted(results, key=lambda r: r["slot"].index)
@@ -125,6 +146,22 @@ class BtfStage:
         )
         flagged = [f for r in results for f in r["flagged"]]
         radiometry = _merged([r["radiometry"] for r in results])
+        saturated = sum(r["saturated"] for r in results)
+        if saturated:
+            radiometry.skipped["saturated"] = (
+                f"{saturated} texel captures touch clipped pixels: stored as clipped "
+                "(a lower bound of their radiance)"
+            )
+        if self.raw or self.views == "nominal":
+            why = "--raw" if self.raw else "views 'nominal'"
+            radiometry = replace(radiometry, skipped=radiometry.skipped | {
+                "view": f"{why}: each texel keeps its slot's nominal view"})  # fmt: skip
+        else:
+            model, radiometry = per_texel_views(
+                model, [r["camera"] for r in results], np.array([s is not None for s in slots]),
+                radiometry, components=self.components,
+                sample_mm=RigConfig.model_validate(archive.rig_config).holder.sample_mm,
+            )  # fmt: skip
         write_btf(
             group, model, units=_units(archive, radiometry),
             slot_valid=np.array([s is not None for s in slots]), radiometry=radiometry,
@@ -158,10 +195,14 @@ def slot_normtextures(
     size: int,
     corrections: FrameCorrections | None = None,
     lamps: LampPositions | None = None,
-) -> tuple[list[np.ndarray], list[tuple], dict[str, int]]:
+    filter: str = "box",
+    from_pose: bool = False,
+) -> tuple[list[np.ndarray], list[tuple], Counter]:
     """The (size, size, C) float32 normtextures of a view slot, one per light, in
-    relative radiance per second of exposure; the flagged captures; and lamp id →
-    texels it barely lights (divided by ``IRRADIANCE_FLOOR``).
+    relative radiance per second of exposure; the flagged captures; and the flagged
+    texel captures: ``"irradiance LAMP"`` → texels the lamp barely lights (divided by
+    ``IRRADIANCE_FLOOR``), ``"saturated"`` → texels whose footprint touches a pixel at
+    the camera's full scale.
 
     Camera frames are registered onto the texel grid, linearised and divided by
     their lamp's flat field where ``corrections`` (default none) say so, and by
@@ -176,12 +217,12 @@ def slot_normtextures(
     """
     corrections = FrameCorrections() if corrections is None else corrections
     records = {s.index: s for s in archive.step_table()}
-    textures, flagged, dim = [], [], {}
+    textures, flagged, counts = [], [], Counter()
     if imported_normtextures(archive.plan):
         for step, camera in item.captures:
             frame = archive.read_frame(step, camera, 0)
             textures.append(resample_texels(frame, size) / records[step].exposures_s[0])
-        return textures, flagged, dim
+        return textures, flagged, counts
     config = RigConfig.model_validate(archive.rig_config)
     for light, (step, camera) in enumerate(item.captures):
         record = records[step]
@@ -193,14 +234,19 @@ def slot_normtextures(
         # (a rig without a turntable, as the Bonn lab, records none)
         turntable = record.actuators.get("turntable_deg", 0.0)
         lens = frame_camera(archive, config, camera, turntable)
-        reg = register_capture(frame, config, record, camera, size=size, camera=lens).registration
+        reg = register_capture(
+            frame, config, record, camera, size=size, camera=lens, filter=filter,
+            from_pose=from_pose,
+        ).registration  # fmt: skip
         if not reg.valid:
             flagged.append((item.index, light, step, camera, reg.reason.name))
             continue
         # with the lamps placed, the flat field divides out only what 1/r² does not explain
         texture = corrections.normtexture(
-            frame, reg, record, camera, config, lens=lens, size=size, lamp_model=lamps is not None
-        )
+            frame, reg, record, camera, config, lens=lens, size=size,
+            lamp_model=lamps is not None, filter=filter,
+        )  # fmt: skip
+        counts["saturated"] += _clipped_texels(frame, reg, config, camera, lens, size, filter)
         if lamps is not None:
             ratio, floored = texel_irradiance(
                 lamps, config, record.lamp, sample_mm=config.holder.sample_mm, size=size,
@@ -208,9 +254,20 @@ def slot_normtextures(
             )  # fmt: skip
             texture = texture / ratio[..., None]
             if floored.any():
-                dim[record.lamp] = dim.get(record.lamp, 0) + int(floored.sum())
+                counts[f"irradiance {record.lamp}"] += int(floored.sum())
         textures.append((texture / record.exposures_s[0]).astype(np.float32))
-    return textures, flagged, dim
+    return textures, flagged, counts
+
+
+def _clipped_texels(frame, reg, config: RigConfig, camera: str, lens, size: int, filter) -> int:
+    """Texels whose footprint touches a pixel at full scale in any channel."""
+    clipped = np.asarray(frame) >= 2 ** config.camera(camera).bit_depth - 1
+    if not clipped.any():
+        return 0
+    mask = clipped if clipped.ndim == 2 else clipped.any(axis=2)
+    touched = rectify(mask.astype(np.float32), reg.homography, sample_mm=config.holder.sample_mm,
+                      size=size, camera=lens, filter=filter).texture[..., 0] > 0  # fmt: skip
+    return int(touched.sum())
 
 
 def _positions(archive: Archive, config: RigConfig) -> LampPositions | None:
@@ -219,19 +276,21 @@ def _positions(archive: Archive, config: RigConfig) -> LampPositions | None:
     return lamp_positions(config, calibration, source)
 
 
-def _with_irradiance(
-    record: Radiometry, lamps: LampPositions | None, dim: dict[str, int]
+def _slot_record(
+    record: Radiometry, lamps: LampPositions | None, counts: dict[str, int]
 ) -> Radiometry:
-    """The slot's record with the per-texel irradiance correction: its source, or why not."""
-    if lamps is None:
-        return replace(record, skipped=record.skipped | {
-            "irradiance": "no near lamp placed (directional lamps, a Bonn lab or --raw): "
-                          "the centre's irradiance for every texel"})  # fmt: skip
+    """The slot's record with the per-texel irradiance correction: its source, or why not
+    (``counts``: :func:`slot_normtextures`'s, the texels lamps barely light)."""
     skipped = dict(record.skipped)
-    for lamp, count in dim.items():
-        skipped[f"irradiance {lamp}"] = (
-            f"{count} texel captures it barely lights (outside its cone): divided by the floor"
-        )
+    if lamps is None:
+        skipped["irradiance"] = ("no near lamp placed (directional lamps, a Bonn lab or --raw): "
+                                 "the centre's irradiance for every texel")  # fmt: skip
+        return replace(record, skipped=skipped)
+    for key, count in counts.items():
+        if key.startswith("irradiance "):
+            skipped[key] = (
+                f"{count} texel captures it barely lights (outside its cone): divided by the floor"
+            )
     return replace(record, sources=record.sources | {"irradiance": lamps.source}, skipped=skipped)
 
 

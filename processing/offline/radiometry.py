@@ -105,6 +105,7 @@ class FrameCorrections:
         lens: PinholeCamera,
         size: int,
         lamp_model: bool,
+        filter: str = "box",
     ) -> np.ndarray:
         """(size, size, C) float64 corrected normtexture of a registered frame.
 
@@ -112,7 +113,8 @@ class FrameCorrections:
         else the registered values over full scale; divided by the lamp's flat
         field on the texel grid when there is one — with ``lamp_model`` by the
         part the near-lamp model (cos θ / r², :func:`point_falloff`) does not
-        explain, for solvers that model it themselves.
+        explain, for solvers that model it themselves. ``filter``: the resampling
+        filter of the linearised frame (``processing.registration.rectify``).
         """
         sample_mm = config.holder.sample_mm
         linear = self.linear(frame, camera_id)
@@ -121,7 +123,12 @@ class FrameCorrections:
             texture = registration.normtexture.texture.astype(np.float64) / full_scale
         else:
             texture = rectify(
-                linear, registration.homography, sample_mm=sample_mm, size=size, camera=lens
+                linear,
+                registration.homography,
+                sample_mm=sample_mm,
+                size=size,
+                camera=lens,
+                filter=filter,
             ).texture.astype(np.float64)
         if self.flat_field is None or step.lamp not in self.flat_field.lamps:
             return texture

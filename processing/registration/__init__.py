@@ -22,10 +22,19 @@ from processing.registration._markers import (
     marker_corners_mm,
 )
 from processing.registration._predicted import expected_corners_px, track_markers
-from processing.registration._rectify import Normtexture, Region, blend_edges, rectify
+from processing.registration._rectify import (
+    AREA_SAMPLES_PER_PIXEL,
+    FILTERS,
+    Normtexture,
+    Region,
+    blend_edges,
+    rectify,
+)
 from processing.registration._register import Registration, register_frame
 
 __all__ = [
+    "AREA_SAMPLES_PER_PIXEL",
+    "FILTERS",
     "CaptureRegistration",
     "MarkerDetection",
     "Normtexture",

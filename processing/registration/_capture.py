@@ -59,6 +59,8 @@ def register_capture(
     region: Region | None = None,
     extend_texels: int = 0,
     order: int = 1,
+    filter: str = "box",
+    from_pose: bool = False,
     min_markers: int = 3,
     max_reprojection_px: float = 1.0,
     max_noise_gain: float = 2.0,
@@ -82,8 +84,11 @@ def register_capture(
     camera : PinholeCamera, optional
         A calibrated model of the camera (only ``K`` and ``dist`` are used);
         default ``config.camera_model(camera_id)``.
-    region, extend_texels, order, min_markers, max_reprojection_px, max_noise_gain :
+    region, extend_texels, order, filter, min_markers, max_reprojection_px, max_noise_gain :
         As in :func:`register_frame`.
+    from_pose : bool
+        Register every frame from the camera model's pose (``camera``, or the rig
+        config's nominal pose at the step's turntable angle), not from its markers.
 
     Returns
     -------
@@ -100,6 +105,7 @@ def register_capture(
             f"camera_id = {camera_id!r} did not capture step {step.index}; "
             f"its cameras are {list(step.cameras)}"
         )
+    given = camera is not None
     if camera is None:
         try:
             camera = config.camera_model(camera_id)
@@ -116,10 +122,12 @@ def register_capture(
     light = None if step.light_deg is None else np.asarray(step.light_deg, dtype=np.float64)
     posed = _posed(config, step, camera_id, camera)
     expected = posed if posed is not None else _turned(config, step, camera_id, camera)
+    if from_pose and posed is None:
+        posed = camera if given else expected
     registration = register_frame(
         frame, config.holder, size=size, camera=camera, posed=posed, expected=expected,
-        region=region,
-        extend_texels=extend_texels, order=order, min_markers=min_markers,
+        region=region, extend_texels=extend_texels, order=order, filter=filter,
+        from_pose=from_pose, min_markers=min_markers,
         max_reprojection_px=max_reprojection_px, max_noise_gain=max_noise_gain,
     )  # fmt: skip
     return CaptureRegistration(registration, step.index, camera_id, view, light)

@@ -5,8 +5,17 @@ mapped through the plane → image homography (and the lens distortion) into the
 raw frame and sampled there with sub-pixel (bilinear or cubic) interpolation.
 When the grid minifies the frame (a texel covers more than one pixel), each
 texel is supersampled on an s_x × s_y sub-grid chosen from the largest texel
-footprint in pixels and the samples are averaged: a box (area) filter, so fine
-detail does not alias.
+footprint in pixels and the samples are averaged: a box filter, so fine
+detail does not alias. The box's interpolated samples still reach half a pixel
+past the texel's edge (the bilinear tent): a texel of three pixels takes a
+third of its value from its neighbours' pixels.
+
+``filter="area"`` weighs every pixel by the fraction of the texel's footprint
+it covers instead: each pixel a square of constant value (what a sensor that
+integrates over its pixel records), the footprint sampled at
+:data:`AREA_SAMPLES_PER_PIXEL` points per pixel side, each point taking the
+pixel it falls in. The weights converge on the exact overlap areas as 1/that
+density; nothing outside the footprint contributes.
 
 References
 ----------
@@ -31,9 +40,18 @@ from processing.registration._sampling import (
 from rig.camera import PinholeCamera
 from rig.geometry import texel_centers_mm
 
-__all__ = ["Normtexture", "Region", "blend_edges", "rectify"]
+__all__ = ["AREA_SAMPLES_PER_PIXEL", "FILTERS", "Normtexture", "Region", "blend_edges", "rectify"]
 
 _MAX_SAMPLES_PER_STRIP = 1 << 20
+
+#: The resampling filters: the box of interpolated samples, and pixel-area weights.
+FILTERS = ("box", "area")
+
+#: ``filter="area"``: footprint samples per pixel side (the area weights' resolution).
+AREA_SAMPLES_PER_PIXEL = 4
+
+#: ``filter="area"``: the most footprint samples per texel side.
+_MAX_AREA_SAMPLES = 64
 
 
 @dataclass(frozen=True)
@@ -125,6 +143,7 @@ def rectify(
     extend_texels: int = 0,
     order: int = 1,
     max_supersample: int = 8,
+    filter: str = "box",
 ) -> Normtexture:
     """Rectify ``frame`` onto the N×N texel grid of the sample square (or a region).
 
@@ -148,7 +167,10 @@ def rectify(
     order : int
         Interpolation order, 1 (bilinear) or 3 (cubic spline).
     max_supersample : int
-        Cap on sub-samples per texel and axis.
+        Cap on sub-samples per texel and axis (``filter="box"``).
+    filter : str
+        ``"box"``: the mean of s_x × s_y interpolated samples; ``"area"``: each pixel
+        weighted by its share of the texel's footprint (``order`` is not used).
 
     Returns
     -------
@@ -167,6 +189,8 @@ def rectify(
         )
     if order not in (1, 3):
         raise RegistrationError(f"order = {order}: valid are 1 (bilinear) and 3 (cubic)")
+    if filter not in FILTERS:
+        raise RegistrationError(f"filter = {filter!r}: valid are {list(FILTERS)}")
     side = sample_mm if region is None else region.side_mm
     if not np.isfinite(side) or side <= 0:
         raise RegistrationError(f"sample_mm = {sample_mm}: must be > 0")
@@ -186,18 +210,22 @@ def rectify(
         fx, fy = homography_footprint_px(H, grid.reshape(-1, 2), step)
     else:
         fx, fy = _footprint_px(H, grid, step, camera)
-    sx = int(np.clip(np.ceil(fx), 1, max_supersample))
-    sy = int(np.clip(np.ceil(fy), 1, max_supersample))
+    if filter == "area":  # each sample takes the pixel it falls in (nearest, order 0)
+        order = 0
+        density, most = AREA_SAMPLES_PER_PIXEL, _MAX_AREA_SAMPLES
+    else:
+        density, most = 1, max_supersample
+    sx = int(np.clip(np.ceil(density * fx), 1, most))
+    sy = int(np.clip(np.ceil(density * fy), 1, most))
     offsets_x = ((np.arange(sx) + 0.5) / sx - 0.5) * step
     offsets_y = ((np.arange(sy) + 0.5) / sy - 0.5) * step
     sub = np.stack(np.meshgrid(offsets_x, offsets_y), axis=-1).reshape(-1, 2)  # (sx*sy, 2)
 
     height, width, channels = image.shape
-    if order == 3:
-        planes = [
-            ndimage.spline_filter(np.asarray(image[:, :, c], dtype=np.float64), mode="nearest")
-            for c in range(channels)
-        ]
+    if order != 1:  # nearest (the area filter) or cubic, by scipy
+        planes = [np.asarray(image[:, :, c], dtype=np.float64) for c in range(channels)]
+        if order == 3:
+            planes = [ndimage.spline_filter(p, order=3, mode="nearest") for p in planes]
     texture = np.zeros((n_out, n_out, channels), np.float64)
     valid = np.ones((n_out, n_out), bool)
     if order == 1 and pinhole:
@@ -223,7 +251,7 @@ def rectify(
         coords = np.stack([pix[:, 1], pix[:, 0]])
         for c, plane in enumerate(planes):
             values = ndimage.map_coordinates(
-                plane, coords, order=3, mode="nearest", prefilter=False
+                plane, coords, order=order, mode="nearest", prefilter=False
             )
             strip[:, :, c] = values.reshape(shape).mean(axis=2)
     texture[~valid] = 0.0

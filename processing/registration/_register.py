@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from processing.registration._errors import Reason
+from processing.registration._errors import Reason, RegistrationError
 from processing.registration._homography import (
     PlaneHomography,
     fit_plane_homography,
@@ -61,6 +61,8 @@ def register_frame(
     region: Region | None = None,
     extend_texels: int = 0,
     order: int = 1,
+    filter: str = "box",
+    from_pose: bool = False,
     min_markers: int = 3,
     max_reprojection_px: float = 1.0,
     max_noise_gain: float = 2.0,
@@ -91,8 +93,12 @@ def register_frame(
         The markers are then refined where it puts them and checked by their
         bits (:func:`track_markers`, without OpenCV's detector); where
         they give no valid homography, the detector searches the whole frame.
-    region, extend_texels, order :
+    region, extend_texels, order, filter :
         Passed to :func:`rectify`.
+    from_pose : bool
+        Rectify through ``posed``'s homography even where the markers give one
+        (reason ``FROM_RIG_POSE``): where the pose is known exactly, as in the
+        simulator, registration without the markers' error.
     min_markers, max_reprojection_px, max_noise_gain :
         Passed to :func:`fit_plane_homography`.
 
@@ -129,10 +135,12 @@ def register_frame(
         detection = detect_markers(frame, holder)
         homography = fit(detection)
     n = size + extend_texels
-    if not homography.valid and posed is not None:
-        from_pose = pose_plane_homography(posed, holder)
-        if from_pose.valid:
-            homography, camera = from_pose, posed
+    if from_pose and posed is None:
+        raise RegistrationError("from_pose: no posed camera model to register from")
+    if (from_pose or not homography.valid) and posed is not None:
+        by_pose = pose_plane_homography(posed, holder)
+        if by_pose.valid:
+            homography, camera = by_pose, posed
     if not homography.valid:
         channels = 1 if np.ndim(frame) == 2 else np.shape(frame)[2]
         blank = Normtexture(np.zeros((n, n, channels), np.float32), np.zeros((n, n), bool), (0, 0))
@@ -146,5 +154,6 @@ def register_frame(
         region=region,
         extend_texels=extend_texels,
         order=order,
+        filter=filter,
     )
     return Registration(texture, homography, detection)

@@ -43,10 +43,10 @@ exposure_s = 0.05
 """
 
 
-def _record(tmp, scale):
+def _record(tmp, scale, plan=PLAN):
     data = tomllib.loads(Path("examples/scenes/bumps.toml").read_text())
     data["render"] = {"scale": scale, "supersample": 2}
-    (tmp / "plan.toml").write_text(PLAN)
+    (tmp / "plan.toml").write_text(plan)
     clock = VirtualClock()
     with SimulatedRig(scene_from_dict(data), clock=clock) as sim:
         final = run_local(tmp / "plan.toml", sim.rig_config(), archive=tmp / "b.zarr", clock=clock)
@@ -172,3 +172,35 @@ def test_the_ubo2003_export_holds_the_registered_frames(archive, tmp_path):
             assert below.mean() > 0.99
             # half an 8-bit code of sRGB is at most 0.0045 of white in linear terms
             assert np.abs(got - want)[below].max() <= 0.0045 * white
+
+
+def test_per_texel_views_are_resampled_and_recorded(archive):
+    run_stages(archive, [BtfStage(size=SIZE, components=6, views="per texel")])
+    arrays, attrs = _material(archive)
+    radiometry = json.loads(json.dumps(attrs["radiometry"]))
+    assert radiometry["sources"]["view"] == "the rig config's camera geometry (nominal)"
+    assert "outside the hull" in radiometry["skipped"]["view"]
+    resampled = btf_from_arrays(arrays, attrs)
+    run_stages(archive, [BtfStage(size=SIZE, components=6)])
+    nominal = btf_from_arrays(*_material(archive))
+    assert "views 'nominal'" in json.dumps(_material(archive)[1])
+    for slot in range(3):
+        got = reconstruct(resampled, view=slot, light=2)
+        want = reconstruct(nominal, view=slot, light=2)
+        assert np.isfinite(got).all()
+        # a few degrees' turn: the texels move, by a few percent at most
+        assert 0 < np.abs(got - want).max() <= 0.1 * np.abs(want).max()
+
+
+def test_saturated_texels_are_counted_in_the_material(archive, tmp_path):
+    # 20 × the exposure: the frontal view's brightest texels clip
+    bright = _record(tmp_path, 0.5, PLAN.replace("exposure_s = 0.05", "exposure_s = 1.0"))
+    run_stages(bright, [BtfStage(size=SIZE, components=4)])
+    arrays, attrs = _material(bright)
+    skipped = attrs["radiometry"]["skipped"]
+    count = int(skipped["saturated"].split()[0])
+    assert 0 < count <= 3 * 6 * SIZE * SIZE
+    model = btf_from_arrays(arrays, attrs)
+    assert np.isfinite(reconstruct(model, view=0, light=0)).all()
+    run_stages(archive, [BtfStage(size=SIZE, components=4)])  # the usual exposure: none
+    assert "saturated" not in _material(archive)[1]["radiometry"]["skipped"]

@@ -7,7 +7,14 @@ from rig.errors import RigError
 from sim.model import SceneModel
 from sim.scene import scene_from_dict
 from sim.world import WorldSnapshot
-from studies.error_budget import CONFIGS, TERMS, plot, scene_without
+from studies.error_budget import (
+    CONFIGS,
+    REGISTRATION_TERMS,
+    TERMS,
+    components_of,
+    plot,
+    scene_without,
+)
 
 
 def _lights(off):
@@ -57,3 +64,59 @@ def test_the_waterfall_is_drawn(tmp_path):
             for p in ("raw", "irradiance per texel") for c in (4, "lossless")]  # fmt: skip
     plot(rows, tmp_path / "budget.png")
     assert (tmp_path / "budget.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def _view_spread_deg(off) -> float:
+    """The largest angle between the view rays to the sample's corners and centre."""
+    scene = scene_from_dict(scene_without("bumps", off))
+    camera = SceneModel(scene).camera("cam3")
+    half = scene.rig.holder.sample_mm / 2
+    points = np.array([[0, 0, 0], [half, half, 0], [-half, -half, 0], [half, -half, 0]], float)
+    rays = camera.center - points
+    rays /= np.linalg.norm(rays, axis=1, keepdims=True)
+    return float(np.degrees(np.arccos(np.clip(rays[1:] @ rays[0], -1, 1))).max())
+
+
+def test_perspective_off_sees_the_sample_along_nearly_parallel_rays():
+    assert _view_spread_deg(()) > 4.0
+    assert _view_spread_deg(("perspective",)) < 0.1
+    near, far = (scene_from_dict(scene_without("bumps", o)).rig.camera_model("cam3")
+                 for o in ((), ("perspective",)))  # fmt: skip
+    # the same pixels on the sample: the sample's centre and corner land where they did
+    corner = np.array([[0.0, 0.0, 0.0], [50.0, 50.0, 0.0]])
+    np.testing.assert_allclose(far.project(corner)[0][0], near.project(corner)[0][0], atol=1e-6)
+    assert np.abs(far.project(corner)[0][1] - near.project(corner)[0][1]).max() < 6.0  # px
+
+
+def test_registration_terms_leave_the_scene_as_it_is():
+    for term in REGISTRATION_TERMS:
+        assert term in TERMS
+        assert scene_without("weave", (term,)) == scene_without("weave", ())
+
+
+@pytest.mark.slow  # two simulated frames
+def test_the_telecentric_camera_renders_the_sample_as_the_near_one():
+    from sim.simulator import Simulator
+
+    frames = []
+    for off in ((), ("perspective",)):
+        with Simulator(scene_from_dict(scene_without("bumps", off))) as sim:
+            frames.append(sim.render_state("cam3", lamps_on=["lamp3"]).image.astype(float))
+    # the sample's middle, which both see on the same pixels (its edges move by a few)
+    h, w = frames[0].shape[:2]
+    near, far = (f[h // 2 - 40 : h // 2 + 40, w // 2 - 40 : w // 2 + 40] for f in frames)
+    assert near.mean() > 10  # lit
+    assert abs(far.mean() / near.mean() - 1) < 0.05  # not clipped away by the depth range
+
+
+def test_lossless_is_every_component_not_the_colour_channels():
+    from processing.btf import CompressedBTF
+
+    views, c, n = 2, 5, 4
+    btf = CompressedBTF(
+        np.array([[0.0, 0.0], [45.0, 0.0]]), np.array([[30.0, 0.0]] * 7),
+        np.zeros((views, n, n, 3), np.float16), np.zeros((views, c, n, n, 3), np.float16),
+        np.zeros((views, 7, c), np.float32), np.zeros((views, 7), np.float32),
+        np.full(views, c, np.int32),
+    )  # fmt: skip
+    assert components_of(btf) == c

@@ -72,3 +72,32 @@ def test_a_bonn_frame_without_markers_registers_from_the_recorded_arm_and_rail()
                             actuators)  # fmt: skip
     with pytest.raises(RegistrationError, match="'rail_deg'"):
         register_capture(blank, config, unrecorded, "cam0", size=8)
+
+
+@pytest.mark.slow  # a simulated capture
+def test_from_pose_registers_through_the_posed_camera_not_the_markers(frames, rig_config):
+    frame, G, _ = frames("cam3", 30.0)
+    step = StepRecord(7, "btf", ("cam3",), {"cam3": (45.0, 330.0)}, (15.0, 90.0),
+                      {"turntable_deg": 30.0})  # fmt: skip
+    posed = register_capture(frame, rig_config, step, "cam3", size=16, from_pose=True)
+    markers = register_capture(frame, rig_config, step, "cam3", size=16)
+    reg = posed.registration
+    assert reg.valid and reg.reason == Reason.FROM_RIG_POSE
+    assert markers.registration.reason == Reason.OK
+    H = reg.homography.plane_to_image
+    np.testing.assert_allclose(H / H[2, 2], G / G[2, 2], rtol=1e-9, atol=1e-9)
+    # the markers' fit is a different homography, the textures nearly the same
+    assert not np.allclose(markers.registration.homography.plane_to_image, H, rtol=1e-9)
+    np.testing.assert_allclose(reg.normtexture.texture, markers.registration.normtexture.texture,
+                               atol=2.0)  # fmt: skip
+
+
+def test_from_pose_needs_no_marker_and_a_pose_to_register_from(rig_config, holder):
+    step = StepRecord(2, "btf", ("cam3",), {"cam3": (45.0, 0.0)}, (15.0, 90.0),
+                      {"turntable_deg": 0.0})  # fmt: skip
+    lens = rig_config.camera_model("cam3")
+    blank = np.zeros((lens.height, lens.width), np.uint8)
+    out = register_capture(blank, rig_config, step, "cam3", size=8, from_pose=True)
+    assert out.registration.valid and out.registration.reason == Reason.FROM_RIG_POSE
+    with pytest.raises(RegistrationError, match="from_pose: no posed camera model"):
+        register_frame(blank, holder, size=8, from_pose=True)
