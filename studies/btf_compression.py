@@ -114,32 +114,22 @@ def run(
     peak = float(reference.max())
     raw_bytes = reference.nbytes
     rows: list[dict] = []
-    for c in components:
-        t, model = _best_of(
-            1,
-            lambda c=c: compress_btf(
-                reference, view_dirs_deg=dirs, light_dirs_deg=dirs, components=c
-            ),
-        )
-        err, per_texture = _all_rmse(model, reference)
-        rows.append({
-            "row": "pca", "components": c, "rmse": err, "psnr_db": psnr_db(err, peak=peak),
-            "storage_ratio": raw_bytes / model.nbytes, "compress_s": t,
-            "reconstruct_ms": per_texture * 1e3,
-        })  # fmt: skip
-    for c in svd_components:
-        t, model = _best_of(
-            1,
-            lambda c=c: compress_global_svd(
-                reference, view_dirs_deg=dirs, light_dirs_deg=dirs, components=c
-            ),
-        )
-        err, per_texture = _all_rmse(model, reference)
-        rows.append({
-            "row": "svd", "components": c, "rmse": err, "psnr_db": psnr_db(err, peak=peak),
-            "storage_ratio": raw_bytes / model.nbytes, "compress_s": t,
-            "reconstruct_ms": per_texture * 1e3,
-        })  # fmt: skip
+    for row, compress, counts in (
+        ("pca", compress_btf, components), ("svd", compress_global_svd, svd_components)
+    ):
+        for c in counts:
+            t, model = _best_of(
+                1,
+                lambda c=c, compress=compress: compress(
+                    reference, view_dirs_deg=dirs, light_dirs_deg=dirs, components=c
+                ),
+            )
+            err, per_texture = _all_rmse(model, reference)
+            rows.append({
+                "row": row, "components": c, "rmse": err, "psnr_db": psnr_db(err, peak=peak),
+                "storage_ratio": raw_bytes / model.nbytes, "compress_s": t,
+                "reconstruct_ms": per_texture * 1e3,
+            })  # fmt: skip
 
     # Interpolation at held-out lights: compress without them, predict them.
     held = _held_out_lights(h2, held_out_every)
