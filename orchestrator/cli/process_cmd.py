@@ -72,6 +72,8 @@ def archive_flagged_lines(archive_path: Path) -> list[str]:
         return flagged_lines(flag_summary(flags_of(archive.step_table())))
 
 
+#: --views as the btf stage names them (processing.offline.btf.VIEWS)
+_VIEWS = {"nominal": "nominal", "per-texel": "per texel"}
 #: the stages with preview PNGs, and what writes them
 _PREVIEWS = {"ps": write_ps_previews, "mdf": write_mdf_previews}
 
@@ -110,6 +112,15 @@ def process(
             "no longer shape (0: the height as integrated)",
         ),
     ] = 15.0,
+    views: Annotated[
+        str,
+        typer.Option(
+            "--views",
+            help="btf: nominal (each texel at its view slot's direction) or per-texel (each "
+            "texel's own direction through the calibrated camera, resampled onto the plan's "
+            "views; texels outside the measured directions are kept and counted)",
+        ),
+    ] = "nominal",
 ) -> None:
     """Run processing stages over an archive into its material/ group.
 
@@ -143,9 +154,11 @@ def process(
         )
     if previews is not None and any(n in _PREVIEWS for n in names):
         prepare_folder(previews, f"--previews {previews}")
+    if views not in _VIEWS:
+        raise ConfigError(f"--views {views!r}: valid are {', '.join(_VIEWS)}")
     flat = flat_beyond_mm or None
     options = {
-        "btf": {"size": size, "components": components, "raw": raw},
+        "btf": {"size": size, "components": components, "raw": raw, "views": _VIEWS[views]},
         "ps": {"size": size, "raw": raw, "flat_beyond_mm": flat},
         "mdf": {"size": size}, "pbr": {},
     }  # fmt: skip

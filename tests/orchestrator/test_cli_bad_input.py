@@ -12,6 +12,7 @@ import pytest
 from typer.testing import CliRunner
 
 from orchestrator.cli import app
+from rig.archive import Archive
 from tests.rig.archive import test_disk_full
 from tests.rig.interchange.conftest import SIZE, write_ubo_folder
 from tests.rig.material.conftest import make_archive, ps_view
@@ -220,3 +221,19 @@ def test_frames_on_a_full_disk_exit_1_naming_out(tmp_path, small_disk, fmt):
     said = _said(result)
     assert f"--out {out}: " in said and "could not be written" in said
     assert sorted(p.name for p in small_disk.iterdir()) == ["filler"]
+
+
+def test_process_views_names_the_valid_ones_and_the_material_records_the_choice(tmp_path):
+    archive = _imported(tmp_path)
+    result = _run("process", archive, "--stages", "btf", "--size", SIZE, "--views", "texel")
+    assert result.exit_code == 2, result.output
+    assert "--views 'texel': valid are nominal, per-texel" in _said(result)
+    views = {}
+    for choice in ("nominal", "per-texel"):
+        result = _run("process", archive, "--stages", "btf", "--size", SIZE, "--views", choice)
+        assert result.exit_code == 0, result.output
+        with Archive.open(archive, mode="r") as recorded:
+            views[choice] = recorded.material["btf"].attrs["radiometry"]["skipped"].get("view")
+    assert "views 'nominal'" in views["nominal"]
+    # an imported set has normtextures and no camera: the stage tried, and says why not
+    assert views["per-texel"].startswith("imported normtextures: no camera to place")
