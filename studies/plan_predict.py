@@ -29,7 +29,7 @@ import numpy as np
 import tomli_w
 
 from rig.config import RigConfig
-from rig.errors import ConfigError
+from rig.errors import ConfigError, RigError
 from rig.material import Material
 from rig.plan import Plan
 from rig.tomlfile import read_toml
@@ -70,7 +70,6 @@ class Prediction:
 
     views : view slots registered (the others are left out of the material)
     view_slots : view slots the plan captured
-    frames : frames the material holds (registered view slots × lights)
     captured_db : {c: PSNR (dB) of the material at the captured pairs nearest the
         held-out ones}
     held_out_db : {c: PSNR (dB) of the material interpolated at the held-out pairs}
@@ -80,7 +79,6 @@ class Prediction:
 
     views: int
     view_slots: int
-    frames: int
     captured_db: dict[int, float]
     held_out_db: dict[int, float]
     view_gap_deg: float
@@ -107,10 +105,12 @@ def proxy_scene(sample: str) -> Scene:
 
 def btf_only(plan: Plan) -> str:
     """The plan's TOML without its photometric-stereo and laser captures, which the
-    prediction does not score."""
+    prediction does not score, and at the cameras' full resolution: the proxy's
+    cameras are the reduced ones (:data:`SENSOR_SCALE`)."""
     captures = plan.captures.model_copy(update={"ps": None, "mdf": None})
-    data = plan.model_copy(update={"captures": captures}).model_dump(mode="json", exclude_none=True)
-    return tomli_w.dumps(data)
+    resolution = plan.resolution.model_copy(update={"scale": 1.0})
+    proxy = plan.model_copy(update={"captures": captures, "resolution": resolution})
+    return tomli_w.dumps(proxy.model_dump(mode="json", exclude_none=True))
 
 
 def predict(
@@ -136,17 +136,20 @@ def predict(
 
 
 def _score(material: Material, scene: Scene, config: RigConfig) -> Prediction:
+    valid = np.asarray(material.btf_slot_valid, bool)
+    if material.btf is None or not valid.any():
+        raise RigError(
+            f"no view slot of the plan registered on the simulated {scene.source} at "
+            f"{SENSOR_SCALE:g} of the sensor: there is no material to score"
+        )
     scale = irradiance_scale(scene, config)
     with Simulator(scene) as sim:
         truth = loop_truth(material, sim, scale, HELD_OUT, components=max(COMPONENTS))
     rows = {c: scores(material, truth, scale, HELD_OUT, c=c) for c in COMPONENTS}
-    valid = np.asarray(material.btf_slot_valid, bool)
-    views, lights = int(valid.sum()), len(material.btf.light_dirs_deg)
     view_gap, light_gap = gaps_deg(material, HELD_OUT)
     return Prediction(
-        views=views,
+        views=int(valid.sum()),
         view_slots=len(valid),
-        frames=views * lights,
         captured_db={c: row["psnr_captured_db"] for c, row in rows.items()},
         held_out_db={c: row["psnr_cpu_db"] for c, row in rows.items()},
         view_gap_deg=view_gap,
