@@ -12,10 +12,11 @@ component count c.
 It runs at a reduced resolution (:data:`SENSOR_SCALE`, :data:`TEXELS`): a
 quarter of the sensor (256 × 192 pixels of the default rig's 1024 × 768) and
 32² texels, the render loop's 8 pixels per texel side (half the sensor, 64²
-texels) at a quarter of its texels. An eighth of the sensor costs no less
-(the simulator's frames are no longer where the time goes) and its markers are
-too small to register at 45° views. docs/geometry.md sets the prediction
-beside the render loop's numbers.
+texels) at a quarter of its texels. An eighth of the sensor costs about the
+same and its markers are too small to register at 45° views; at a quarter,
+views up to θ = 51° register and some at 68° do not (the table counts the
+registered view slots). docs/geometry.md sets the prediction beside the
+render loop's numbers.
 """
 
 from __future__ import annotations
