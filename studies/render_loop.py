@@ -20,6 +20,8 @@ from __future__ import annotations
 import contextlib
 import dataclasses
 import tempfile
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
@@ -40,15 +42,18 @@ from rig.schedule import compile_plan
 from sim.rig import SimulatedRig
 from sim.scene import Scene, scene_from_dict
 from sim.simulator import Simulator
-from studies.footprint import converged_truth, truth_at
+from studies.footprint import FootprintTruth, converged_truth, truth_at
 
 __all__ = [
     "HELD_OUT",
     "PLANS",
     "SCENES",
+    "LoopTruth",
     "captured_pairs",
+    "gaps_deg",
     "interpolated",
     "irradiance_scale",
+    "loop_truth",
     "measure",
     "patient_cameras",
     "plot",
@@ -56,6 +61,7 @@ __all__ = [
     "reconstructed",
     "record",
     "run",
+    "scores",
     "truncated",
 ]
 
@@ -147,14 +153,22 @@ def measure(scene: Scene, plan_text: str, folder: Path, *, size: int, components
     return process(archive, size=size, components=components), config
 
 
-def record(scene: Scene, plan_text: str, folder: Path) -> tuple[Path, RigConfig]:
-    """Run the plan on the simulated rig in virtual time; (archive, rig config)."""
+def record(
+    scene: Scene,
+    plan_text: str,
+    folder: Path,
+    *,
+    on_event: Callable[[dict], None] | None = None,
+) -> tuple[Path, RigConfig]:
+    """Run the plan on the simulated rig in virtual time; (archive, rig config).
+    ``on_event`` sees the session's events (``run_local``), e.g. for a progress bar."""
     plan_path, archive = folder / "plan.toml", folder / "session.zarr"
     plan_path.write_text(plan_text)
     clock = VirtualClock()
     with SimulatedRig(scene, clock=clock) as rig:
         config = patient_cameras(rig.rig_config())
-        final = run_local(plan_path, config, archive=archive, clock=clock, on_fault="fail")
+        final = run_local(plan_path, config, archive=archive, clock=clock, on_fault="fail",
+                          on_event=on_event)  # fmt: skip
     if final.get("state") != "done":
         raise RigError(f"the simulated session of {plan_path} ended {final.get('state')}: {final}")
     return archive, config
@@ -243,40 +257,86 @@ def captured_pairs(btf: CompressedBTF, valid: np.ndarray, held_out) -> list[tupl
              _nearest(btf.light_dirs_deg, light)) for v, light in held_out]  # fmt: skip
 
 
-def _rows(name, plan, material, sims, scale, components, held_out, capture_s):
+@dataclass(frozen=True)
+class LoopTruth:
+    """The footprint truths a measured material is scored against.
+
+    held_out : the truth at the held-out (view, light) pairs
+    captured : the truth at the captured pair nearest each held-out one
+    pairs : (valid view slot, light) index of those captured pairs
+    peak : every PSNR's peak: the held-out truth's maximum, all pairs pooled
+    """
+
+    held_out: FootprintTruth
+    captured: FootprintTruth
+    pairs: list[tuple[int, int]]
+    peak: float
+
+
+def loop_truth(material: Material, sim: Simulator, scale: float, held_out, *,
+               components: int) -> LoopTruth:  # fmt: skip
+    """The truths at ``held_out`` and the captured pairs nearest them, converged on
+    the scores of ``components`` components (smaller c share them: their errors are
+    larger, so the truth's own error weighs less in them)."""
     btf, valid = material.btf, np.asarray(material.btf_slot_valid, bool)
-    captured = captured_pairs(btf, valid, held_out)
-    captured_dirs = [(btf.view_dirs_deg[j], btf.light_dirs_deg[i]) for j, i in captured]
-    # the truths converge on the largest c's scores; the smaller c's share them
-    full = truncated(btf, max(components))
-    own = converged_truth(sims[0], held_out, interpolated(full, valid, held_out) / scale)
+    pairs = captured_pairs(btf, valid, held_out)
+    captured_dirs = [(btf.view_dirs_deg[j], btf.light_dirs_deg[i]) for j, i in pairs]
+    full = truncated(btf, components)
+    own = converged_truth(sim, held_out, interpolated(full, valid, held_out) / scale)
     peak = float(own.values.max())
-    at_captured = converged_truth(sims[0], captured_dirs, reconstructed(full, captured) / scale,
+    at_captured = converged_truth(sim, captured_dirs, reconstructed(full, pairs) / scale,
                                   peak=peak)  # fmt: skip
-    other = truth_at(sims[1], held_out, material.size, own.rays)
+    return LoopTruth(own, at_captured, pairs, peak)
+
+
+def scores(material: Material, truth: LoopTruth, scale: float, held_out, *, c: int) -> dict:
+    """The material's first ``c`` components against ``truth``: ``psnr_cpu_db``
+    (``processing.btf.interpolate`` at the held-out pairs) and ``psnr_captured_db``
+    (the model at the captured pairs nearest them: the measurement's own error)."""
+    btf, valid = material.btf, np.asarray(material.btf_slot_valid, bool)
+    model = truncated(btf, c)
+    cpu = interpolated(model, valid, held_out) / scale
+    measured = reconstructed(model, truth.pairs) / scale
+    return {
+        "psnr_cpu_db": round(psnr_db(rmse(cpu, truth.held_out.values), peak=truth.peak), 2),
+        "psnr_captured_db": round(
+            psnr_db(rmse(measured, truth.captured.values), peak=truth.peak), 2
+        ),
+    }
+
+
+def gaps_deg(material: Material, held_out) -> tuple[float, float]:
+    """(view, light): the closest approach of a held-out direction to a captured one, °."""
+    btf, valid = material.btf, np.asarray(material.btf_slot_valid, bool)
     views = np.array([v for v, _ in held_out], float)
     lights = np.array([light for _, light in held_out], float)
+    return _gap_deg(views, btf.view_dirs_deg[valid]), _gap_deg(lights, btf.light_dirs_deg)
+
+
+def _rows(name, plan, material, sims, scale, components, held_out, capture_s):
+    btf, valid = material.btf, np.asarray(material.btf_slot_valid, bool)
+    truth = loop_truth(material, sims[0], scale, held_out, components=max(components))
+    own, peak = truth.held_out, truth.peak
+    other = truth_at(sims[1], held_out, material.size, own.rays)
+    view_gap, light_gap = gaps_deg(material, held_out)
     rows = []
     for c in components:
         model = truncated(btf, c)
         rendered = rendered_at(dataclasses.replace(material, btf=model), held_out) / scale
         cpu = interpolated(model, valid, held_out) / scale
-        measured = reconstructed(model, captured) / scale
         fit = float(np.sum(rendered * own.values) / np.sum(rendered * rendered))
         rows.append({
             "scene": name, "plan": plan, "views": int(valid.sum()),
             "lights": len(btf.light_dirs_deg), "frames": int(valid.sum()) * len(btf.light_dirs_deg),
             "capture_s": round(capture_s, 1), "components": c,
             "psnr_db": round(psnr_db(rmse(rendered, own.values), peak=peak), 2),
-            "psnr_cpu_db": round(psnr_db(rmse(cpu, own.values), peak=peak), 2),
-            "psnr_captured_db": round(psnr_db(rmse(measured, at_captured.values), peak=peak), 2),
+            **scores(material, truth, scale, held_out, c=c),
             "render_vs_cpu": float(np.abs(rendered - cpu).max() / peak),
             "psnr_other_sample_db": round(psnr_db(rmse(rendered, other), peak=peak), 2),
-            "truth_rays": max(own.rays, at_captured.rays),
-            "truth_converged": own.converged and at_captured.converged,
+            "truth_rays": max(own.rays, truth.captured.rays),
+            "truth_converged": own.converged and truth.captured.converged,
             "scale_fit_ratio": round(1.0 / fit, 4),
-            "view_gap_deg": round(_gap_deg(views, btf.view_dirs_deg[valid]), 1),
-            "light_gap_deg": round(_gap_deg(lights, btf.light_dirs_deg), 1),
+            "view_gap_deg": round(view_gap, 1), "light_gap_deg": round(light_gap, 1),
         })  # fmt: skip
     return rows
 
