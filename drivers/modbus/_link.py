@@ -76,12 +76,20 @@ class ModbusLink:
     # -- registers ---------------------------------------------------------
     def read_holding(self, address: int, count: int, *, operation: str) -> list[int]:
         """Read ``count`` holding registers from ``address``."""
-        reply = self._request(
-            operation,
-            f"read {count} holding register(s) at {address}",
-            lambda dev: self._client.read_holding_registers(address, count=count, device_id=dev),
-        )
-        return list(reply.registers)
+        what = f"read {count} holding register(s) at {address}"
+
+        def read(dev: int) -> ModbusPDU:
+            reply = self._client.read_holding_registers(address, count=count, device_id=dev)
+            if not reply.isError() and len(reply.registers) != count:
+                # RTU replies carry no transaction id: a reply that came after an earlier
+                # request timed out answers that request, not this one (retried).
+                raise ModbusException(
+                    f"a reply of {len(reply.registers)} register(s) does not answer it "
+                    "(a late reply to an earlier request?)"
+                )
+            return reply
+
+        return list(self._request(operation, what, read).registers)
 
     def write_holding(self, address: int, values: Sequence[int], *, operation: str) -> None:
         """Write holding registers from ``address`` (function 16)."""

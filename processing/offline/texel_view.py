@@ -30,6 +30,7 @@ from rig.archive import Archive
 from rig.config import RigConfig
 from rig.geometry import direction_vector, spherical_triangulation, texel_centers_mm
 from rig.interchange import imported_normtextures
+from rig.kinds import rig_kind
 from rig.material import Radiometry
 
 __all__ = [
@@ -131,10 +132,10 @@ def slot_camera(archive: Archive, config: RigConfig, slot) -> SlotCamera:
     camera, else the rig config's nominal geometry."""
     if imported_normtextures(archive.plan):
         return SlotCamera(None, "imported normtextures: no camera to place")
-    if config.kind == "bonn":
-        return SlotCamera(None, "the arm poses the camera at every step: not placed per slot")
     step, camera_id = slot.captures[0]
     record = next(r for r in archive.step_table() if r.index == step)
+    if rig_kind(config).posed_camera(config, camera_id, record.actuators) is not None:
+        return SlotCamera(None, "the rig poses the camera anew at every step: not placed per slot")
     turntable = record.actuators.get("turntable_deg", 0.0)
     lens = frame_camera(archive, config, camera_id, turntable)
     calibration = archive_calibration(archive)

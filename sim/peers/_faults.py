@@ -1,4 +1,5 @@
-"""Reply faults a peer injects on the wire: a reply that never comes, a garbled one.
+"""Reply faults a peer injects on the wire: a reply that never comes, a garbled one, a
+late one.
 
 Two ways to ask, and both can be combined: counts (``drop_next(2)``: the next
 two replies are not sent) for tests that must know exactly which request
@@ -16,7 +17,7 @@ from rig.errors import ConfigError
 
 __all__ = ["ReplyFaults", "check_fault_keys"]
 
-Decision = Literal["send", "drop", "garble"]
+Decision = Literal["send", "drop", "garble", "late"]
 
 
 def check_fault_keys(peer: str, faults: Mapping[str, Any], valid: set[str]) -> None:
@@ -35,24 +36,29 @@ class ReplyFaults:
         Drop this many replies from now on.
     garbled : int
         Then garble this many (after the dropped ones).
+    late : int
+        Then hold this many back and send each just before the next reply: it arrives
+        after the client gave up on it, when it is waiting for the answer to another
+        request (a reply past the master's timeout on a serial line).
     no_reply_rate, garbled_rate : float
         Probability that any other reply is dropped / garbled.
     seed : int
         Seed of the rates' random generator (reproducible sessions).
     """
 
-    KEYS = frozenset({"no_reply", "garbled", "no_reply_rate", "garbled_rate", "seed"})
+    KEYS = frozenset({"no_reply", "garbled", "late", "no_reply_rate", "garbled_rate", "seed"})
 
     def __init__(
         self,
         *,
         no_reply: int = 0,
         garbled: int = 0,
+        late: int = 0,
         no_reply_rate: float = 0.0,
         garbled_rate: float = 0.0,
         seed: int = 0,
     ):
-        for name, value in (("no_reply", no_reply), ("garbled", garbled)):
+        for name, value in (("no_reply", no_reply), ("garbled", garbled), ("late", late)):
             if int(value) != value or value < 0:
                 raise ConfigError(f"fault {name}={value!r} must be a count ≥ 0")
         for name, value in (("no_reply_rate", no_reply_rate), ("garbled_rate", garbled_rate)):
@@ -65,10 +71,12 @@ class ReplyFaults:
         self._lock = threading.Lock()
         self._drop = int(no_reply)
         self._garble = int(garbled)
+        self._late = int(late)
         self._rates = (float(no_reply_rate), float(garbled_rate))
         self._rng = random.Random(seed)
         self.dropped = 0
         self.garbled = 0
+        self.late = 0
 
     @classmethod
     def from_dict(cls, faults: Mapping[str, Any]) -> ReplyFaults:
@@ -85,10 +93,16 @@ class ReplyFaults:
         with self._lock:
             self._garble += count
 
+    def late_next(self, count: int = 1) -> None:
+        """Hold the next ``count`` replies back until the reply after each (after any
+        pending drops and garbles)."""
+        with self._lock:
+            self._late += count
+
     def clear(self) -> None:
         """Forget pending counts and rates: every reply is sent intact."""
         with self._lock:
-            self._drop = self._garble = 0
+            self._drop = self._garble = self._late = 0
             self._rates = (0.0, 0.0)
 
     def decide(self) -> Decision:
@@ -100,6 +114,9 @@ class ReplyFaults:
             elif self._garble:
                 self._garble -= 1
                 decision = "garble"
+            elif self._late:
+                self._late -= 1
+                decision = "late"
             else:
                 draw = self._rng.random() if any(self._rates) else 1.0
                 p_drop, p_garble = self._rates
@@ -110,4 +127,6 @@ class ReplyFaults:
                 self.dropped += 1
             elif decision == "garble":
                 self.garbled += 1
+            elif decision == "late":
+                self.late += 1
             return decision

@@ -60,6 +60,7 @@ class ModbusServerThread:
         self.baudrate = baudrate
         self.serial_port: str | None = None
         self.faults = faults
+        self._held = b""  # a late reply, sent before the next one
         self._device = device
         self._modem: PtyNullModem | None = None
         self._loop: asyncio.AbstractEventLoop | None = None
@@ -132,13 +133,18 @@ class ModbusServerThread:
         if not sending or not packet:
             return packet
         decision = self.faults.decide()
+        held, self._held = self._held, b""
         if decision == "drop":
             log.info("%s: fault: reply dropped", self.name)
-            return b""
+            return held
         if decision == "garble":
             log.info("%s: fault: reply garbled", self.name)
-            return _garble(packet, self.transport)
-        return packet
+            return held + _garble(packet, self.transport)
+        if decision == "late":
+            log.info("%s: fault: reply held back until the next", self.name)
+            self._held = packet
+            return held
+        return held + packet
 
 
 def _garble(packet: bytes, transport: str) -> bytes:

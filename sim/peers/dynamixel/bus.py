@@ -83,6 +83,7 @@ class DynamixelBusPeer:
         faults = dict(faults or {})
         check_fault_keys(self.name, faults, set(self.FAULT_KEYS))
         self.faults = ReplyFaults.from_dict(faults)
+        self._held = b""  # a late status packet, sent before the next one
         self._pty: RawPty | None = None
         self._wake_r = self._wake_w = -1
         self._thread: threading.Thread | None = None
@@ -167,13 +168,18 @@ class DynamixelBusPeer:
 
     def _send(self, master: int, reply: bytes) -> None:
         decision = self.faults.decide()
+        held, self._held = self._held, b""
         if decision == "drop":
             log.info("%s: fault: status packet dropped", self.name)
-            return
-        if decision == "garble":
+            reply = b""
+        elif decision == "garble":
             log.info("%s: fault: status packet garbled", self.name)
             reply = reply[:-1] + bytes([reply[-1] ^ 0xA5])
-        os.write(master, reply)
+        elif decision == "late":
+            log.info("%s: fault: status packet held back until the next", self.name)
+            self._held, reply = reply, b""
+        if held + reply:
+            os.write(master, held + reply)
 
     def _answer(self, packet: Packet) -> list[bytes]:
         """The status packets the bus sends back for one instruction packet."""

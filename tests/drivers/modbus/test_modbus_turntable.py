@@ -207,3 +207,18 @@ def test_unreachable_drive_is_a_timeout_naming_the_address(world, clock):
         table.position()
     table.close()
     table.close()  # idempotent
+
+
+def test_a_late_reply_to_a_request_given_up_does_not_answer_the_next(
+    turntable, drive, world, clock
+):
+    world.move("turntable", 33.5)
+    clock.sleep(10.0)
+    # the status read's every try goes unanswered in time; its last reply comes late,
+    # just before the answer to the position read that follows
+    drive.faults.drop_next(2)
+    drive.faults.late_next(1)
+    with pytest.raises(DeviceTimeout, match="gave up after 3 tries"):
+        turntable.status()
+    assert turntable.position() == pytest.approx(33.5, abs=0.01)
+    assert drive.faults.late == 1

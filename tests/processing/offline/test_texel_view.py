@@ -122,14 +122,15 @@ def test_a_calibrated_camera_names_its_session(tmp_path):
     assert RigConfig().camera_arc.radius_mm == 800.0  # the distance these tests assume
 
 
-def _archive(calibration):
-    """What ``slot_camera`` reads of an archive: one BTF step of cam3 at turntable 60°."""
+def _archive(calibration, actuators=None):
+    """What ``slot_camera`` reads of an archive: one BTF step of cam3 (at turntable 60°
+    unless ``actuators`` says otherwise)."""
     from types import SimpleNamespace
 
     from rig.archive import StepRecord
 
     step = StepRecord(4, "btf", ("cam3",), {"cam3": (45.0, 300.0)}, (15.0, 0.0),
-                      {"turntable_deg": 60.0})  # fmt: skip
+                      actuators or {"turntable_deg": 60.0})  # fmt: skip
     dumped = None if calibration is None else calibration.model_dump(mode="json")
     return SimpleNamespace(plan={}, step_table=lambda: [step], calibration=dumped,
                            path="session.zarr", calibration_version=1)  # fmt: skip
@@ -161,5 +162,7 @@ def test_a_slot_camera_is_calibrated_where_the_calibration_has_it_else_nominal()
     calibrated = slot_camera(_archive(_calibrated("cam3", config, 5.0)), config, slot)
     assert calibrated.source.startswith("calibrated cameras, ")
     assert 4.0 < np.linalg.norm(calibrated.centre_mm - nominal) < 6.0
-    bonn = slot_camera(_archive(None), RigConfig(kind="bonn", bonn={}), slot)
-    assert bonn.centre_mm is None and "arm" in bonn.source
+    arm_and_rail = {"tool_rx_deg": 0.0, "tool_ry_deg": 0.0, "tool_rz_deg": 0.0, "rail_deg": 90.0}
+    on_the_rail = SimpleNamespace(captures=((4, "cam0"),))
+    bonn = slot_camera(_archive(None, arm_and_rail), RigConfig(kind="bonn", bonn={}), on_the_rail)
+    assert bonn.centre_mm is None and "anew at every step" in bonn.source

@@ -140,6 +140,10 @@ def test_reply_faults(line, bus):
     (packet,) = exchange(line, encode(1, 0x01))
     assert not packet.crc_ok
     assert exchange(line, encode(1, 0x01))[0].crc_ok
+    bus.faults.late_next(1)
+    assert exchange(line, encode(1, 0x01), wait_s=0.2) == []
+    late, answer = exchange(line, encode(2, 0x01), replies=2)  # the held one comes first
+    assert (late.servo_id, answer.servo_id) == (1, 2)
 
 
 def test_fault_table(world):
