@@ -84,7 +84,8 @@ def texel_noise_gain(
     """
     step = sample_mm / size
     centres = texel_centers_mm(sample_mm, size).reshape(-1, 2)
-    plate = np.concatenate([centres, centres + [step, 0.0], centres + [0.0, step]])
+    shift = np.array([[step, 0.0], [0.0, step]])
+    plate = np.concatenate([centres, centres + shift[0], centres + shift[1]])
     pixels = camera.project(np.column_stack([plate, np.zeros(len(plate))]))[0]
     n = len(centres)
     along_x, along_y = pixels[n : 2 * n] - pixels[:n], pixels[2 * n :] - pixels[:n]
@@ -120,7 +121,7 @@ def leverage(btf: CompressedBTF, pairs, components: int) -> np.ndarray:
 
 
 def floor_db(
-    truth: np.ndarray, gains: np.ndarray, *, scale: float, exposure_s: float, bit_depth: int,
+    truth: np.ndarray, gains: np.ndarray, *, scale: float, exposure_s, bit_depth: int,
     noise: NoiseParams | None, peak: float, channels: int = 3, kept=None,
 ) -> float:  # fmt: skip
     """The PSNR (dB) of a score whose only error is the sensor's noise.
@@ -128,13 +129,14 @@ def floor_db(
     truth : (pairs, N, N, 3) the noise-free truth the score compares with, ``btf_truth`` units
     gains : (pairs, N, N) :func:`texel_noise_gain` of each pair's frame
     scale : stored value per unit of truth (``irradiance_scale``)
-    exposure_s, bit_depth, noise : the frames' exposure and the sensor (``noise`` None:
-        quantisation alone)
+    exposure_s, bit_depth, noise : the frames' exposure (s, one or one per pair) and the
+        sensor (``noise`` None: quantisation alone)
     peak : the score's peak, ``btf_truth`` units
     channels : the camera's; a one-channel camera records the mean of the three
     kept : (pairs,) :func:`leverage` of the compressed model; None: lossless
     """
-    to_dn = scale * full_scale(bit_depth) * exposure_s
+    exposure = np.asarray(exposure_s, dtype=np.float64).reshape(-1, 1, 1, 1)
+    to_dn = scale * full_scale(bit_depth) * exposure
     signal = np.asarray(truth, dtype=np.float64)
     if channels == 1:
         signal = np.broadcast_to(signal.mean(axis=-1, keepdims=True), signal.shape)
@@ -145,17 +147,21 @@ def floor_db(
     return float(10.0 * np.log10(peak**2 / variance.mean()))
 
 
-def capture_gains(archive_path, pairs, *, size: int, filter: str = "box") -> np.ndarray:
+def capture_gains(
+    archive_path, pairs, *, size: int, filter: str = "box"
+) -> tuple[np.ndarray, np.ndarray]:
     """(pairs, size, size) :func:`texel_noise_gain` of the frame behind each (view slot,
-    light) pair of the archive's BTF, from the model of the camera that took it."""
+    light) pair of the archive's BTF, from the model of the camera that took it, and
+    (pairs,) the frames' exposures (s)."""
     with Archive.open(archive_path, mode="r") as archive:
         config = RigConfig.model_validate(archive.rig_config)
         table = slot_table(archive)
         records = {s.index: s for s in archive.step_table()}
-        gains = []
+        gains, exposures = [], []
         for j, light in pairs:
             record, camera = records[int(table.steps[j, light])], str(table.cameras[j, light])
             turntable = record.actuators.get("turntable_deg", 0.0)
             lens = frame_camera(archive, config, camera, turntable)
             gains.append(texel_noise_gain(lens, config.holder.sample_mm, size, filter=filter))
-    return np.stack(gains)
+            exposures.append(record.exposures_s[0])
+    return np.stack(gains), np.array(exposures, dtype=np.float64)

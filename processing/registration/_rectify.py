@@ -41,7 +41,13 @@ from rig.camera import PinholeCamera
 from rig.geometry import texel_centers_mm
 
 __all__ = [
-    "AREA_SAMPLES_PER_PIXEL", "FILTERS", "Normtexture", "Region", "blend_edges", "rectify", "subgrid",
+    "AREA_SAMPLES_PER_PIXEL",
+    "FILTERS",
+    "Normtexture",
+    "Region",
+    "blend_edges",
+    "rectify",
+    "subgrid",
 ]
 
 _MAX_SAMPLES_PER_STRIP = 1 << 20

@@ -31,7 +31,8 @@ def test_pixel_variance_is_shot_read_and_quantisation():
     noise = NoiseParams(full_well_e=1000.0, read_noise_e=10.0)
     gain = 255 / 1000.0  # DN per electron of an 8-bit sensor
     var = pixel_variance_dn(np.array([0.0, 100.0]), bit_depth=8, noise=noise)
-    np.testing.assert_allclose(var, [(10 * gain) ** 2 + 1 / 12, 100 * gain + (10 * gain) ** 2 + 1 / 12])
+    read = (10 * gain) ** 2
+    np.testing.assert_allclose(var, [read + 1 / 12, 100 * gain + read + 1 / 12])
     np.testing.assert_allclose(pixel_variance_dn(np.array([50.0]), bit_depth=8, noise=None), 1 / 12)
 
 
@@ -57,13 +58,13 @@ def test_a_loop_whose_only_error_is_noise_scores_its_floor():
     with tempfile.TemporaryDirectory(prefix="rig-noise-floor-") as tmp:
         archive, config = record(scene, _PLAN, Path(tmp))
         btf = process(archive, size=size, components=3).btf  # lossless: three lights
-        gains = capture_gains(archive, pairs, size=size)
+        gains, exposures = capture_gains(archive, pairs, size=size)
     scale = irradiance_scale(scene, config)
     with Simulator(scene) as sim:
         truth = truth_at(sim, [(btf.view_dirs_deg[j], btf.light_dirs_deg[i]) for j, i in pairs],
                          size, 2)  # fmt: skip
     camera = config.camera_arc.cameras[0]
-    sensor = {"scale": scale, "exposure_s": 0.05, "bit_depth": camera.bit_depth,
+    sensor = {"scale": scale, "exposure_s": exposures, "bit_depth": camera.bit_depth,
               "noise": scene.spec.params("noise"), "peak": float(truth.max())}  # fmt: skip
     for c in (3, 1):  # lossless; one component holds the plate's whole signal, less noise
         model = truncated(btf, c)
