@@ -35,6 +35,11 @@ per-view PCA at c against all its components, lossless) and interpolation
 them). Everything is scored against the footprint truth
 (:func:`studies.footprint.converged_truth`, converged on the run with all
 terms off, the most demanding score) with the peak of the held-out truth.
+
+Beside each score at the captured pairs stands the floor the sensor model implies
+there (:mod:`studies.noise_floor`): the score if the sensor's noise were the
+loop's only error, derived from the noise model, the registration's footprint
+and the compression, not measured.
 """
 
 from __future__ import annotations
