@@ -246,7 +246,7 @@ def _sensor(archive: Path, material, scene, config: RigConfig, filter: str) -> d
     btf, valid = material.btf, np.asarray(material.btf_slot_valid, bool)
     pairs = captured_pairs(btf, valid, HELD_OUT)
     gains, exposures = capture_gains(archive, pairs, size=material.size, filter=filter)
-    camera = config.camera(config.camera_arc.cameras[0].id)
+    camera = config.camera_arc.cameras[0]  # the default rig's cameras share one sensor
     noise = scene.spec.params("noise") if scene.has("noise") else None
     return {"gains": gains, "exposure_s": exposures, "bit_depth": camera.bit_depth,
             "channels": camera.channels, "noise": noise}  # fmt: skip

@@ -97,8 +97,9 @@ def texel_noise_gain(
     pairs = ((sx - np.abs(di)) * (sy - np.abs(dj))).ravel() / (sx * sy) ** 2
     frac = np.column_stack([di.ravel() / sx, dj.ravel() / sy])  # (m, 2) texel steps
     gain = np.empty(n)
-    for start in range(0, n, 256):  # (256, m, 2) offsets at a time: tens of MB at most
-        sl = slice(start, start + 256)
+    chunk = max(1, (1 << 20) // len(pairs))  # texels at a time: 2²⁰ offsets, 16 MB
+    for start in range(0, n, chunk):
+        sl = slice(start, start + chunk)
         offsets = frac[None, :, :1] * along_x[sl, None, :] + frac[None, :, 1:] * along_y[sl, None]
         kernel = _overlap(offsets[..., 0], filter) * _overlap(offsets[..., 1], filter)
         gain[sl] = kernel @ pairs
