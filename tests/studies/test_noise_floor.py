@@ -73,3 +73,22 @@ def test_a_loop_whose_only_error_is_noise_scores_its_floor():
         floor = floor_db(truth, gains, kept=kept, **sensor)
         assert abs(measured - floor) < 0.5, (c, measured, floor)
     assert kept.mean() < 0.9  # c = 1 of three lights keeps less than all the noise
+
+
+def test_the_compressed_model_keeps_the_noise_its_components_span():
+    from processing.btf import CompressedBTF
+
+    lights, c, n = 4, 3, 2
+    weights = np.zeros((1, lights, c), np.float32)
+    weights[0, :, 0] = [5.0, -5.0, 0.0, 0.0]  # a centred component, scaled with its basis
+    weights[0, :, 1] = [1.0, 1.0, -1.0, -1.0]
+    weights[0, :, 2] = [0.0, 0.0, 2.0, -2.0]
+    btf = CompressedBTF(
+        np.array([[0.0, 0.0]]), np.array([[30.0, 90.0 * k] for k in range(lights)]),
+        np.zeros((1, n, n, 3), np.float16), np.zeros((1, c, n, n, 3), np.float16), weights,
+        np.array([[3.0, 2.0, 1.0, 0.0]], np.float32), np.array([c], np.int32),
+    )  # fmt: skip
+    pairs = [(0, light) for light in range(lights)]
+    # the mean (1/4) and the first component's share of lights 0 and 1 (1/2 each)
+    np.testing.assert_allclose(leverage(btf, pairs, 1), [0.75, 0.75, 0.25, 0.25])
+    np.testing.assert_allclose(leverage(btf, pairs, 3), 1.0)  # mean + 3 of 4 − 1: lossless
