@@ -35,6 +35,11 @@ per-view PCA at c against all its components, lossless) and interpolation
 them). Everything is scored against the footprint truth
 (:func:`studies.footprint.converged_truth`, converged on the run with all
 terms off, the most demanding score) with the peak of the held-out truth.
+
+Beside each score at the captured pairs stands the floor the sensor model implies
+there (:mod:`studies.noise_floor`): the score if the sensor's noise were the
+loop's only error, derived from the noise model, the registration's footprint
+and the compression, not measured.
 """
 
 from __future__ import annotations
@@ -54,6 +59,7 @@ from rig.plan import parse_plan
 from sim.scene import scene_from_dict
 from sim.simulator import Simulator
 from studies.footprint import converged_truth, truth_at
+from studies.noise_floor import capture_gains, floor_db, leverage
 from studies.render_loop import (
     HELD_OUT,
     PLANS,
@@ -149,17 +155,22 @@ def _label(off: tuple[str, ...]) -> str:
     return "all terms off" if set(off) == set(TERMS) else f"{' + '.join(off)} off"
 
 
-def _scores(material, scale, truths, components: int) -> dict:
-    """PSNRs at the captured pairs and the held-out ones of one material at c."""
+def _scores(material, scale, truths, components: int, sensor: dict) -> dict:
+    """PSNRs at the captured pairs and the held-out ones of one material at c, and the
+    floor the sensor's noise sets at the captured pairs (``sensor``: :func:`_sensor`)."""
     btf, valid = material.btf, np.asarray(material.btf_slot_valid, bool)
     captured = captured_pairs(btf, valid, HELD_OUT)
     model = truncated(btf, components)
+    kept = leverage(model, captured, components)
     held = interpolated(model, valid, HELD_OUT) / scale
     at_captured = reconstructed(model, captured) / scale
     own, truth_captured = truths
     peak = float(own.max())
     return {
         "psnr_captured_db": round(psnr_db(rmse(at_captured, truth_captured), peak=peak), 2),
+        "noise_floor_captured_db": round(
+            floor_db(truth_captured, scale=scale, peak=peak, kept=kept, **sensor), 2
+        ),
         "psnr_held_out_db": round(psnr_db(rmse(held, own), peak=peak), 2),
         "scale_fit_captured": round(_fit_ratio(at_captured, truth_captured), 4),
         "scale_fit_held_out": round(_fit_ratio(held, own), 4),
@@ -203,7 +214,9 @@ def run(
     (which terms are off), ``off`` (their names), ``processing`` (``raw``, or the
     near-lamp ``irradiance per texel`` divided out), ``components`` (c, or every component:
     ``lossless``), ``psnr_captured_db`` (the material at the captured pairs
-    nearest the held-out ones against the truth there), ``psnr_held_out_db``
+    nearest the held-out ones against the truth there), ``noise_floor_captured_db``
+    (what that score would be if the sensor's noise were the only error: derived
+    from the sensor model, :mod:`studies.noise_floor`), ``psnr_held_out_db``
     (interpolated at :data:`~studies.render_loop.HELD_OUT`),
     ``scale_fit_captured`` / ``scale_fit_held_out`` (the least-squares scale over
     the derived one, :func:`~studies.render_loop.irradiance_scale`, at the
@@ -227,6 +240,18 @@ def run(
     return rows
 
 
+def _sensor(archive: Path, material, scene, config: RigConfig, filter: str) -> dict:
+    """What :func:`studies.noise_floor.floor_db` needs of a session besides the truth:
+    each captured pair's noise gain and exposure, and the sensor."""
+    btf, valid = material.btf, np.asarray(material.btf_slot_valid, bool)
+    pairs = captured_pairs(btf, valid, HELD_OUT)
+    gains, exposures = capture_gains(archive, pairs, size=material.size, filter=filter)
+    camera = config.camera_arc.cameras[0]  # the default rig's cameras share one sensor
+    noise = scene.spec.params("noise") if scene.has("noise") else None
+    return {"gains": gains, "exposure_s": exposures, "bit_depth": camera.bit_depth,
+            "channels": camera.channels, "noise": noise}  # fmt: skip
+
+
 def _plan_rows(name: str, plan: str, sim: Simulator, size: int, runs) -> list[dict]:
     measured = {}
     lights = len(parse_plan(plan_toml(plan)).captures.btf.lights.resolve().directions)
@@ -243,20 +268,21 @@ def _plan_rows(name: str, plan: str, sim: Simulator, size: int, runs) -> list[di
                 # as many components as lights: the per-view PCA is then lossless
                 for raw in (False, True):
                     material = process(archive, size=size, components=lights, raw=raw, **options)
-                    measured[off, raw] = (material, scale)
+                    sensor = _sensor(archive, material, scene, config, options.get("filter", "box"))
+                    measured[off, raw] = (material, scale, sensor)
     strictest = max(runs, key=len)  # the highest scores ask the most of the truth
     first = measured[strictest, False]
     held_truth, captured_truth, rays, change = _converged(first[0], sim, first[1])
     rows = []
     for off in runs:
         for raw in (True, False):
-            material, scale = measured[off, raw]
+            material, scale, sensor = measured[off, raw]
             lossless = components_of(material.btf)
             for c, label in ((COMPONENTS, COMPONENTS), (lossless, "lossless")):
                 rows.append({
                     "scene": name, "plan": plan, "run": _label(off), "off": list(off),
                     "processing": "raw" if raw else "irradiance per texel", "components": label,
-                    **_scores(material, scale, (held_truth, captured_truth), c),
+                    **_scores(material, scale, (held_truth, captured_truth), c, sensor),
                     "truth_rays": rays, "truth_change_db": change,
                 })  # fmt: skip
     return rows

@@ -159,8 +159,9 @@ STUDIES: tuple[Study, ...] = (
             "The render loop's PSNR at captured and held-out directions with the simulator's "
             "noise, near lamps, point-sampled pixels and perspective, and registration's "
             "markers and box filter, switched off one at a time and together, each session "
-            "processed raw and corrected, at c = 4 and lossless (coarse and medium plans; "
-            "--quick: the coarse plan at 32² texels)."
+            "processed raw and corrected, at c = 4 and lossless, beside the floor the sensor "
+            "model's noise sets at the captured pairs (coarse and medium plans; --quick: the "
+            "coarse plan at 32² texels)."
         ),
         figure=True,
     ),

@@ -29,6 +29,7 @@ from processing.registration._rectify import (
     Region,
     blend_edges,
     rectify,
+    subgrid,
 )
 from processing.registration._register import Registration, register_frame
 
@@ -54,6 +55,7 @@ __all__ = [
     "rectify",
     "register_capture",
     "register_frame",
+    "subgrid",
     "track_markers",
     "undistort_px",
 ]

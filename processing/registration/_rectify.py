@@ -40,7 +40,15 @@ from processing.registration._sampling import (
 from rig.camera import PinholeCamera
 from rig.geometry import texel_centers_mm
 
-__all__ = ["AREA_SAMPLES_PER_PIXEL", "FILTERS", "Normtexture", "Region", "blend_edges", "rectify"]
+__all__ = [
+    "AREA_SAMPLES_PER_PIXEL",
+    "FILTERS",
+    "Normtexture",
+    "Region",
+    "blend_edges",
+    "rectify",
+    "subgrid",
+]
 
 _MAX_SAMPLES_PER_STRIP = 1 << 20
 
@@ -132,6 +140,21 @@ def _footprint_px(H, grid: np.ndarray, step: float, camera) -> tuple[float, floa
     return float(extent_x), float(np.sqrt((along_y[:, 0] ** 2 + along_y[:, 1] ** 2).max()))
 
 
+def subgrid(
+    footprint_px: tuple[float, float], *, filter: str = "box", max_supersample: int = 8
+) -> tuple[int, int]:
+    """(s_x, s_y): the sub-samples per texel side :func:`rectify` takes for a grid whose
+    largest texel step spans ``footprint_px`` = (along x, along y) pixels: one per
+    pixel for the box (at most ``max_supersample``), :data:`AREA_SAMPLES_PER_PIXEL`
+    per pixel for the area filter."""
+    if filter == "area":
+        density, most = AREA_SAMPLES_PER_PIXEL, _MAX_AREA_SAMPLES
+    else:
+        density, most = 1, max_supersample
+    sx, sy = (int(np.clip(np.ceil(density * f), 1, most)) for f in footprint_px)
+    return sx, sy
+
+
 def rectify(
     frame: np.ndarray,
     homography: PlaneHomography,
@@ -212,11 +235,7 @@ def rectify(
         fx, fy = _footprint_px(H, grid, step, camera)
     if filter == "area":  # each sample takes the pixel it falls in (nearest, order 0)
         order = 0
-        density, most = AREA_SAMPLES_PER_PIXEL, _MAX_AREA_SAMPLES
-    else:
-        density, most = 1, max_supersample
-    sx = int(np.clip(np.ceil(density * fx), 1, most))
-    sy = int(np.clip(np.ceil(density * fy), 1, most))
+    sx, sy = subgrid((fx, fy), filter=filter, max_supersample=max_supersample)
     offsets_x = ((np.arange(sx) + 0.5) / sx - 0.5) * step
     offsets_y = ((np.arange(sy) + 0.5) / sy - 0.5) * step
     sub = np.stack(np.meshgrid(offsets_x, offsets_y), axis=-1).reshape(-1, 2)  # (sx*sy, 2)
