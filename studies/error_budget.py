@@ -58,7 +58,7 @@ from rig.errors import RigError
 from rig.plan import parse_plan
 from sim.scene import scene_from_dict
 from sim.simulator import Simulator
-from studies.footprint import converged_truth, truth_at
+from studies.footprint import truth_at
 from studies.noise_floor import capture_gains, floor_db, leverage
 from studies.render_loop import (
     HELD_OUT,
@@ -67,6 +67,7 @@ from studies.render_loop import (
     captured_pairs,
     interpolated,
     irradiance_scale,
+    loop_truth,
     plan_toml,
     process,
     reconstructed,
@@ -186,12 +187,10 @@ def _fit_ratio(measured: np.ndarray, truth: np.ndarray) -> float:
 def _converged(material, sim, scale):
     """Footprint truths at the held-out and captured pairs, their rays per texel side
     and the larger change of the two scores at the last doubling (dB)."""
-    btf, valid = material.btf, np.asarray(material.btf_slot_valid, bool)
-    captured = captured_pairs(btf, valid, HELD_OUT)
-    dirs = [(btf.view_dirs_deg[j], btf.light_dirs_deg[i]) for j, i in captured]
-    own = converged_truth(sim, HELD_OUT, interpolated(btf, valid, HELD_OUT) / scale)
-    peak = float(own.values.max())
-    at = converged_truth(sim, dirs, reconstructed(btf, captured) / scale, peak=peak)
+    btf = material.btf
+    truth = loop_truth(material, sim, scale, HELD_OUT, components=components_of(btf))
+    own, at = truth.held_out, truth.captured
+    dirs = [(btf.view_dirs_deg[j], btf.light_dirs_deg[i]) for j, i in truth.pairs]
     rays = max(own.rays, at.rays)
 
     def at_rays(result, pairs):
