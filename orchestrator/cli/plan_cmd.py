@@ -110,8 +110,10 @@ def plan(
         ),
     ] = None,
 ) -> None:
-    """Validate a plan; with --estimate, compile it for the rig and say what it costs;
-    with --predict, what accuracy it buys."""
+    """Validate a plan, estimate its cost, predict its accuracy.
+
+    With --estimate, compile it for the rig and say what it costs (duration, data
+    size); with --predict, what accuracy it buys on a simulated sample."""
     the_plan = load_plan(plan_file)
     rig = load_config_option(config)
     console.print(
