@@ -306,4 +306,10 @@ def test_stopping_while_a_plan_compiles_ends_cleanly(config, rig, tmp_path):
             ctx.term()
     # running_daemon stopped the loop and joined it; the leak check finds no thread left
     with Archive.open(tmp_path / "big.zarr") as archive:
-        assert archive.committed_steps() == ()  # prepared, started, aborted at shutdown
+        # prepared, started, aborted at shutdown: an abort ends after the step under way,
+        # so at most the first step is committed (with its frames), nothing after it
+        committed = archive.committed_steps()
+        assert committed in ((), (0,))
+        for step in archive.step_table():
+            for camera in step.cameras:
+                assert archive.read_frame(step.index, camera).size > 0
