@@ -17,12 +17,11 @@ from datetime import UTC, datetime
 from pathlib import Path
 
 import numpy as np
-import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from rig.camera import PinholeCamera
 from rig.errors import ConfigError
-from rig.tomlfile import format_validation_error, read_toml
+from rig.tomlfile import format_validation_error, read_toml, write_toml
 
 __all__ = [
     "FORMAT_VERSION",
@@ -163,9 +162,4 @@ def load_calibration(path: str | Path) -> CalibrationFile:
 
 def write_calibration(calibration: CalibrationFile, path: str | Path) -> Path:
     """Write atomically (a crash leaves the old file or the new one)."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    tmp = path.with_suffix(path.suffix + ".tmp")
-    tmp.write_text(tomli_w.dumps(calibration.model_dump(mode="json", exclude_none=True)))
-    tmp.replace(path)
-    return path
+    return write_toml(calibration.model_dump(mode="json", exclude_none=True), path)

@@ -16,7 +16,6 @@ from pathlib import Path
 from typing import Literal
 
 import numpy as np
-import tomli_w
 from pydantic import BaseModel, ConfigDict, Field, ValidationError, field_validator, model_validator
 
 from rig.camera import PinholeCamera, look_at
@@ -36,7 +35,7 @@ from rig.sections import (
     Turntable,
 )
 from rig.targets import Targets
-from rig.tomlfile import format_validation_error, read_toml
+from rig.tomlfile import format_validation_error, read_toml, write_toml
 
 __all__ = [
     "Axis",
@@ -198,10 +197,7 @@ def load_rig_config(path: str | Path) -> RigConfig:
 
 def write_rig_config(config: RigConfig, path: str | Path) -> Path:
     """Write ``config`` as TOML that :func:`load_rig_config` reads back equal."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    path.write_text(tomli_w.dumps(config.model_dump(mode="json", exclude_none=True)))
-    return path
+    return write_toml(config.model_dump(mode="json", exclude_none=True), path)
 
 
 def default_rig_config() -> RigConfig:

@@ -5,20 +5,23 @@ file cannot be read into one sentence naming the file; ``format_validation_error
 turns a pydantic ``ValidationError`` into one line per problem: the field's
 dotted path (without the tags pydantic adds for tagged unions), the value, and
 what would be valid there. Rig configs, plans, scenes and calibration files are
-read through them.
+read through them; ``write_toml`` writes one so that a reader sees the whole file
+or none (a daemon started as soon as a simulated rig's config appears).
 """
 
 from __future__ import annotations
 
+import os
 import reprlib
 import tomllib
 from pathlib import Path
 
+import tomli_w
 from pydantic import BaseModel, ValidationError
 
 from rig.errors import ConfigError
 
-__all__ = ["file_text", "format_validation_error", "read_toml", "toml_data"]
+__all__ = ["file_text", "format_validation_error", "read_toml", "toml_data", "write_toml"]
 
 
 def _locate(model: type[BaseModel] | None, loc: tuple) -> tuple[tuple, type[BaseModel] | None]:
@@ -134,3 +137,17 @@ def read_toml(path: str | Path, what: str) -> dict:
         return toml_data(file_text(Path(path)))
     except ValueError as err:
         raise ConfigError(f"{what} {path} {err}") from None
+
+
+def write_toml(data: dict, path: str | Path) -> Path:
+    """Write ``data`` as TOML at ``path`` (its folder made), atomically: a temporary
+    sibling renamed over it, so a reader or a crash sees the old file or the new one."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    try:
+        tmp.write_text(tomli_w.dumps(data))
+        tmp.replace(path)
+    finally:
+        tmp.unlink(missing_ok=True)
+    return path

@@ -6,6 +6,7 @@ on the Wang rig and on the Bonn lab (`rig sim --config-kind bonn`)."""
 from __future__ import annotations
 
 import contextlib
+import random
 import select
 import signal
 import socket
@@ -38,13 +39,11 @@ lights = [[30, 0], [30, 120], [30, 240]]
 
 
 def _free_base_port() -> int:
-    """A port P with P … P + 3 free on loopback (the daemon's four sockets)."""
-    for _ in range(50):
-        with socket.socket() as probe:
-            probe.bind(("127.0.0.1", 0))
-            base = probe.getsockname()[1]
-        if base > 65530:
-            continue
+    """A port P with P … P + 3 free on loopback (the daemon's four sockets), below the
+    kernel's ephemeral range, so that neither the simulated rig's peers (bound to port 0)
+    nor a client's outgoing connection can take one of them after the probe."""
+    low = int(Path("/proc/sys/net/ipv4/ip_local_port_range").read_text().split()[0])
+    for base in random.sample(range(max(1024, low - 12000), low - 4, 4), 200):
         with contextlib.ExitStack() as stack:
             try:
                 for port in range(base, base + 4):
@@ -77,6 +76,14 @@ def _cli(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run([RIG, *args], cwd=ROOT, capture_output=True, text=True, timeout=120)
 
 
+def _wait_up(daemon: subprocess.Popen, connect: str, what: str = "the daemon") -> None:
+    """Until ``rig status`` reaches the daemon; a daemon that exits fails at once with
+    what it printed."""
+    _wait(lambda: daemon.poll() is not None or _cli("status", "--connect", connect).returncode == 0,
+          what)  # fmt: skip
+    assert daemon.poll() is None, f"{what} exited: {_stop(daemon)}"
+
+
 def _wait(predicate, what: str, timeout_s: float = 60.0):
     deadline = time.monotonic() + timeout_s
     while True:
@@ -103,7 +110,7 @@ def test_sim_serve_daemon_submit_kill_resume(tmp_path, kind):
         _wait(lambda: config.exists() or sim.poll() is not None, "the sim's rig config")
         assert sim.poll() is None, _stop(sim)
         daemon = _start("daemon", "--config", str(config), "--port", port)
-        _wait(lambda: _cli("status", "--connect", connect).returncode == 0, "the daemon")
+        _wait_up(daemon, connect)
         submitted = _cli("submit", str(tmp_path / "plan.toml"), "--archive", str(archive),
                          "--connect", connect)  # fmt: skip
         assert submitted.returncode == 0, submitted.stdout + submitted.stderr
@@ -116,7 +123,7 @@ def test_sim_serve_daemon_submit_kill_resume(tmp_path, kind):
         with Archive.open(archive) as arch:
             before = arch.committed_steps()
         again = _start("daemon", "--config", str(config), "--port", port)
-        _wait(lambda: _cli("status", "--connect", connect).returncode == 0, "the new daemon")
+        _wait_up(again, connect, "the new daemon")
         resumed = _cli("resume", str(archive), "--connect", connect)
         assert resumed.returncode == 0, resumed.stdout + resumed.stderr
         followed = _cli("status", "--follow", "--connect", connect)
@@ -152,7 +159,7 @@ def test_status_follow_ends_unreachable_when_the_daemon_is_killed():
     daemon = _start("daemon", "--port", connect.rsplit(":", 1)[1])
     follower = None
     try:
-        _wait(lambda: _cli("status", "--connect", connect).returncode == 0, "the daemon")
+        _wait_up(daemon, connect)
         follower = _start("status", "--follow", "--connect", connect)
         assert _line(follower).strip() == "daemon: idle"  # piped: printed as it comes
         daemon.send_signal(signal.SIGKILL)
@@ -179,7 +186,7 @@ def test_status_follow_prints_line_by_line_and_returns_on_a_pause(tmp_path):
     try:
         _wait(lambda: config.exists() or sim.poll() is not None, "the sim's rig config")
         daemon = _start("daemon", "--config", str(config), "--port", connect.rsplit(":", 1)[1])
-        _wait(lambda: _cli("status", "--connect", connect).returncode == 0, "the daemon")
+        _wait_up(daemon, connect)
         follower = _start("status", "--follow", "--connect", connect)
         assert _line(follower).strip() == "daemon: idle"
         submitted = _cli("submit", str(tmp_path / "plan.toml"), "--archive",
