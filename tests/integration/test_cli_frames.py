@@ -23,6 +23,7 @@ from tests.integration.test_cli_processes import (
     _start,
     _stop,
     _wait,
+    _wait_up,
 )
 
 # Three processes rendering 121 laser frames at the README's scale, some twice, and the
@@ -72,7 +73,7 @@ def test_the_readme_three_shell_session_records_the_virtual_time_mdf(tmp_path):
         _wait(lambda: config.exists() or sim.poll() is not None, "the sim's rig config")
         assert sim.poll() is None, _stop(sim)
         daemon = _start("daemon", "--config", str(config), "--port", connect.rsplit(":", 1)[1])
-        _wait(lambda: _cli("status", "--connect", connect).returncode == 0, "the daemon")
+        _wait_up(daemon, connect)
         submitted = _cli("submit", str(tmp_path / "plan.toml"), "--archive", str(archive),
                          "--connect", connect)  # fmt: skip
         assert submitted.returncode == 0, submitted.stdout + submitted.stderr

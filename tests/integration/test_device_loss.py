@@ -27,6 +27,7 @@ from tests.integration.test_cli_processes import (
     _start,
     _stop,
     _wait,
+    _wait_up,
 )
 
 # Sessions, subprocesses or benches: the full tier only (make test), not make quick.
@@ -93,7 +94,7 @@ def test_kill_9_of_rig_sim_pauses_and_rig_resume_config_finishes(tmp_path):
     try:
         _wait(lambda: first.exists() or sim.poll() is not None, "the sim's rig config")
         daemon = _start("daemon", "--config", str(first), "--port", connect.rsplit(":", 1)[1])
-        _wait(lambda: _cli("status", "--connect", connect).returncode == 0, "the daemon")
+        _wait_up(daemon, connect)
         submitted = _cli("submit", str(tmp_path / "plan.toml"), "--archive", str(archive),
                          "--connect", connect)  # fmt: skip
         assert submitted.returncode == 0, submitted.stdout + submitted.stderr
