@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import ndimage
 
-from processing.offline.runner import archive_calibration, calibrated_camera
+from processing.offline.runner import calibrated_camera, calibration_fit
 from processing.offline.texel_light import plane_irradiance
 from processing.registration import Registration, rectify
 from rig.archive import Archive, StepRecord
@@ -178,10 +178,10 @@ def frame_corrections(archive: Archive, config: RigConfig, *, raw: bool = False)
     """The corrections of ``archive``'s calibration (none with ``raw``)."""
     if raw:
         return FrameCorrections(skipped={"all": "rig process --raw: frames as recorded"})
-    calibration = archive_calibration(archive)
+    calibration, skipped = calibration_fit(archive)
     if calibration is None:
-        return FrameCorrections(skipped={"all": "the archive holds no calibration"})
-    sources, skipped = {}, {}
+        return FrameCorrections(skipped=skipped)
+    sources = {}
     curves = {cam: np.asarray(r.curve, np.float32) for cam, r in calibration.response.items()}
     for camera in sorted(curves):
         bits = _bit_depth(config, camera)
