@@ -31,12 +31,12 @@ VIEWS = "[[0, 0], [30, 0], [30, 90]]"
 LAMP = "lamp3"
 
 
-def _record(folder: Path, views: str, lights: str) -> Path:
+def _record(folder: Path, views: str, lights: str, exposure_s: float = 0.05) -> Path:
     data = tomllib.loads(Path("examples/scenes/bumps.toml").read_text())
     data["render"] = {"scale": 0.25, "supersample": 1}  # 256 × 192 px frames
     plan = folder / "plan.toml"
     plan.write_text(f'[sample]\nname = "hard"\n[captures.btf]\nviews = {views}\n'
-                    f"lights = {lights}\n[exposure]\nexposure_s = 0.05\n")  # fmt: skip
+                    f"lights = {lights}\n[exposure]\nexposure_s = {exposure_s}\n")  # fmt: skip
     clock = VirtualClock()
     with SimulatedRig(scene_from_dict(data), clock=clock) as sim:
         final = run_local(plan, sim.rig_config(), archive=folder / "s.zarr", clock=clock)
@@ -190,3 +190,11 @@ def test_the_rigs_own_calibration_is_used(session):
     assert record["sources"]["irradiance"].startswith("calibrated lamp positions")
     assert not {"all", "lamps"} & set(record["skipped"])
     assert np.abs(values - nominal).max() > 0.01 * nominal.max()
+
+
+def test_saturated_texels_are_stored_as_clipped_and_counted(tmp_path):
+    # 1.6 × the exposure: the brightest pixels (164 of 255 at 0.05 s) clip, a few texels' worth
+    archive = _record(tmp_path, VIEWS, "[[45, 0], [30, 120]]", exposure_s=0.08)
+    _, record = _process(archive, "--components", "2")
+    count = int(record["skipped"]["saturated"].split()[0])
+    assert 0 < count < 3 * 2 * SIZE * SIZE // 2  # the texel captures over them, every slot's
