@@ -33,6 +33,7 @@ import numpy as np
 
 from processing.btf import CompressedBTF, SlotTable, compress_view, view_slots
 from processing.offline.radiometry import (
+    FLAT_FLOOR,
     FrameCorrections,
     calibration_source,
     frame_corrections,
@@ -201,8 +202,9 @@ def slot_normtextures(
     """The (size, size, C) float32 normtextures of a view slot, one per light, in
     relative radiance per second of exposure; the flagged captures; and the flagged
     texel captures: ``"irradiance LAMP"`` → texels the lamp barely lights (divided by
-    ``IRRADIANCE_FLOOR``), ``"saturated"`` → texels whose footprint touches a pixel at
-    the camera's full scale.
+    ``IRRADIANCE_FLOOR``), ``"flat field LAMP"`` → texels its flat field barely lights
+    (divided by ``FLAT_FLOOR``), ``"saturated"`` → texels whose footprint touches a pixel
+    at the camera's full scale.
 
     Camera frames are registered onto the texel grid, linearised and divided by
     their lamp's flat field where ``corrections`` (default none) say so, and by
@@ -242,10 +244,12 @@ def slot_normtextures(
             flagged.append((item.index, light, step, camera, reg.reason.name))
             continue
         # with the lamps placed, the flat field divides out only what 1/r² does not explain
-        texture = corrections.normtexture(
+        texture, dim = corrections.normtexture(
             frame, reg, record, camera, config, lens=lens, size=size,
             lamp_model=lamps is not None, filter=filter,
         )  # fmt: skip
+        if dim.any():
+            counts[f"flat field {record.lamp}"] += int(dim.sum())
         counts["saturated"] += _clipped_texels(frame, reg, config, camera, lens, size, filter)
         if lamps is not None:
             ratio, floored = texel_irradiance(
@@ -294,6 +298,9 @@ def _texel_flags(counts: Counter) -> dict[str, str]:
         if key == "saturated" and count:
             notes[key] = (f"{count} texel captures touch clipped pixels: stored as clipped "
                           "(a lower bound of their radiance)")  # fmt: skip
+        elif key.startswith("flat field ") and count:
+            notes[key] = (f"{count} texel captures its flat field barely lights (under "
+                          f"{FLAT_FLOOR:g} of the centre's): divided by that floor")  # fmt: skip
         elif key.startswith("irradiance ") and count:
             notes[key] = (
                 f"{count} texel captures it barely lights (outside its cone, or the lamp at or "

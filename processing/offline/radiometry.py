@@ -106,8 +106,10 @@ class FrameCorrections:
         size: int,
         lamp_model: bool,
         filter: str = "box",
-    ) -> np.ndarray:
-        """(size, size, C) float64 corrected normtexture of a registered frame.
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """(size, size, C) float64 corrected normtexture of a registered frame, and the
+        (size, size) bool texels the lamp's flat field barely lights (divided by
+        ``FLAT_FLOOR``; none without a flat field).
 
         Linear (relative exposure, 1 at value 128) when the camera has a curve,
         else the registered values over full scale; divided by the lamp's flat
@@ -131,7 +133,7 @@ class FrameCorrections:
                 filter=filter,
             ).texture.astype(np.float64)
         if self.flat_field is None or step.lamp not in self.flat_field.lamps:
-            return texture
+            return texture, np.zeros((size, size), bool)
         points = _texel_points(
             sample_mm, size, self.target_z_mm,
             arc_deg=step.actuators.get("arc_deg", 0.0),
@@ -155,7 +157,9 @@ class FrameCorrections:
         flat = measured / point_falloff(config, step.lamp, inside, self.target_z_mm)
         if not lamp_model:
             flat = flat * point_falloff(config, step.lamp, points, self.target_z_mm)
-        return texture / np.maximum(flat, FLAT_FLOOR)[..., None]
+        # a lamp at grazing: not-a-number where the model's fall-off is 0 / 0
+        floored = ~(flat >= FLAT_FLOOR)
+        return texture / np.where(floored, FLAT_FLOOR, flat)[..., None], floored
 
     def record(self, *, cameras, lamps) -> Radiometry:
         """What was applied to frames of ``cameras`` under ``lamps``, for the material."""

@@ -21,7 +21,7 @@ from rig.calfile import CalibrationFile, CameraResult, LampResult
 from rig.clock import VirtualClock
 from rig.config import RigConfig
 from rig.kinematics import lamp_position_mm
-from rig.material import btf_from_arrays
+from rig.material import FlatFieldMaps, archive_flat_field_path, btf_from_arrays, write_flat_field
 from sim.rig import SimulatedRig
 from sim.scene import scene_from_dict
 
@@ -142,6 +142,23 @@ def test_a_lamp_at_grazing_stays_finite_and_what_it_barely_lights_is_counted(ses
         assert flagged is not None and flagged.startswith(f"{3 * SIZE * SIZE} texel captures")
         assert "at or below the sample's plane" in flagged
         np.testing.assert_allclose(values, raw / IRRADIANCE_FLOOR, rtol=0.01, atol=1e-3)
+
+
+def test_texels_a_lamps_flat_field_barely_lights_are_counted(session):
+    """lamp3's flat field (as a lamp near grazing gives: light on one side of the white
+    target only) at 1 % of the centre's over half of it: those texels are divided by the
+    floor, not by ~0, and counted."""
+    camera = RigConfig().camera("cam0")  # overhead: the map spans the sample
+    falloff = np.ones((1, camera.height // 8, camera.width // 8), np.float32)
+    falloff[:, :, falloff.shape[2] // 2 :] = 0.01
+    write_flat_field(archive_flat_field_path(session, "ff.zarr"),
+                     FlatFieldMaps("cam0", (LAMP,), falloff))  # fmt: skip
+    _calibrate(session, CalibrationFile(lamps_flat_field="ff.zarr"))
+    _, record = _process(session, "--components", "1")
+    assert LAMP in record["flat_fielded"]
+    dim = record["skipped"][f"flat field {LAMP}"]
+    count = int(dim.split()[0])
+    assert 0.25 * 3 * SIZE * SIZE < count < 0.75 * 3 * SIZE * SIZE, dim
 
 
 def _camera(camera_id: str) -> dict[str, CameraResult]:
