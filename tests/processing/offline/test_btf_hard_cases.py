@@ -102,7 +102,7 @@ def test_a_plan_with_one_light_compresses_interpolates_and_resamples(one_light, 
     assert np.isfinite(held_out).all() and held_out.max() > 0
     with pytest.raises(BtfError, match="needs ≥ 3 measured directions"):
         interpolate(model, view_deg=(0.0, 0.0), light_deg=(45.0, 0.0), light_method="barycentric")
-    # more components than lights: rank 1, and per-texel views resample the slots
+    # more components than lights, and per-texel views resample the slots
     copy = Path(shutil.copytree(one_light, tmp_path / "c8.zarr"))
     resampled, record = _process(copy, "--components", "8", "--views", "per-texel")
     outside = re.match(r"(\d+) of (\d+) texel views outside the hull", record["skipped"]["view"])
