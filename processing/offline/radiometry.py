@@ -157,7 +157,7 @@ class FrameCorrections:
         flat = measured / point_falloff(config, step.lamp, inside, self.target_z_mm)
         if not lamp_model:
             flat = flat * point_falloff(config, step.lamp, points, self.target_z_mm)
-        # a lamp at grazing: not-a-number where the model's fall-off is 0 / 0
+        # not-a-number too (a lamp in the target's plane: the model's fall-off is 0 / 0)
         floored = ~(flat >= FLAT_FLOOR)
         return texture / np.where(floored, FLAT_FLOOR, flat)[..., None], floored
 

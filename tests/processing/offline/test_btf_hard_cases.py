@@ -109,7 +109,10 @@ def test_a_plan_with_one_light_compresses_interpolates_and_resamples(one_light, 
     assert outside is not None, record["skipped"]["view"]
     assert 0 < int(outside[1]) < int(outside[2]) == 3 * SIZE * SIZE
     assert record["sources"]["view"] == "the rig config's camera geometry (nominal)"
-    assert not np.array_equal(resampled, values)  # the texels inside their hull moved
+    # nothing invented: a texel outside its hull keeps its value (one light: the slot's mean,
+    # float16 as stored); those inside it moved
+    kept = (resampled == values).all(axis=-1)
+    assert int(outside[1]) <= kept.sum() < kept.size
 
 
 def test_a_plan_with_one_view_keeps_its_views_and_says_why(tmp_path):
