@@ -33,12 +33,18 @@ import numpy as np
 
 from processing.btf import CompressedBTF, SlotTable, compress_view, view_slots
 from processing.offline.radiometry import (
+    FLAT_FLOOR,
     FrameCorrections,
     calibration_source,
     frame_corrections,
 )
 from processing.offline.runner import StageSkipped, archive_calibration, frame_camera
-from processing.offline.texel_light import LampPositions, lamp_positions, texel_irradiance
+from processing.offline.texel_light import (
+    IRRADIANCE_FLOOR,
+    LampPositions,
+    lamp_positions,
+    texel_irradiance,
+)
 from processing.offline.texel_view import per_texel_views, slot_camera
 from processing.registration import FILTERS, rectify, register_capture
 from rig.archive import Archive
@@ -111,9 +117,9 @@ class BtfStage:
             per_texel = self.views == "per texel" and not self.raw
             camera = slot_camera(archive, config, item) if per_texel else None
         cameras = [c for _, c in item.captures]
-        record = _slot_record(corrections.record(cameras=cameras, lamps=lamps), positions, counts)
+        record = _slot_record(corrections.record(cameras=cameras, lamps=lamps), positions)
         result = {"slot": item, "flagged": flagged, "compressed": None, "radiometry": record,
-                  "camera": camera, "saturated": counts["saturated"]}  # fmt: skip
+                  "camera": camera, "counts": counts}  # fmt: skip
         if flagged:
             return result
         stack = np.stack(textures).astype(np.float32)
@@ -146,12 +152,7 @@ class BtfStage:
         )
         flagged = [f for r in results for f in r["flagged"]]
         radiometry = _merged([r["radiometry"] for r in results])
-        saturated = sum(r["saturated"] for r in results)
-        if saturated:
-            radiometry.skipped["saturated"] = (
-                f"{saturated} texel captures touch clipped pixels: stored as clipped "
-                "(a lower bound of their radiance)"
-            )
+        radiometry.skipped.update(_texel_flags(sum((r["counts"] for r in results), Counter())))
         if self.raw or self.views == "nominal":
             why = "--raw" if self.raw else "views 'nominal'"
             radiometry = replace(radiometry, skipped=radiometry.skipped | {
@@ -201,8 +202,9 @@ def slot_normtextures(
     """The (size, size, C) float32 normtextures of a view slot, one per light, in
     relative radiance per second of exposure; the flagged captures; and the flagged
     texel captures: ``"irradiance LAMP"`` → texels the lamp barely lights (divided by
-    ``IRRADIANCE_FLOOR``), ``"saturated"`` → texels whose footprint touches a pixel at
-    the camera's full scale.
+    ``IRRADIANCE_FLOOR``), ``"flat field LAMP"`` → texels its flat field barely lights
+    (divided by ``FLAT_FLOOR``), ``"saturated"`` → texels whose footprint touches a pixel
+    at the camera's full scale.
 
     Camera frames are registered onto the texel grid, linearised and divided by
     their lamp's flat field where ``corrections`` (default none) say so, and by
@@ -242,10 +244,12 @@ def slot_normtextures(
             flagged.append((item.index, light, step, camera, reg.reason.name))
             continue
         # with the lamps placed, the flat field divides out only what 1/r² does not explain
-        texture = corrections.normtexture(
+        texture, dim = corrections.normtexture(
             frame, reg, record, camera, config, lens=lens, size=size,
             lamp_model=lamps is not None, filter=filter,
         )  # fmt: skip
+        if dim.any():
+            counts[f"flat field {record.lamp}"] += int(dim.sum())
         counts["saturated"] += _clipped_texels(frame, reg, config, camera, lens, size, filter)
         if lamps is not None:
             ratio, floored = texel_irradiance(
@@ -276,22 +280,34 @@ def _positions(archive: Archive, config: RigConfig) -> LampPositions | None:
     return lamp_positions(config, calibration, source)
 
 
-def _slot_record(
-    record: Radiometry, lamps: LampPositions | None, counts: dict[str, int]
-) -> Radiometry:
-    """The slot's record with the per-texel irradiance correction: its source, or why not
-    (``counts``: :func:`slot_normtextures`'s, the texels lamps barely light)."""
-    skipped = dict(record.skipped)
+def _slot_record(record: Radiometry, lamps: LampPositions | None) -> Radiometry:
+    """The slot's record with the per-texel irradiance correction: its source, or why not."""
     if lamps is None:
-        skipped["irradiance"] = ("no near lamp placed (directional lamps, a Bonn lab or --raw): "
-                                 "the centre's irradiance for every texel")  # fmt: skip
+        skipped = record.skipped | {"irradiance": (
+            "no near lamp placed (directional lamps, a Bonn lab or --raw): the centre's "
+            "irradiance for every texel")}  # fmt: skip
         return replace(record, skipped=skipped)
-    for key, count in counts.items():
-        if key.startswith("irradiance "):
-            skipped[key] = (
-                f"{count} texel captures it barely lights (outside its cone): divided by the floor"
+    return replace(record, sources=record.sources | {"irradiance": lamps.source})
+
+
+def _texel_flags(counts: Counter) -> dict[str, str]:
+    """The record's notes on the flagged texel captures of every slot
+    (``counts``: :func:`slot_normtextures`'s, summed over the slots)."""
+    notes = {}
+    for key, count in sorted(counts.items()):
+        if key == "saturated" and count:
+            notes[key] = (f"{count} texel captures touch clipped pixels: stored as clipped "
+                          "(a lower bound of their radiance)")  # fmt: skip
+        elif key.startswith("flat field ") and count:
+            notes[key] = (f"{count} texel captures its flat field barely lights (under "
+                          f"{FLAT_FLOOR:g} of the centre's): divided by that floor")  # fmt: skip
+        elif key.startswith("irradiance ") and count:
+            notes[key] = (
+                f"{count} texel captures it barely lights (outside its cone, or the lamp at or "
+                f"below the sample's plane): divided by the floor, {IRRADIANCE_FLOOR:g} of the "
+                "centre's irradiance"
             )
-    return replace(record, sources=record.sources | {"irradiance": lamps.source}, skipped=skipped)
+    return notes
 
 
 def _merged(records: list[Radiometry]) -> Radiometry:

@@ -101,7 +101,7 @@ class PsStage:
             registered += 1
             clipped = reg.normtexture.texture >= SATURATION * full_scale
             # near lamps: the solver models cos θ / r², the flat field the rest
-            texture = corrections.normtexture(
+            texture, _ = corrections.normtexture(
                 frame, reg, step, item.camera, config, lens=lens, size=self.size, lamp_model=True
             )
             # Exposures may differ between lamps: radiance ∝ value / exposure.

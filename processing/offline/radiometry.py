@@ -25,7 +25,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy import ndimage
 
-from processing.offline.runner import archive_calibration, calibrated_camera
+from processing.offline.runner import calibrated_camera, calibration_fit
 from processing.offline.texel_light import plane_irradiance
 from processing.registration import Registration, rectify
 from rig.archive import Archive, StepRecord
@@ -106,8 +106,10 @@ class FrameCorrections:
         size: int,
         lamp_model: bool,
         filter: str = "box",
-    ) -> np.ndarray:
-        """(size, size, C) float64 corrected normtexture of a registered frame.
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """(size, size, C) float64 corrected normtexture of a registered frame, and the
+        (size, size) bool texels the lamp's flat field barely lights (divided by
+        ``FLAT_FLOOR``; none without a flat field).
 
         Linear (relative exposure, 1 at value 128) when the camera has a curve,
         else the registered values over full scale; divided by the lamp's flat
@@ -131,7 +133,7 @@ class FrameCorrections:
                 filter=filter,
             ).texture.astype(np.float64)
         if self.flat_field is None or step.lamp not in self.flat_field.lamps:
-            return texture
+            return texture, np.zeros((size, size), bool)
         points = _texel_points(
             sample_mm, size, self.target_z_mm,
             arc_deg=step.actuators.get("arc_deg", 0.0),
@@ -155,7 +157,9 @@ class FrameCorrections:
         flat = measured / point_falloff(config, step.lamp, inside, self.target_z_mm)
         if not lamp_model:
             flat = flat * point_falloff(config, step.lamp, points, self.target_z_mm)
-        return texture / np.maximum(flat, FLAT_FLOOR)[..., None]
+        # not-a-number too (a lamp in the target's plane: the model's fall-off is 0 / 0)
+        floored = ~(flat >= FLAT_FLOOR)
+        return texture / np.where(floored, FLAT_FLOOR, flat)[..., None], floored
 
     def record(self, *, cameras, lamps) -> Radiometry:
         """What was applied to frames of ``cameras`` under ``lamps``, for the material."""
@@ -178,10 +182,10 @@ def frame_corrections(archive: Archive, config: RigConfig, *, raw: bool = False)
     """The corrections of ``archive``'s calibration (none with ``raw``)."""
     if raw:
         return FrameCorrections(skipped={"all": "rig process --raw: frames as recorded"})
-    calibration = archive_calibration(archive)
+    calibration, skipped = calibration_fit(archive)
     if calibration is None:
-        return FrameCorrections(skipped={"all": "the archive holds no calibration"})
-    sources, skipped = {}, {}
+        return FrameCorrections(skipped=skipped)
+    sources = {}
     curves = {cam: np.asarray(r.curve, np.float32) for cam, r in calibration.response.items()}
     for camera in sorted(curves):
         bits = _bit_depth(config, camera)

@@ -22,12 +22,21 @@ def _score(measured, truth):
     return psnr_db(rmse(measured, truth), peak=float(truth.max()))
 
 
-@pytest.mark.slow  # up to 128² rays a texel
-def test_doubling_the_converged_rays_changes_the_score_by_less_than_the_tolerance(weave):
-    measured = truth_at(weave, PAIRS, N, 1)  # the centre ray: an aliased "measurement"
-    result = converged_truth(weave, PAIRS, measured, start=2, most=64, tol_db=0.1)
-    assert result.converged and result.change_db < 0.1
-    doubled = truth_at(weave, PAIRS, N, 2 * result.rays)
+@pytest.mark.parametrize(
+    ("generator", "effects", "size", "pairs"),
+    [
+        pytest.param("bumps", [], 8, PAIRS[:1], id="bumps"),  # 16 rays a side: under a second
+        pytest.param("weave", ["shadows"], N, PAIRS, id="weave", marks=pytest.mark.slow),
+    ],  # the weave: up to 128² rays a texel
+)
+def test_doubling_the_converged_rays_changes_the_score_by_less_than_the_tolerance(
+    generator, effects, size, pairs
+):
+    with Simulator(small_scene(generator, effects=effects)) as sim:
+        measured = truth_at(sim, pairs, size, 1)  # the centre ray: an aliased "measurement"
+        result = converged_truth(sim, pairs, measured, start=2, most=64, tol_db=0.1)
+        assert result.converged and result.change_db < 0.1
+        doubled = truth_at(sim, pairs, size, 2 * result.rays)
     assert abs(_score(measured, doubled) - _score(measured, result.values)) < 0.1
     # and the footprint is not the centre ray's truth
     assert _score(measured, result.values) < 40.0

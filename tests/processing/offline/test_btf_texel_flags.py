@@ -7,7 +7,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from processing.offline.btf import _clipped_texels, _slot_record
+from processing.offline.btf import _clipped_texels, _slot_record, _texel_flags
 from processing.registration import Reason
 from processing.registration._homography import PlaneHomography
 from rig.config import RigConfig
@@ -41,8 +41,13 @@ def test_texels_touching_a_clipped_pixel_are_counted():
     assert _clipped_texels(frame, reg, config, camera.id, None, SIZE, "area") == SIZE * SIZE // 2
 
 
-def test_the_slot_record_says_why_no_lamp_was_placed_and_leaves_saturation_to_the_stage():
-    counts = Counter({"saturated": 12, "irradiance lamp3": 5})
-    record = _slot_record(Radiometry(), None, counts)
+def test_the_slot_record_says_why_no_lamp_was_placed():
+    record = _slot_record(Radiometry(), None)
     assert "no near lamp placed" in record.skipped["irradiance"]
-    assert "saturated" not in record.skipped  # the stage sums it over the slots
+    assert "irradiance" not in record.sources
+
+
+def test_the_flag_notes_count_each_flag_and_leave_out_what_none_has():
+    notes = _texel_flags(Counter({"saturated": 0, "irradiance lamp3": 5, "irradiance lamp6": 0}))
+    assert list(notes) == ["irradiance lamp3"]
+    assert notes["irradiance lamp3"].startswith("5 texel captures it barely lights")

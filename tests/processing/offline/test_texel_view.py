@@ -123,8 +123,8 @@ def test_a_calibrated_camera_names_its_session(tmp_path):
 
 
 def _archive(calibration, actuators=None):
-    """What ``slot_camera`` reads of an archive: one BTF step of cam3 (at turntable 60°
-    unless ``actuators`` says otherwise)."""
+    """What ``slot_camera`` reads of an archive of the default rig: one BTF step of cam3
+    (at turntable 60° unless ``actuators`` says otherwise)."""
     from types import SimpleNamespace
 
     from rig.archive import StepRecord
@@ -133,7 +133,8 @@ def _archive(calibration, actuators=None):
                       actuators or {"turntable_deg": 60.0})  # fmt: skip
     dumped = None if calibration is None else calibration.model_dump(mode="json")
     return SimpleNamespace(plan={}, step_table=lambda: [step], calibration=dumped,
-                           path="session.zarr", calibration_version=1)  # fmt: skip
+                           path="session.zarr", calibration_version=1,
+                           rig_config={})  # fmt: skip
 
 
 def _calibrated(camera_id: str, config: RigConfig, shift_mm: float):
