@@ -20,6 +20,7 @@ import numpy as np
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
 from rig.camera import PinholeCamera
+from rig.config import RigConfig
 from rig.errors import ConfigError
 from rig.tomlfile import format_validation_error, read_toml, write_toml
 
@@ -139,6 +140,37 @@ class CalibrationFile(_Closed):
 
     def camera(self, camera_id: str) -> CameraResult | None:
         return self.cameras.get(camera_id)
+
+    def fitted_to(self, config: RigConfig) -> tuple[CalibrationFile | None, dict[str, str]]:
+        """This calibration as far as it fits the rig ``config``, and what was left out
+        → why, for a material's record of corrections.
+
+        ``"all"``: ``rig`` names another rig (None: nominal values throughout).
+        ``"cameras"`` / ``"lamps"``: the section names a camera or lamp this rig does not
+        have (another rig's, or a rig rebuilt since), so none of its ids can be trusted
+        to mean this rig's device: the section is left out (the lamps' flat fields with
+        it) and the rig config's nominal geometry stands in. A section of fewer devices
+        than the rig has (some failed to calibrate) is used for those it has.
+        """
+        if self.rig and self.rig != config.name:
+            return None, {"all": (
+                f"the calibration is of rig {self.rig!r}, the archive was recorded on rig "
+                f"{config.name!r}: not used, nominal values throughout")}  # fmt: skip
+        skipped, update = {}, {}
+        sections = {  # section → this rig's ids, and what goes with it
+            "cameras": ([c.id for c in config.camera_arc.cameras], {}),
+            "lamps": ([lamp.id for lamp in config.lamps], {"lamps_flat_field": None}),
+        }
+        for name, (ids, also) in sections.items():
+            foreign = sorted(set(getattr(self, name)) - set(ids))
+            if foreign:
+                skipped[name] = (
+                    f"the calibration's {name} {', '.join(foreign)} are not this rig's "
+                    f"({', '.join(ids)}): another rig's, not used; the rig config's nominal "
+                    f"{name}"
+                )
+                update |= {name: {}, f"{name}_provenance": None, **also}
+        return self.model_copy(update=update), skipped
 
     @classmethod
     def from_dict(cls, data: dict, *, source: str) -> CalibrationFile:

@@ -118,39 +118,13 @@ def archive_calibration(archive: Archive) -> CalibrationFile | None:
 
 def calibration_fit(archive: Archive) -> tuple[CalibrationFile | None, dict[str, str]]:
     """The archive's calibration as far as it fits the rig that recorded it, and what
-    was left out → why, for the material's record of corrections.
-
-    ``"all"``: the archive holds no calibration, or one whose ``rig`` names another
-    rig (the calibration is None: nominal values throughout). ``"cameras"`` /
-    ``"lamps"``: the section names a camera or lamp this rig does not have (another
-    rig's, or a rig rebuilt since), so none of its ids can be trusted to mean this
-    rig's device: the section is left out (the lamps' flat fields with it) and
-    the rig config's nominal geometry stands in. A section of fewer devices than the
-    rig has (some failed to calibrate) is used for those it has.
-    """
+    was left out → why (:meth:`CalibrationFile.fitted_to`); ``{"all": …}`` and None
+    when the archive holds none."""
     if not archive.calibration:
         return None, {"all": "the archive holds no calibration"}
     source = f"{archive.path} (calibration v{archive.calibration_version})"
     calibration = CalibrationFile.from_dict(archive.calibration, source=source)
-    config = RigConfig.model_validate(archive.rig_config)
-    if calibration.rig and calibration.rig != config.name:
-        return None, {"all": (
-            f"the calibration is of rig {calibration.rig!r}, the archive was recorded on rig "
-            f"{config.name!r}: not used, nominal values throughout")}  # fmt: skip
-    skipped, update = {}, {}
-    sections = {  # section → this rig's ids, and what goes with it
-        "cameras": ([c.id for c in config.camera_arc.cameras], {}),
-        "lamps": ([lamp.id for lamp in config.lamps], {"lamps_flat_field": None}),
-    }
-    for name, (ids, also) in sections.items():
-        foreign = sorted(set(getattr(calibration, name)) - set(ids))
-        if foreign:
-            skipped[name] = (
-                f"the calibration's {name} {', '.join(foreign)} are not this rig's "
-                f"({', '.join(ids)}): another rig's, not used; the rig config's nominal {name}"
-            )
-            update |= {name: {}, f"{name}_provenance": None, **also}
-    return calibration.model_copy(update=update), skipped
+    return calibration.fitted_to(RigConfig.model_validate(archive.rig_config))
 
 
 def calibrated_camera(

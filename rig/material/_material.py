@@ -3,6 +3,7 @@ standalone material store (``docs/material.md``)."""
 
 from __future__ import annotations
 
+import contextlib
 import json
 import os
 from dataclasses import dataclass, field
@@ -12,8 +13,9 @@ from typing import Any
 import numpy as np
 
 from rig.archive import Archive
+from rig.calfile import CalibrationFile
 from rig.config import Holder, RigConfig
-from rig.errors import RigError
+from rig.errors import ConfigError, RigError
 from rig.geometry import direction_angles
 from rig.material._btf import read_btf
 from rig.material._btf_model import CompressedBTF, GlobalSVD
@@ -138,6 +140,13 @@ def read_material(path: str | os.PathLike) -> Material:
 def archive_provenance(archive: Archive) -> dict[str, Any]:
     """What a material from ``archive`` owes to it (``provenance`` of :class:`Material`)."""
     calibration = archive.calibration
+    _, config = _holder_and_config(archive)
+    if calibration and config is not None:  # what processing can use of it
+        source = f"{archive.path} (calibration v{archive.calibration_version})"
+        with contextlib.suppress(ConfigError):  # as stored, where it no longer validates
+            fitted, _ = CalibrationFile.from_dict(calibration, source=source).fitted_to(config)
+            fits = {} if fitted is None else fitted.model_dump(mode="json", exclude_none=True)
+            calibration = fits
     sections = {
         key.removesuffix("_provenance"): value
         for key, value in calibration.items()

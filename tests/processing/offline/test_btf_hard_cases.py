@@ -21,7 +21,13 @@ from rig.calfile import CalibrationFile, CameraResult, LampResult
 from rig.clock import VirtualClock
 from rig.config import RigConfig
 from rig.kinematics import lamp_position_mm
-from rig.material import FlatFieldMaps, archive_flat_field_path, btf_from_arrays, write_flat_field
+from rig.material import (
+    FlatFieldMaps,
+    archive_flat_field_path,
+    btf_from_arrays,
+    read_material,
+    write_flat_field,
+)
 from sim.rig import SimulatedRig
 from sim.scene import scene_from_dict
 
@@ -200,6 +206,9 @@ def test_another_rigs_calibration_is_skipped_with_the_reason(session, case):
     assert record["sources"]["irradiance"] == "the rig config's lamp geometry (nominal)"
     assert record["sources"]["view"] == "the rig config's camera geometry (nominal)"
     np.testing.assert_array_equal(values, nominal)  # processed with the nominal values
+    corrections = read_material(session).provenance["corrections"]  # it says the same
+    assert "camX" not in corrections["cameras"]
+    assert corrections["cameras"] == []  # the one camera named is another rig's, or none
 
 
 def test_the_rigs_own_calibration_is_used(session):
