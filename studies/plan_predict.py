@@ -1,13 +1,21 @@
 """``rig plan PLAN --predict``: a plan's accuracy before the rig spends its time on it.
 
-The plan runs in virtual time on the simulated rig with a proxy sample (the
-render loop's bumps or weave, or a scene file), through the daemon, and the
-``btf`` stage processes the session; the material is scored against the
-simulator's footprint truth as the render loop scores it
+The plan's BTF capture runs in virtual time on the simulated rig with a proxy
+sample (the render loop's bumps or weave, or a scene file), through the
+daemon, and the ``btf`` stage processes the session; the material is scored
+against the simulator's footprint truth as the render loop scores it
 (:func:`studies.render_loop.scores`): at the captured pairs nearest the
 held-out directions (the measurement's own error) and at the held-out
 directions (what interpolating between the plan's directions adds), per
 component count c.
+
+Only what the scores read is simulated: the view slots the held-out views
+blend and the captured pairs lie in (:func:`scored_views`), each with all of
+the plan's lights, one exposure per frame. The btf stage compresses each view
+slot from its own frames alone, so the scores are the whole plan's, up to the
+sensor noise's draws (they follow the frame order) and float16 rounding
+(tests/studies/test_plan_predict.py); the duration and data size come from the
+whole plan's estimate.
 
 It runs at a reduced resolution (:data:`SENSOR_SCALE`, :data:`TEXELS`): a
 quarter of the sensor (256 × 192 pixels of the default rig's 1024 × 768) and
@@ -15,8 +23,8 @@ quarter of the sensor (256 × 192 pixels of the default rig's 1024 × 768) and
 texels) at a quarter of its texels. An eighth of the sensor costs about the
 same and its markers are too small to register at 45° views; at a quarter,
 views up to θ = 51° register and some at 68° do not (the table counts the
-registered view slots). docs/geometry.md sets the prediction beside the
-render loop's numbers.
+registered view slots of those read). docs/geometry.md sets the prediction
+beside the render loop's numbers.
 """
 
 from __future__ import annotations

@@ -87,11 +87,11 @@ def plan(
         bool,
         typer.Option(
             "--predict",
-            help="run the plan on the simulated rig with a proxy sample (virtual time, "
-            "cameras at 1/4 of their size, 32² texels: "
-            "minutes, not hours), process it and print the predicted PSNR per component "
-            "count c at the captured pairs nearest four held-out directions and at those "
-            "directions, beside the duration and data size",
+            help="run the plan's BTF capture on the simulated rig with a proxy sample "
+            "(virtual time, cameras at 1/4 of their size, 32² texels, only the view slots "
+            "the scores read: minutes, not hours), process it and print the predicted PSNR "
+            "per component count c at the captured pairs nearest four held-out directions "
+            "and at those directions, beside the whole plan's duration and data size",
         ),
     ] = False,
     sample: Annotated[
