@@ -28,7 +28,7 @@ from studies.render_loop import (
 #: lights in another order may round one step differently.
 FLOAT16_EPS = 2.0**-11
 
-#: 11 views at the default rig's camera angles × 7 lights; the held-out views read 7 of them.
+#: 11 views at the default rig's camera angles × 7 lights; the held-out views read 9 of them.
 PLAN = """
 [sample]
 name = "restricted"
@@ -72,7 +72,7 @@ def test_the_recorded_plan_holds_the_read_views_one_exposure_and_no_other_captur
     assert proxy.exposure.exposure_s == pytest.approx(0.05)
 
 
-@pytest.mark.slow  # two simulated sessions (77 and 49 frames) and their btf stage: ~30 s
+@pytest.mark.slow  # two simulated sessions (77 and 63 frames) and their btf stage: ~30 s
 def test_the_read_view_slots_alone_give_the_whole_plans_scores(tmp_path):
     spec = dict(SCENES["bumps"], effects=["shadows"], render={"scale": SENSOR_SCALE})
     scene = scene_from_dict(spec)  # no sensor noise: its draws follow the frame order
