@@ -15,7 +15,7 @@ from orchestrator.cli.common import console, load_config_option, quiet_dask_logs
 from rig.config import RigConfig
 from rig.errors import PlanError
 from rig.kinematics import sampling_residuals
-from rig.plan import Plan, load_plan, parse_plan
+from rig.plan import Plan, load_plan
 from rig.schedule import compile_plan
 from rig.steps import Schedule
 
@@ -87,11 +87,11 @@ def plan(
         bool,
         typer.Option(
             "--predict",
-            help="run the plan on the simulated rig with a proxy sample (virtual time, "
-            "cameras at 1/4 of their size, 32² texels: "
-            "minutes, not hours), process it and print the predicted PSNR per component "
-            "count c at the captured pairs nearest four held-out directions and at those "
-            "directions, beside the duration and data size",
+            help="run the plan's BTF capture on the simulated rig with a proxy sample "
+            "(virtual time, cameras at 1/4 of their size, 32² texels, only the view slots "
+            "the scores read: minutes, not hours), process it and print the predicted PSNR "
+            "per component count c at the captured pairs nearest four held-out directions "
+            "and at those directions, beside the whole plan's duration and data size",
         ),
     ] = False,
     sample: Annotated[
@@ -186,7 +186,7 @@ def print_predictions(plan_file: Path, rig: RigConfig, options: PredictOptions) 
     """Predict each plan's accuracy (``studies.plan_predict``) and print one table:
     per plan and c, the duration and data size on ``rig`` and the PSNR at the
     captured pairs and the held-out directions."""
-    from studies.plan_predict import SENSOR_SCALE, TEXELS, btf_only, predict, proxy_scene
+    from studies.plan_predict import SENSOR_SCALE, TEXELS, predict, proxy_scene
 
     quiet_dask_logs()  # the btf stage runs on a local Dask cluster
     scene = proxy_scene(options.sample)  # a bad --sample before any work
@@ -204,19 +204,23 @@ def print_predictions(plan_file: Path, rig: RigConfig, options: PredictOptions) 
         table.add_column(col, justify="left" if col == "plan" else "right")
     for path, the_plan in plans.items():
         estimate = compile_plan(the_plan, rig).estimate
-        steps = len(compile_plan(parse_plan(btf_only(the_plan)), scene.rig).steps)
-        with _Progress(path.name, steps) as progress:
-            found = predict(the_plan, scene, on_event=progress.event, on_stage=progress.stage)
+        with _Progress(path.name) as progress:
+            found = predict(the_plan, scene, on_session=progress.session,
+                            on_event=progress.event, on_stage=progress.stage)  # fmt: skip
+        views = f"{found.views}/{found.recorded}"
+        if found.recorded < found.view_slots:
+            views += f" of {found.view_slots}"
         for c, held_out_db in found.held_out_db.items():
             table.add_row(escape(str(path)), str(estimate.frames), _hms(estimate.total_s),
-                          _size(estimate.bytes), f"{found.views}/{found.view_slots}",
+                          _size(estimate.bytes), views,
                           f"{found.view_gap_deg:.0f}° / {found.light_gap_deg:.0f}°", str(c),
                           f"{found.captured_db[c]:.1f}", f"{held_out_db:.1f}")  # fmt: skip
         table.add_section()
     table.caption = (
         "PSNR against the simulator's noise-free truth; captured: the material at the "
         "captured pairs nearest four held-out directions; held-out: interpolated at those "
-        "directions, the gap from the nearest captured view / light"
+        "directions, the gap from the nearest captured view / light; views registered: of "
+        "the view slots these scores read, which alone are simulated (of the plan's)"
     )
     console.print(table)
 
@@ -224,15 +228,19 @@ def print_predictions(plan_file: Path, rig: RigConfig, options: PredictOptions) 
 class _Progress:
     """On stderr: a bar over the session's steps, then a spinner per stage."""
 
-    def __init__(self, name: str, steps: int) -> None:
-        self.name, self.steps, self.done = name, steps, 0
+    def __init__(self, name: str) -> None:
+        self.name, self.steps, self.done = name, 0, 0
         self.stack = ExitStack()
 
     def __enter__(self) -> _Progress:
-        self.advance = self.stack.enter_context(
-            working(f"{self.name}: the session on the simulated rig", total=self.steps)
-        )
         return self
+
+    def session(self, steps: int) -> None:
+        self.stack.close()
+        self.steps, self.done = steps, 0
+        self.advance = self.stack.enter_context(
+            working(f"{self.name}: the session on the simulated rig", total=steps)
+        )
 
     def __exit__(self, *exc) -> None:
         self.stack.close()

@@ -16,7 +16,8 @@ import pytest
 from typer.testing import CliRunner
 
 from orchestrator.cli import app
-from studies.plan_predict import SENSOR_SCALE, TEXELS
+from studies import plan_predict
+from studies.plan_predict import SENSOR_SCALE, TEXELS, Prediction
 from studies.render_loop import plan_toml
 
 EXAMPLES = Path(__file__).parents[2] / "examples" / "plans"
@@ -49,6 +50,31 @@ def test_predict_prints_captured_and_held_out_db_per_c(tmp_path):
         assert math.isfinite(captured) and math.isfinite(held_out)
         assert 10.0 < held_out < captured
     assert float(rows[1]["captured dB"]) - float(rows[1]["held-out dB"]) > 5.0
+
+
+def test_the_views_column_counts_the_read_view_slots_of_the_plans(monkeypatch):
+    # what the table makes of a prediction that read 15 of a plan's 81 view slots and
+    # registered 14 (the prediction itself: the slow test above)
+    found = Prediction(views=14, recorded=15, view_slots=81,
+                       captured_db={2: 30.0, 4: 31.0, 8: 32.0},
+                       held_out_db={2: 25.0, 4: 26.0, 8: 27.0}, view_gap_deg=5.0,
+                       light_gap_deg=7.0)  # fmt: skip
+
+    def read_only(plan, scene, *, on_session, on_event, on_stage):
+        on_session(2)
+        on_event({"topic": "progress", "step": 2})
+        on_stage("scoring")
+        return found
+
+    monkeypatch.setattr(plan_predict, "predict", read_only)
+    result = runner.invoke(app, ["plan", str(EXAMPLES / "demo.toml"), "--predict"])
+    assert result.exit_code == 0, result.output
+    rows = _rows(result.output)
+    assert [(r["views registered"], r["c"], r["held-out dB"]) for r in rows] == [
+        ("14/15 of 81", "2", "25.0"),
+        ("14/15 of 81", "4", "26.0"),
+        ("14/15 of 81", "8", "27.0"),
+    ]
 
 
 def test_an_unknown_sample_exits_2_naming_the_option_and_the_valid_ones():

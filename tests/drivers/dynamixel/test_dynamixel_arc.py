@@ -178,3 +178,20 @@ def test_a_vanished_bus_is_a_device_error_naming_the_port(arc, bus):
     with pytest.raises(DeviceError, match=re.escape(f"serial port {port!r} failed")) as caught:
         arc.stop()
     assert caught.value.device == "light arc"
+
+
+def test_a_reply_is_waited_for_not_polled_for(bus, clock):
+    # The SDK reads the port until a status packet or its timeout comes. A dropped reply
+    # costs the 0.2 s timeout: reads that wait for their bytes make ~100 of them, a
+    # non-blocking port tens of thousands (a spin that was half a simulated session's CPU).
+    driver = DynamixelBus(_servos(bus), device="light arc", clock=clock)
+    try:
+        port, reads = driver.port.ser, []
+        read = port.read
+        port.read = lambda size=1: reads.append(size) or read(size)
+        bus.faults.drop_next(1)
+        assert driver.ping(1) > 0
+        assert bus.faults.dropped == 1
+        assert 0 < len(reads) < 1000
+    finally:
+        driver.close()
