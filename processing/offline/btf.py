@@ -38,7 +38,15 @@ from processing.offline.radiometry import (
     frame_corrections,
 )
 from processing.offline.runner import StageSkipped, archive_calibration, frame_camera
-from processing.offline.texel_light import LampPositions, lamp_positions, texel_irradiance
+from processing.offline.texel_light import (
+    LampPositions,
+    LightResampling,
+    lamp_positions,
+    light_record,
+    per_texel_lights,
+    texel_irradiance,
+    texel_light_directions,
+)
 from processing.offline.texel_view import per_texel_views, slot_camera
 from processing.registration import FILTERS, rectify, register_capture
 from rig.archive import Archive
@@ -47,10 +55,13 @@ from rig.interchange import imported_normtextures
 from rig.kinds import rig_kind
 from rig.material import Radiometry, write_btf
 
-__all__ = ["VIEWS", "BtfSlot", "BtfStage", "resample_texels", "slot_normtextures", "slot_table"]
+__all__ = [
+    "DIRECTIONS", "BtfSlot", "BtfStage", "resample_texels", "slot_normtextures", "slot_table",
+]  # fmt: skip
 
-#: ``BtfStage.views``: each texel at its slot's nominal view, or resampled from its own.
-VIEWS = ("nominal", "per texel")
+#: ``BtfStage.views`` and ``.lights``: each texel at its slot's nominal direction, or
+#: resampled from its own.
+DIRECTIONS = ("nominal", "per texel")
 
 
 @dataclass(frozen=True)
@@ -73,7 +84,9 @@ class BtfStage:
     ``from_pose``: register every frame from its camera's pose, not its markers;
     ``views``: ``"nominal"`` (each texel keeps its slot's view direction) or ``"per
     texel"`` (each texel resampled from its own view directions onto the slots',
-    ``processing.offline.texel_view``; not with ``raw``)."""
+    ``processing.offline.texel_view``; not with ``raw``); ``lights``: the same for each
+    texel's own light directions to the placed lamps (``processing.offline.texel_light``;
+    not with ``raw``)."""
 
     size: int = 128
     components: int = 8
@@ -81,13 +94,16 @@ class BtfStage:
     filter: str = "box"
     from_pose: bool = False
     views: str = "nominal"
+    lights: str = "nominal"
     name: str = "btf"
 
     def __post_init__(self) -> None:
         if self.filter not in FILTERS:
             raise ValueError(f"BtfStage filter = {self.filter!r}: valid are {list(FILTERS)}")
-        if self.views not in VIEWS:
-            raise ValueError(f"BtfStage views = {self.views!r}: valid are {list(VIEWS)}")
+        for option in ("views", "lights"):
+            if getattr(self, option) not in DIRECTIONS:
+                raise ValueError(f"BtfStage {option} = {getattr(self, option)!r}: valid are "
+                                 f"{list(DIRECTIONS)}")  # fmt: skip
 
     def plan(self, archive: Archive) -> list[BtfSlot]:
         if not any(s.kind == "btf" for s in archive.step_table()):
@@ -110,6 +126,7 @@ class BtfStage:
             lamps = [r.lamp for r in archive.step_table() if r.index in dict(item.captures)]
             per_texel = self.views == "per texel" and not self.raw
             camera = slot_camera(archive, config, item) if per_texel else None
+            own = self._own_lights(archive, config, item, positions)
         cameras = [c for _, c in item.captures]
         record = _slot_record(corrections.record(cameras=cameras, lamps=lamps), positions, counts)
         result = {"slot": item, "flagged": flagged, "compressed": None, "radiometry": record,
@@ -117,7 +134,29 @@ class BtfStage:
         if flagged:
             return result
         stack = np.stack(textures).astype(np.float32)
-        return result | {"compressed": compress_view(stack, components=self.components)}
+        if isinstance(own, str):
+            lights = LightResampling(skipped=own)
+        else:
+            stack, lights = per_texel_lights(stack, *own)
+        compressed = compress_view(stack, components=self.components)
+        return result | {"compressed": compressed, "lights": lights}
+
+    def _own_lights(self, archive: Archive, config: RigConfig, item: BtfSlot, lamps):
+        """What ``per_texel_lights`` needs of a slot: each capture's (size, size, 3)
+        texel directions to its lamp and the plan's (L, 2) light directions; or why not."""
+        if self.raw or self.lights == "nominal":
+            return "--raw" if self.raw else "lights 'nominal'"
+        if imported_normtextures(archive.plan):
+            return "imported normtextures: no lamp to place"
+        if lamps is None:
+            return "no near lamp placed (directional lamps or a Bonn lab)"
+        records = {r.index: r for r in archive.step_table()}
+        own = [texel_light_directions(
+            lamps, records[step].lamp, sample_mm=config.holder.sample_mm, size=self.size,
+            arc_deg=records[step].actuators.get("arc_deg", 0.0),
+            turntable_deg=records[step].actuators.get("turntable_deg", 0.0),
+        ) for step, _ in item.captures]  # fmt: skip
+        return own, slot_table(archive).light_dirs_deg
 
     def write(self, group, archive: Archive, results) -> dict:
         results = sorted(results, key=lambda r: r["slot"].index)
@@ -152,6 +191,7 @@ class BtfStage:
                 f"{saturated} texel captures touch clipped pixels: stored as clipped "
                 "(a lower bound of their radiance)"
             )
+        radiometry = light_record(radiometry, [r["lights"] for r in results if "lights" in r])
         if self.raw or self.views == "nominal":
             why = "--raw" if self.raw else "views 'nominal'"
             radiometry = replace(radiometry, skipped=radiometry.skipped | {
