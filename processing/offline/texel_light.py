@@ -22,7 +22,7 @@ a cast shadow) is left in the data unless the stage asks for per-texel light
 directions (:func:`per_texel_lights`): then each texel's samples of a view
 slot, lit from the texel's own directions to the placed lamps, are resampled
 onto the plan's light directions (:mod:`processing.offline.texel_resample`,
-with weights exact for a cosine-weighted reflectance: a Lambertian texel's);
+on the horizontal plane: exact for a tilted Lambertian texel in these units);
 a texel whose nominal direction lies outside the hull of its own keeps its
 sample and is counted.
 """
@@ -202,7 +202,7 @@ def per_texel_lights(
     if why is None:
         try:
             plan = texel_resampling(np.asarray(nominal_deg, np.float64), np.stack(own),
-                                    exact_for="cosine")  # fmt: skip
+                                    projection="horizontal")  # fmt: skip
         except ValueError as err:  # the lights on one great circle
             why = f"the light directions span no hull ({err})"
     if why is not None:

@@ -21,7 +21,8 @@ SAMPLE_MM, N, RADIUS_MM = 100.0, 16, 650.0
 #: The coarse plan's lights: a ring at 15° and one at 45°
 NOMINAL = np.array([*[[15, p] for p in (0, 120, 240)], *[[45, p] for p in (0, 90, 180, 270)]],
                    float)  # fmt: skip
-#: A tilted Lambertian texel: its value is an analytic function of the light direction
+#: A tilted Lambertian texel: its value per unit irradiance on the reference plane,
+#: ρ n·l / cos θ_l, is an analytic function of the light direction
 NORMAL = np.array([0.3, -0.2, 1.0]) / np.linalg.norm([0.3, -0.2, 1.0])
 
 
@@ -37,8 +38,12 @@ def _own(lamps: LampPositions) -> list[np.ndarray]:
 
 
 def _lit(own: list[np.ndarray]) -> np.ndarray:
-    """(L, N, N, 1) float32: the tilted texel's cos θ to each light."""
-    return np.stack([o @ NORMAL for o in own])[..., None].astype(np.float32)
+    """(L, N, N, 1) float32: the tilted Lambertian texel's value under each light."""
+    return np.stack([_lambertian(o) for o in own])[..., None].astype(np.float32)
+
+
+def _lambertian(light: np.ndarray) -> np.ndarray:
+    return (light @ NORMAL) / light[..., 2]
 
 
 def test_a_texel_sees_the_lamp_where_the_simulator_puts_it():
@@ -59,19 +64,21 @@ def test_a_texel_sees_the_lamp_where_the_simulator_puts_it():
 
 
 def test_the_resampled_value_is_nearer_the_truth_at_the_nominal_light():
-    """Where a texel's own directions surround the nominal one the blend lands nearer
-    the texel's value there than its own sample; outside, the sample is kept as it was."""
+    """Where a texel's own directions surround the nominal one the blend lands on the
+    texel's value there, not its own sample's; outside, the sample is kept as it was."""
     own = _own(_lamps())
     textures = _lit(own)
     moved, record = per_texel_lights(textures, own, NOMINAL)
-    truth = (direction_vector(NOMINAL[:, 0], NOMINAL[:, 1]) @ NORMAL)[:, None, None]
+    truth = _lambertian(direction_vector(NOMINAL[:, 0], NOMINAL[:, 1]))[:, None, None]
     raw_error = np.abs(textures[..., 0] - truth)
     error = np.abs(moved[..., 0] - truth)
     kept = moved[..., 0] == textures[..., 0]
     inside = ~kept
     assert inside[:3].all()  # the 15° ring lies inside the hull of every texel's lights
-    assert error[inside].mean() < 0.2 * raw_error[inside].mean()
-    assert error[inside].max() < raw_error[inside].max()
+    assert raw_error[inside].mean() > 0.01  # the turn changes the value by ~1 %
+    # exact for a Lambertian texel (to float32); blended on each triangle's own plane
+    # it would be off by 0.003 on average, the weights' pull towards the sphere's inside
+    assert error[inside].max() < 1e-5
     assert moved.dtype == np.float32 and np.isfinite(moved).all()
     # the 45° ring is the hull's rim: about half its texels were lit from inside it
     assert record.skipped is None and record.captures == len(NOMINAL) * N * N
