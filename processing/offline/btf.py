@@ -41,11 +41,11 @@ from processing.offline.runner import StageSkipped, archive_calibration, frame_c
 from processing.offline.texel_light import (
     LampPositions,
     LightResampling,
+    lamp_mm,
     lamp_positions,
     light_record,
     per_texel_lights,
     texel_irradiance,
-    texel_light_directions,
 )
 from processing.offline.texel_view import per_texel_views, slot_camera
 from processing.registration import FILTERS, rectify, register_capture
@@ -137,13 +137,13 @@ class BtfStage:
         if isinstance(own, str):
             lights = LightResampling(skipped=own)
         else:
-            stack, lights = per_texel_lights(stack, *own)
+            stack, lights = per_texel_lights(stack, *own, sample_mm=config.holder.sample_mm)
         compressed = compress_view(stack, components=self.components)
         return result | {"compressed": compressed, "lights": lights}
 
     def _own_lights(self, archive: Archive, config: RigConfig, item: BtfSlot, lamps):
-        """What ``per_texel_lights`` needs of a slot: each capture's (size, size, 3)
-        texel directions to its lamp and the plan's (L, 2) light directions; or why not."""
+        """What ``per_texel_lights`` needs of a slot besides its normtextures: each
+        capture's lamp (``lamp_mm``) and the plan's (L, 2) light directions; or why not."""
         if self.raw or self.lights == "nominal":
             return "--raw" if self.raw else "lights 'nominal'"
         if imported_normtextures(archive.plan):
@@ -151,12 +151,11 @@ class BtfStage:
         if lamps is None:
             return "no near lamp placed (directional lamps or a Bonn lab)"
         records = {r.index: r for r in archive.step_table()}
-        own = [texel_light_directions(
-            lamps, records[step].lamp, sample_mm=config.holder.sample_mm, size=self.size,
-            arc_deg=records[step].actuators.get("arc_deg", 0.0),
+        sources = [lamp_mm(
+            lamps, records[step].lamp, arc_deg=records[step].actuators.get("arc_deg", 0.0),
             turntable_deg=records[step].actuators.get("turntable_deg", 0.0),
         ) for step, _ in item.captures]  # fmt: skip
-        return own, slot_table(archive).light_dirs_deg
+        return sources, slot_table(archive).light_dirs_deg
 
     def write(self, group, archive: Archive, results) -> dict:
         results = sorted(results, key=lambda r: r["slot"].index)

@@ -21,10 +21,9 @@ What the turn of the light's direction does to a tilted texel's shading (or to
 a cast shadow) is left in the data unless the stage asks for per-texel light
 directions (:func:`per_texel_lights`): then each texel's samples of a view
 slot, lit from the texel's own directions to the placed lamps, are resampled
-onto the plan's light directions (:mod:`processing.offline.texel_resample`,
-on the horizontal plane: exact for a tilted Lambertian texel in these units);
-a texel whose nominal direction lies outside the hull of its own keeps its
-sample and is counted.
+onto the plan's light directions (:mod:`processing.offline.texel_resample`),
+exactly for a tilted Lambertian texel; a texel whose nominal direction lies
+outside the hull of its own keeps its sample and is counted.
 """
 
 from __future__ import annotations
@@ -45,12 +44,12 @@ __all__ = [
     "IRRADIANCE_FLOOR",
     "LampPositions",
     "LightResampling",
+    "lamp_mm",
     "lamp_positions",
     "light_record",
     "per_texel_lights",
     "plane_irradiance",
     "texel_irradiance",
-    "texel_light_directions",
 ]
 
 #: A texel the lamp lights with less than this fraction of the centre's
@@ -121,9 +120,9 @@ def texel_irradiance(
     ratio : (size, size) float64, ≥ ``IRRADIANCE_FLOOR`` (1 for a directional lamp)
     floored : (size, size) bool, texels the lamp barely lights (ratio floored)
     """
-    if lamp not in positions.positions_mm:
+    source = lamp_mm(positions, lamp, arc_deg=arc_deg, turntable_deg=turntable_deg)
+    if source is None:
         return np.ones((size, size)), np.zeros((size, size), bool)
-    source = _lamp_mm(positions, lamp, arc_deg, turntable_deg)
     points = np.concatenate([texel_centers_mm(sample_mm, size), np.zeros((size, size, 1))], -1)
     centre = plane_irradiance(source, np.zeros(3))
     if not centre > 0:  # the lamp at or below the horizon: it lights nothing
@@ -139,21 +138,15 @@ def texel_irradiance(
     return np.maximum(ratio, IRRADIANCE_FLOOR), floored
 
 
-def _lamp_mm(positions: LampPositions, lamp: str, arc_deg: float, turntable_deg: float):
-    """(3,) mm, sample frame: the lamp's arc-0° position turned to the step's angles."""
-    return rotate_z(positions.positions_mm[lamp], arc_deg - turntable_deg)
-
-
-def texel_light_directions(
-    positions: LampPositions, lamp: str, *, sample_mm: float, size: int, arc_deg: float,
-    turntable_deg: float,
-) -> np.ndarray | None:  # fmt: skip
-    """(size, size, 3) unit vectors, sample frame, from each texel centre (z = 0) to a
-    step's lamp (placed as :func:`texel_irradiance` places it); None for a lamp not
-    placed (a directional one: every texel is lit from the same direction)."""
+def lamp_mm(
+    positions: LampPositions, lamp: str, *, arc_deg: float, turntable_deg: float
+) -> np.ndarray | None:
+    """(3,) mm, sample frame: a step's lamp, its arc-0° position turned by
+    ``arc_deg − turntable_deg`` about the vertical axis; None for a lamp not placed
+    (a directional one)."""
     if lamp not in positions.positions_mm:
         return None
-    return texel_directions(_lamp_mm(positions, lamp, arc_deg, turntable_deg), sample_mm, size)
+    return rotate_z(positions.positions_mm[lamp], arc_deg - turntable_deg)
 
 
 @dataclass(frozen=True)
@@ -174,17 +167,28 @@ class LightResampling:
 
 
 def per_texel_lights(
-    textures: np.ndarray, own: list[np.ndarray | None], nominal_deg: np.ndarray
-) -> tuple[np.ndarray, LightResampling]:
+    textures: np.ndarray, lamps_mm: list[np.ndarray | None], nominal_deg: np.ndarray, *,
+    sample_mm: float,
+) -> tuple[np.ndarray, LightResampling]:  # fmt: skip
     """One view slot's normtextures moved from each texel's own light directions onto
     the plan's.
+
+    A normtexture holds, at texel t under lamp k, ρ/π n·l_t · cos θ_c / cos θ_t for a
+    Lambertian texel (its irradiance divided out on the reference plane,
+    :func:`texel_irradiance`: exact for a flat texel). Times cos θ_t / cos θ_c it is
+    ρ/π n·l_t, linear in t's own direction l_t to the lamp, and blended with weights
+    that reproduce the nominal direction from the texel's own
+    (``texel_resampling(exact_for="linear")``) it is the value at the nominal light:
+    exact for a tilted Lambertian texel, whatever its tilt. Cast shadows and specular
+    lobes are interpolated as they fall.
 
     Parameters
     ----------
     textures : (L, n, n, C) float32, the slot's normtexture under each light
-    own : L × (n, n, 3) unit vectors, each texel's own direction to light l's lamp
-        (:func:`texel_light_directions`), or None where the lamp is not placed
+    lamps_mm : L × (3,) mm, sample frame, each capture's lamp (:func:`lamp_mm`), or None
+        where the lamp is not placed
     nominal_deg : (L, 2) the plan's (θ, φ) light directions, sample frame, degrees
+    sample_mm : the sample's side, mm
 
     Returns
     -------
@@ -193,24 +197,29 @@ def per_texel_lights(
     record : LightResampling
     """
     why = None
-    if any(o is None for o in own):
+    if any(source is None for source in lamps_mm):
         why = "directional lamps: every texel is lit from the slot's light direction"
-    elif len(own) < 3:
-        why = f"{len(own)} light(s) per view: no hull of light directions to resample in"
-    elif min(float(o[..., 2].min()) for o in own) <= 0.0:
-        why = "a lamp at or below some texel's horizon"
+    elif len(lamps_mm) < 3:
+        why = f"{len(lamps_mm)} light(s) per view: no hull of light directions to resample in"
+    else:
+        n = textures.shape[1]
+        own = np.stack([texel_directions(source, sample_mm, n) for source in lamps_mm])
+        if not own[..., 2].min() > 0.0:
+            why = "a lamp at or below some texel's horizon"
     if why is None:
         try:
-            plan = texel_resampling(np.asarray(nominal_deg, np.float64), np.stack(own),
-                                    projection="horizontal")  # fmt: skip
+            plan = texel_resampling(np.asarray(nominal_deg, np.float64), own, exact_for="linear")
         except ValueError as err:  # the lights on one great circle
             why = f"the light directions span no hull ({err})"
     if why is not None:
         return textures, LightResampling(skipped=why)
+    centre_z = np.array([s[2] / np.linalg.norm(s) for s in lamps_mm])
+    linear = textures * (own[..., 2] / centre_z[:, None, None])[..., None].astype(np.float32)
     moved = np.stack([
-        blended(plan, i, {int(k): textures[k] for k in np.unique(plan.indices[i])})
+        blended(plan, i, {int(k): linear[k] for k in np.unique(plan.indices[i])})
         for i in range(len(textures))
     ])  # fmt: skip
+    moved = np.where(plan.outside[..., None], textures, moved)  # kept as measured
     kept = plan.turn_deg[plan.outside]
     worst = float(kept.max()) if kept.size else 0.0
     return moved, LightResampling(int(plan.outside.sum()), plan.outside.size, worst)

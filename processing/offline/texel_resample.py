@@ -7,17 +7,16 @@ view slots, or one slot's lights) was measured at a texel from S directions of
 its own, the value at nominal direction j is the barycentric blend, on the
 sphere, of the texel's samples at the corners of the triangle that holds j (the
 triangulation of the nominal directions, seed 000 eq. (5), with the texel's own
-directions as its corners). The weights are barycentric in a gnomonic
-projection (``projection``), and reproduce exactly what is linear there:
+directions as its corners). The weights w_k of corners d_k solve
+Σ w_k d_k = q for the nominal direction q and reproduce exactly (``exact_for``):
 
-- ``"face"``: onto each triangle's plane (seed 000's): a value the direction does
-  not change, as a Lambertian texel's radiance over views;
-- ``"horizontal"``: onto the plane z = 1, d → d / d_z: also a tilted Lambertian
-  texel's value per unit irradiance on the reference plane, ρ n·l / cos θ_l,
-  as the btf stage stores it over lights. The triangles are tens of degrees
-  across while a texel's directions turn by a few: blended on the face plane,
-  such a value is off by the weights' pull of 1 − |Σ w_k d_k| (1–3 % at a 3°
-  turn across 45° gaps), as much as the turn itself changes it.
+- ``"constant"``: w normalised to sum to 1 (seed 000's barycentric weights): a value
+  the direction does not change, as a Lambertian texel's radiance over views;
+- ``"linear"``: w as solved: a value linear in the direction vector, as a Lambertian
+  texel's ρ/π n·l per unit irradiance of a distant light over lights. The
+  triangles are tens of degrees across while a texel's directions turn by a few:
+  blended with weights normalised, such a value is off by 1 − |Σ ŵ_k d_k|
+  (1–3 % at a 3° turn across 45° gaps), as much as the turn itself changes it.
 
 Where a texel's own directions do not surround the nominal one (outside the
 hull of what that texel was measured at: the holding triangle reaches below the
@@ -35,7 +34,7 @@ import numpy as np
 
 from rig.geometry import direction_vector, spherical_triangulation, texel_centers_mm
 
-__all__ = ["PROJECTIONS", "TexelResampling", "blended", "texel_directions", "texel_resampling"]
+__all__ = ["EXACT_FOR", "TexelResampling", "blended", "texel_directions", "texel_resampling"]
 
 #: Weights above −this count as inside a triangle (rounding on its edges).
 _EDGE_TOL = 1e-9
@@ -67,12 +66,12 @@ def texel_directions(point_mm: np.ndarray, sample_mm: float, size: int) -> np.nd
     return rays / np.linalg.norm(rays, axis=-1, keepdims=True)
 
 
-#: ``texel_resampling``'s ``projection``: the planes its weights are barycentric on.
-PROJECTIONS = ("face", "horizontal")
+#: ``texel_resampling``'s ``exact_for``: the dependences on direction it reproduces.
+EXACT_FOR = ("constant", "linear")
 
 
 def texel_resampling(
-    nominal_deg: np.ndarray, own: np.ndarray, *, projection: str = "face"
+    nominal_deg: np.ndarray, own: np.ndarray, *, exact_for: str = "constant"
 ) -> TexelResampling:
     """Blend weights that move every texel's samples onto the nominal directions.
 
@@ -82,15 +81,15 @@ def texel_resampling(
         one great circle (else ValueError)
     own : (S, n, n, 3) unit vectors, each texel's own direction per table entry
         (:func:`texel_directions`), above the horizon
-    projection : ``"face"`` or ``"horizontal"`` (:data:`PROJECTIONS`, module docstring)
+    exact_for : ``"constant"`` or ``"linear"`` (:data:`EXACT_FOR`, module docstring)
 
     Returns
     -------
     TexelResampling
     """
-    if projection not in PROJECTIONS:
-        raise ValueError(f"texel_resampling projection = {projection!r}: valid are "
-                         f"{list(PROJECTIONS)}")  # fmt: skip
+    if exact_for not in EXACT_FOR:
+        raise ValueError(f"texel_resampling exact_for = {exact_for!r}: valid are "
+                         f"{list(EXACT_FOR)}")  # fmt: skip
     nominal = direction_vector(nominal_deg[:, 0], nominal_deg[:, 1])
     mesh = spherical_triangulation(nominal)  # the topology: the nominal table's
     owner = mesh.owner  # (T, 3) table entry of each corner
@@ -111,11 +110,9 @@ def texel_resampling(
         wq = np.take_along_axis(w, best[..., None, None], axis=2)[:, :, 0]
         below = (mirrored[best] & (wq > _EDGE_TOL)).any(axis=-1)
         out = below | (wq.min(axis=-1) < -_EDGE_TOL)
-        if projection == "horizontal":  # Σ w_k d_k = q holds; on z = 1: w_k d_kz / q_z
-            heights = np.take_along_axis(corners[..., 2], best[..., None, None], axis=2)[:, :, 0]
-            wq = wq * np.abs(heights) / nominal[j, 2]
         wq = np.clip(wq, 0.0, None)
-        wq /= wq.sum(axis=-1, keepdims=True)
+        if exact_for == "constant":
+            wq /= wq.sum(axis=-1, keepdims=True)
         indices[j] = np.where(out[..., None], j, owner[best])
         weights[j] = np.where(out[..., None], np.array([1.0, 0.0, 0.0]), wq)
         outside[j] = out
