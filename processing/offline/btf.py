@@ -126,7 +126,8 @@ class BtfStage:
             lamps = [r.lamp for r in archive.step_table() if r.index in dict(item.captures)]
             per_texel = self.views == "per texel" and not self.raw
             camera = slot_camera(archive, config, item) if per_texel else None
-            own = self._own_lights(archive, config, item, positions)
+            why_not = self._lights_kept(archive, positions)
+            own = None if why_not else _slot_lamps(archive, item, positions)
         cameras = [c for _, c in item.captures]
         record = _slot_record(corrections.record(cameras=cameras, lamps=lamps), positions, counts)
         result = {"slot": item, "flagged": flagged, "compressed": None, "radiometry": record,
@@ -134,28 +135,22 @@ class BtfStage:
         if flagged:
             return result
         stack = np.stack(textures).astype(np.float32)
-        if isinstance(own, str):
-            lights = LightResampling(skipped=own)
+        if why_not:
+            lights = LightResampling(skipped=why_not)
         else:
             stack, lights = per_texel_lights(stack, *own, sample_mm=config.holder.sample_mm)
         compressed = compress_view(stack, components=self.components)
         return result | {"compressed": compressed, "lights": lights}
 
-    def _own_lights(self, archive: Archive, config: RigConfig, item: BtfSlot, lamps):
-        """What ``per_texel_lights`` needs of a slot besides its normtextures: each
-        capture's lamp (``lamp_mm``) and the plan's (L, 2) light directions; or why not."""
+    def _lights_kept(self, archive: Archive, lamps: LampPositions | None) -> str | None:
+        """Why every texel keeps its captures' light directions, or None: resampled."""
         if self.raw or self.lights == "nominal":
             return "--raw" if self.raw else "lights 'nominal'"
         if imported_normtextures(archive.plan):
             return "imported normtextures: no lamp to place"
         if lamps is None:
             return "no near lamp placed (directional lamps or a Bonn lab)"
-        records = {r.index: r for r in archive.step_table()}
-        sources = [lamp_mm(
-            lamps, records[step].lamp, arc_deg=records[step].actuators.get("arc_deg", 0.0),
-            turntable_deg=records[step].actuators.get("turntable_deg", 0.0),
-        ) for step, _ in item.captures]  # fmt: skip
-        return sources, slot_table(archive).light_dirs_deg
+        return None
 
     def write(self, group, archive: Archive, results) -> dict:
         results = sorted(results, key=lambda r: r["slot"].index)
@@ -296,6 +291,17 @@ def slot_normtextures(
                 counts[f"irradiance {record.lamp}"] += int(floored.sum())
         textures.append((texture / record.exposures_s[0]).astype(np.float32))
     return textures, flagged, counts
+
+
+def _slot_lamps(archive: Archive, item: BtfSlot, lamps: LampPositions):
+    """What ``per_texel_lights`` needs of a slot besides its normtextures: each capture's
+    lamp (``lamp_mm``, (3,) mm or None) and the plan's (L, 2) light directions."""
+    records = {r.index: r for r in archive.step_table()}
+    sources = [lamp_mm(
+        lamps, records[step].lamp, arc_deg=records[step].actuators.get("arc_deg", 0.0),
+        turntable_deg=records[step].actuators.get("turntable_deg", 0.0),
+    ) for step, _ in item.captures]  # fmt: skip
+    return sources, slot_table(archive).light_dirs_deg
 
 
 def _clipped_texels(frame, reg, config: RigConfig, camera: str, lens, size: int, filter) -> int:
