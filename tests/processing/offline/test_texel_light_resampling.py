@@ -11,7 +11,7 @@ from processing.offline.texel_light import (
     light_record,
     per_texel_lights,
 )
-from processing.offline.texel_resample import texel_directions
+from processing.offline.texel_resample import texel_directions, texel_resampling
 from rig.config import RigConfig
 from rig.geometry import direction_vector, texel_centers_mm
 from rig.kinematics import lamp_position_mm
@@ -82,6 +82,12 @@ def test_the_resampled_value_is_nearer_the_truth_at_the_nominal_light():
     assert record.skipped is None and record.captures == len(NOMINAL) * N * N
     assert record.outside == kept.sum() and 0.2 < kept[3:].mean() < 0.8
     assert 0.0 < record.worst_deg < 6.0
+
+
+def test_an_unknown_blend_names_the_valid_ones():
+    with pytest.raises(ValueError, match=r"exact_for = 'cosine': valid are \['constant', "):
+        own = np.stack([texel_directions(s, SAMPLE_MM, N) for s in _sources(_lamps())])
+        texel_resampling(NOMINAL, own, exact_for="cosine")
 
 
 def test_lamps_at_infinity_need_no_resampling():
