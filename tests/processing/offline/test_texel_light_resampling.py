@@ -85,8 +85,8 @@ def test_the_resampled_value_is_nearer_the_truth_at_the_nominal_light():
 
 
 def test_an_unknown_blend_names_the_valid_ones():
+    own = np.stack([texel_directions(s, SAMPLE_MM, N) for s in _sources(_lamps())])
     with pytest.raises(ValueError, match=r"exact_for = 'cosine': valid are \['constant', "):
-        own = np.stack([texel_directions(s, SAMPLE_MM, N) for s in _sources(_lamps())])
         texel_resampling(NOMINAL, own, exact_for="cosine")
 
 
