@@ -16,7 +16,7 @@ directions as its corners). The weights w_k of corners d_k solve
   texel's ρ/π n·l per unit irradiance of a distant light over lights. The
   triangles are tens of degrees across while a texel's directions turn by a few:
   blended with weights normalised, such a value is off by 1 − |Σ ŵ_k d_k|
-  (1–3 % at a 3° turn across 45° gaps), as much as the turn itself changes it.
+  (about 2 % across the coarse plan's 45° triangles), as much as the turn changes it.
 
 Where a texel's own directions do not surround the nominal one (outside the
 hull of what that texel was measured at: the holding triangle reaches below the
