@@ -29,7 +29,9 @@ handed what the simulator knows exactly (:data:`REGISTRATION_TERMS`):
 
 Three more terms are processing's own choices, read from every run: the
 per-texel near-lamp irradiance (each session processed as it is, and
-``raw``: without it, :mod:`processing.offline.texel_light`), compression (the
+``raw``: without it, :mod:`processing.offline.texel_light`; more ways in
+:data:`PROCESSINGS`, e.g. each texel's own light directions resampled onto the
+plan's), compression (the
 per-view PCA at c against all its components, lossless) and interpolation
 (the material at held-out directions against the captured pairs nearest
 them). Everything is scored against the footprint truth
@@ -77,6 +79,7 @@ from studies.render_loop import (
 
 __all__ = [
     "CONFIGS",
+    "PROCESSINGS",
     "REGISTRATION_TERMS",
     "TERMS",
     "components_of",
@@ -114,6 +117,15 @@ PIXEL_SUPERSAMPLE = 3
 
 #: The runs: which terms are off, all on first and all off last.
 CONFIGS: tuple[tuple[str, ...], ...] = ((), *((term,) for term in TERMS), tuple(TERMS))
+
+#: How each session can be processed: label → the btf stage's options. ``run`` takes
+#: the first two unless asked.
+PROCESSINGS: dict[str, dict] = {
+    "raw": {"raw": True},
+    "irradiance per texel": {},
+    "lights per texel": {"lights": "per texel"},
+    "lights and views per texel": {"lights": "per texel", "views": "per texel"},
+}
 
 #: The per-view PCA components scored beside the lossless model.
 COMPONENTS = 4
@@ -203,15 +215,18 @@ def _converged(material, sim, scale):
 def run(
     quick: bool = False, *, scenes: tuple[str, ...] = tuple(SCENES),
     plans: tuple[str, ...] | None = None, runs: tuple[tuple[str, ...], ...] = CONFIGS,
+    processings: tuple[str, ...] = ("raw", "irradiance per texel"),
 ) -> list[dict]:  # fmt: skip
     """``quick``: 32² texels, the coarse plan; else 64² texels, the coarse and
     medium plans. ``scenes``, ``plans``: which of the render loop's to run;
     ``runs``: which terms are off in each run (default :data:`CONFIGS`; the run
-    with the most terms off converges the truth).
+    with the most terms off converges the truth); ``processings``: which of
+    :data:`PROCESSINGS` each session goes through.
 
     Rows, one per (scene, plan, run, processing, c): ``scene``, ``plan``, ``run``
     (which terms are off), ``off`` (their names), ``processing`` (``raw``, or the
-    near-lamp ``irradiance per texel`` divided out), ``components`` (c, or every component:
+    near-lamp ``irradiance per texel`` divided out, or another of
+    :data:`PROCESSINGS`), ``components`` (c, or every component:
     ``lossless``), ``psnr_captured_db`` (the material at the captured pairs
     nearest the held-out ones against the truth there), ``noise_floor_captured_db``
     (what that score would be if the sensor's noise were the only error: derived
@@ -226,16 +241,18 @@ def run(
     size = 32 if quick else 64
     plans = plans if plans is not None else (("coarse",) if quick else ("coarse", "medium"))
     unknown = [s for s in scenes if s not in SCENES] + [p for p in plans if p not in PLANS]
-    if unknown:
+    unknown += [p for p in processings if p not in PROCESSINGS]
+    if unknown or not processings:
         raise RigError(
-            f"unknown scene or plan {unknown}; valid scenes {list(SCENES)}, plans {list(PLANS)}"
+            f"unknown scene, plan or processing {unknown}; valid scenes {list(SCENES)}, "
+            f"plans {list(PLANS)}, processings {list(PROCESSINGS)} (at least one)"
         )
     rows = []
     for name in scenes:
         with contextlib.ExitStack() as stack:
             sim = stack.enter_context(Simulator(scene_from_dict(SCENES[name])))
             for plan in plans:
-                rows += _plan_rows(name, plan, sim, size, runs)
+                rows += _plan_rows(name, plan, sim, size, runs, processings)
     return rows
 
 
@@ -251,7 +268,7 @@ def _sensor(archive: Path, material, scene, config: RigConfig, filter: str) -> d
             "channels": camera.channels, "noise": noise}  # fmt: skip
 
 
-def _plan_rows(name: str, plan: str, sim: Simulator, size: int, runs) -> list[dict]:
+def _plan_rows(name: str, plan: str, sim: Simulator, size: int, runs, processings) -> list[dict]:
     measured = {}
     lights = len(parse_plan(plan_toml(plan)).captures.btf.lights.resolve().directions)
     sessions: dict[tuple, list] = {}  # runs that differ in registration share the frames
@@ -265,22 +282,23 @@ def _plan_rows(name: str, plan: str, sim: Simulator, size: int, runs) -> list[di
             for off in group:
                 options = {k: v for t in off for k, v in REGISTRATION_TERMS.get(t, {}).items()}
                 # as many components as lights: the per-view PCA is then lossless
-                for raw in (False, True):
-                    material = process(archive, size=size, components=lights, raw=raw, **options)
+                for way in processings:
+                    material = process(archive, size=size, components=lights,
+                                       **PROCESSINGS[way], **options)  # fmt: skip
                     sensor = _sensor(archive, material, scene, config, options.get("filter", "box"))
-                    measured[off, raw] = (material, scale, sensor)
+                    measured[off, way] = (material, scale, sensor)
     strictest = max(runs, key=len)  # the highest scores ask the most of the truth
-    first = measured[strictest, False]
+    first = measured[strictest, processings[-1]]
     held_truth, captured_truth, rays, change = _converged(first[0], sim, first[1])
     rows = []
     for off in runs:
-        for raw in (True, False):
-            material, scale, sensor = measured[off, raw]
+        for way in processings:
+            material, scale, sensor = measured[off, way]
             lossless = components_of(material.btf)
             for c, label in ((COMPONENTS, COMPONENTS), (lossless, "lossless")):
                 rows.append({
                     "scene": name, "plan": plan, "run": _label(off), "off": list(off),
-                    "processing": "raw" if raw else "irradiance per texel", "components": label,
+                    "processing": way, "components": label,
                     **_scores(material, scale, (held_truth, captured_truth), c, sensor),
                     "truth_rays": rays, "truth_change_db": change,
                 })  # fmt: skip
@@ -311,8 +329,8 @@ def plot(rows: list[dict], path: str | Path) -> None:
                            if (r["run"], r["processing"]) == run and r["components"] == c)
                       for run in runs]  # fmt: skip
             ax.bar(x + (k - 1.5) * 0.2, values, 0.2, label=label)
-        short = {"raw": "raw"}  # the corrected processing's label is long
-        ax.set_xticks(x, [f"{run}, {short.get(p, 'corrected')}" for run, p in runs],
+        short = {"irradiance per texel": "corrected"}  # the default processing's label is long
+        ax.set_xticks(x, [f"{run}, {short.get(p, p)}" for run, p in runs],
                       rotation=35, ha="right", fontsize=7)  # fmt: skip
         ax.set_ylim(np.floor(low) - 2, None)
         ax.set_title(f"{scene}, {plan} plan", fontsize=9)

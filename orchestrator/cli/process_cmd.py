@@ -72,8 +72,8 @@ def archive_flagged_lines(archive_path: Path) -> list[str]:
         return flagged_lines(flag_summary(flags_of(archive.step_table())))
 
 
-#: --views as the btf stage names them (processing.offline.btf.VIEWS)
-_VIEWS = {"nominal": "nominal", "per-texel": "per texel"}
+#: --views and --lights as the btf stage names them (processing.offline.btf.DIRECTIONS)
+_DIRECTIONS = {"nominal": "nominal", "per-texel": "per texel"}
 #: the stages with preview PNGs, and what writes them
 _PREVIEWS = {"ps": write_ps_previews, "mdf": write_mdf_previews}
 
@@ -121,6 +121,15 @@ def process(
             "views; texels outside the measured directions are kept and counted)",
         ),
     ] = "nominal",
+    lights: Annotated[
+        str,
+        typer.Option(
+            "--lights",
+            help="btf: nominal (each texel at its capture's light direction) or per-texel "
+            "(each texel's own direction to the placed lamp, resampled onto the plan's "
+            "lights; texels outside the measured directions are kept and counted)",
+        ),
+    ] = "nominal",
 ) -> None:
     """Run processing stages over an archive into its material/ group.
 
@@ -154,11 +163,13 @@ def process(
         )
     if previews is not None and any(n in _PREVIEWS for n in names):
         prepare_folder(previews, f"--previews {previews}")
-    if views not in _VIEWS:
-        raise ConfigError(f"--views {views!r}: valid are {', '.join(_VIEWS)}")
+    for option, value in (("--views", views), ("--lights", lights)):
+        if value not in _DIRECTIONS:
+            raise ConfigError(f"{option} {value!r}: valid are {', '.join(_DIRECTIONS)}")
     flat = flat_beyond_mm or None
     options = {
-        "btf": {"size": size, "components": components, "raw": raw, "views": _VIEWS[views]},
+        "btf": {"size": size, "components": components, "raw": raw, "views": _DIRECTIONS[views],
+                "lights": _DIRECTIONS[lights]},
         "ps": {"size": size, "raw": raw, "flat_beyond_mm": flat},
         "mdf": {"size": size}, "pbr": {},
     }  # fmt: skip

@@ -42,7 +42,11 @@ from processing.offline.runner import StageSkipped, archive_calibration, frame_c
 from processing.offline.texel_light import (
     IRRADIANCE_FLOOR,
     LampPositions,
+    LightResampling,
+    lamp_mm,
     lamp_positions,
+    light_record,
+    per_texel_lights,
     texel_irradiance,
 )
 from processing.offline.texel_view import per_texel_views, slot_camera
@@ -53,10 +57,13 @@ from rig.interchange import imported_normtextures
 from rig.kinds import rig_kind
 from rig.material import Radiometry, write_btf
 
-__all__ = ["VIEWS", "BtfSlot", "BtfStage", "resample_texels", "slot_normtextures", "slot_table"]
+__all__ = [
+    "DIRECTIONS", "BtfSlot", "BtfStage", "resample_texels", "slot_normtextures", "slot_table",
+]  # fmt: skip
 
-#: ``BtfStage.views``: each texel at its slot's nominal view, or resampled from its own.
-VIEWS = ("nominal", "per texel")
+#: ``BtfStage.views`` and ``.lights``: each texel at its slot's nominal direction, or
+#: resampled from its own.
+DIRECTIONS = ("nominal", "per texel")
 
 
 @dataclass(frozen=True)
@@ -79,7 +86,9 @@ class BtfStage:
     ``from_pose``: register every frame from its camera's pose, not its markers;
     ``views``: ``"nominal"`` (each texel keeps its slot's view direction) or ``"per
     texel"`` (each texel resampled from its own view directions onto the slots',
-    ``processing.offline.texel_view``; not with ``raw``)."""
+    ``processing.offline.texel_view``; not with ``raw``); ``lights``: the same for each
+    texel's own light directions to the placed lamps (``processing.offline.texel_light``;
+    not with ``raw``)."""
 
     size: int = 128
     components: int = 8
@@ -87,13 +96,16 @@ class BtfStage:
     filter: str = "box"
     from_pose: bool = False
     views: str = "nominal"
+    lights: str = "nominal"
     name: str = "btf"
 
     def __post_init__(self) -> None:
         if self.filter not in FILTERS:
             raise ValueError(f"BtfStage filter = {self.filter!r}: valid are {list(FILTERS)}")
-        if self.views not in VIEWS:
-            raise ValueError(f"BtfStage views = {self.views!r}: valid are {list(VIEWS)}")
+        for option in ("views", "lights"):
+            if getattr(self, option) not in DIRECTIONS:
+                raise ValueError(f"BtfStage {option} = {getattr(self, option)!r}: valid are "
+                                 f"{list(DIRECTIONS)}")  # fmt: skip
 
     def plan(self, archive: Archive) -> list[BtfSlot]:
         if not any(s.kind == "btf" for s in archive.step_table()):
@@ -116,6 +128,8 @@ class BtfStage:
             lamps = [r.lamp for r in archive.step_table() if r.index in dict(item.captures)]
             per_texel = self.views == "per texel" and not self.raw
             camera = slot_camera(archive, config, item) if per_texel else None
+            why_not = self._lights_kept(archive, positions)
+            own = None if why_not else _slot_lamps(archive, item, positions)
         cameras = [c for _, c in item.captures]
         record = _slot_record(corrections.record(cameras=cameras, lamps=lamps), positions)
         result = {"slot": item, "flagged": flagged, "compressed": None, "radiometry": record,
@@ -123,7 +137,22 @@ class BtfStage:
         if flagged:
             return result
         stack = np.stack(textures).astype(np.float32)
-        return result | {"compressed": compress_view(stack, components=self.components)}
+        if why_not:
+            lights = LightResampling(skipped=why_not)
+        else:
+            stack, lights = per_texel_lights(stack, *own, sample_mm=config.holder.sample_mm)
+        compressed = compress_view(stack, components=self.components)
+        return result | {"compressed": compressed, "lights": lights}
+
+    def _lights_kept(self, archive: Archive, lamps: LampPositions | None) -> str | None:
+        """Why every texel keeps its captures' light directions, or None: resampled."""
+        if self.raw or self.lights == "nominal":
+            return "--raw" if self.raw else "lights 'nominal'"
+        if imported_normtextures(archive.plan):
+            return "imported normtextures: no lamp to place"
+        if lamps is None:
+            return "no near lamp placed (directional lamps or a Bonn lab)"
+        return None
 
     def write(self, group, archive: Archive, results) -> dict:
         results = sorted(results, key=lambda r: r["slot"].index)
@@ -153,6 +182,7 @@ class BtfStage:
         flagged = [f for r in results for f in r["flagged"]]
         radiometry = _merged([r["radiometry"] for r in results])
         radiometry.skipped.update(_texel_flags(sum((r["counts"] for r in results), Counter())))
+        radiometry = light_record(radiometry, [r["lights"] for r in results if "lights" in r])
         if self.raw or self.views == "nominal":
             why = "--raw" if self.raw else "views 'nominal'"
             radiometry = replace(radiometry, skipped=radiometry.skipped | {
@@ -261,6 +291,17 @@ def slot_normtextures(
                 counts[f"irradiance {record.lamp}"] += int(floored.sum())
         textures.append((texture / record.exposures_s[0]).astype(np.float32))
     return textures, flagged, counts
+
+
+def _slot_lamps(archive: Archive, item: BtfSlot, lamps: LampPositions):
+    """What ``per_texel_lights`` needs of a slot besides its normtextures: each capture's
+    lamp (``lamp_mm``, (3,) mm or None) and the plan's (L, 2) light directions."""
+    records = {r.index: r for r in archive.step_table()}
+    sources = [lamp_mm(
+        lamps, records[step].lamp, arc_deg=records[step].actuators.get("arc_deg", 0.0),
+        turntable_deg=records[step].actuators.get("turntable_deg", 0.0),
+    ) for step, _ in item.captures]  # fmt: skip
+    return sources, slot_table(archive).light_dirs_deg
 
 
 def _clipped_texels(frame, reg, config: RigConfig, camera: str, lens, size: int, filter) -> int:

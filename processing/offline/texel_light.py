@@ -15,27 +15,39 @@ amount).
 Where the lamps stood comes from the archive's calibration
 (``rig calibrate lamps``: a near lamp's ``position_mm``) where it has one, else
 from the rig config's lamp geometry (the nominal light arc); the material
-records which. Directional lamps give every texel the same irradiance. What the
-turn of the light's direction does to a tilted texel's shading (or to a cast
-shadow) is not corrected: the texel keeps the slot's light direction.
+records which. Directional lamps give every texel the same irradiance.
+
+What the turn of the light's direction does to a tilted texel's shading (or to
+a cast shadow) is left in the data unless the stage asks for per-texel light
+directions (:func:`per_texel_lights`): then each texel's samples of a view
+slot, lit from the texel's own directions to the placed lamps, are resampled
+onto the plan's light directions (:mod:`processing.offline.texel_resample`),
+exactly for a tilted Lambertian texel; a texel whose nominal direction lies
+outside the hull of its own keeps its sample and is counted.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
+from processing.offline.texel_resample import blended, texel_directions, texel_resampling
 from rig.calfile import CalibrationFile
 from rig.config import RigConfig
 from rig.geometry import texel_centers_mm
 from rig.kinds import rig_kind
 from rig.kinematics import rotate_z
+from rig.material import Radiometry
 
 __all__ = [
     "IRRADIANCE_FLOOR",
     "LampPositions",
+    "LightResampling",
+    "lamp_mm",
     "lamp_positions",
+    "light_record",
+    "per_texel_lights",
     "plane_irradiance",
     "texel_irradiance",
 ]
@@ -108,9 +120,9 @@ def texel_irradiance(
     ratio : (size, size) float64, ≥ ``IRRADIANCE_FLOOR`` (1 for a directional lamp)
     floored : (size, size) bool, texels the lamp barely lights (ratio floored)
     """
-    if lamp not in positions.positions_mm:
+    source = lamp_mm(positions, lamp, arc_deg=arc_deg, turntable_deg=turntable_deg)
+    if source is None:
         return np.ones((size, size)), np.zeros((size, size), bool)
-    source = rotate_z(positions.positions_mm[lamp], arc_deg - turntable_deg)
     points = np.concatenate([texel_centers_mm(sample_mm, size), np.zeros((size, size, 1))], -1)
     centre = plane_irradiance(source, np.zeros(3))
     if not centre > 0:  # the lamp at or below the horizon: it lights nothing
@@ -124,3 +136,116 @@ def texel_irradiance(
         ratio = np.where(cos_off >= np.cos(np.deg2rad(spec.spot_cutoff_deg)), ratio, 0.0)
     floored = ratio < IRRADIANCE_FLOOR
     return np.maximum(ratio, IRRADIANCE_FLOOR), floored
+
+
+def lamp_mm(
+    positions: LampPositions, lamp: str, *, arc_deg: float, turntable_deg: float
+) -> np.ndarray | None:
+    """(3,) mm, sample frame: a step's lamp, its arc-0° position turned by
+    ``arc_deg − turntable_deg`` about the vertical axis; None for a lamp not placed
+    (a directional one)."""
+    if lamp not in positions.positions_mm:
+        return None
+    return rotate_z(positions.positions_mm[lamp], arc_deg - turntable_deg)
+
+
+@dataclass(frozen=True)
+class LightResampling:
+    """What :func:`per_texel_lights` did to one view slot's texel captures.
+
+    outside : texel captures whose nominal light direction lies outside the hull of the
+        texel's own: kept as measured
+    captures : texel captures in all (lights × texels)
+    worst_deg : the largest turn between own and nominal direction among those kept (°)
+    skipped : why nothing was resampled (every texel keeps its own light), or None
+    """
+
+    outside: int = 0
+    captures: int = 0
+    worst_deg: float = 0.0
+    skipped: str | None = None
+
+
+def per_texel_lights(
+    textures: np.ndarray, lamps_mm: list[np.ndarray | None], nominal_deg: np.ndarray, *,
+    sample_mm: float,
+) -> tuple[np.ndarray, LightResampling]:  # fmt: skip
+    """One view slot's normtextures moved from each texel's own light directions onto
+    the plan's.
+
+    A normtexture holds, at texel t under lamp k, ρ/π n·l_t · cos θ_c / cos θ_t for a
+    Lambertian texel (its irradiance divided out on the reference plane,
+    :func:`texel_irradiance`: exact for a flat texel). Times cos θ_t / cos θ_c it is
+    ρ/π n·l_t, linear in t's own direction l_t to the lamp, and blended with weights
+    that reproduce the nominal direction from the texel's own
+    (``texel_resampling(exact_for="linear")``) it is the value at the nominal light:
+    exact for a tilted Lambertian texel, whatever its tilt. Cast shadows and specular
+    lobes are interpolated as they fall.
+
+    Parameters
+    ----------
+    textures : (L, n, n, C) float32, the slot's normtexture under each light
+    lamps_mm : L × (3,) mm, sample frame, each capture's lamp (:func:`lamp_mm`), or None
+        where the lamp is not placed
+    nominal_deg : (L, 2) the plan's (θ, φ) light directions, sample frame, degrees
+    sample_mm : the sample's side, mm
+
+    Returns
+    -------
+    textures : (L, n, n, C) float32, at the nominal light directions where each texel's
+        own surround them, as measured elsewhere (``textures`` itself when skipped)
+    record : LightResampling
+    """
+    why = None
+    if any(source is None for source in lamps_mm):
+        why = "directional lamps: every texel is lit from the slot's light direction"
+    elif len(lamps_mm) < 3:
+        why = f"{len(lamps_mm)} light(s) per view: no hull of light directions to resample in"
+    else:
+        n = textures.shape[1]
+        own = np.stack([texel_directions(source, sample_mm, n) for source in lamps_mm])
+        if not own[..., 2].min() > 0.0:
+            why = "a lamp at or below some texel's horizon"
+    if why is None:
+        try:
+            plan = texel_resampling(np.asarray(nominal_deg, np.float64), own, exact_for="linear")
+        except ValueError as err:  # the lights on one great circle
+            why = f"the light directions span no hull ({err})"
+    if why is not None:
+        return textures, LightResampling(skipped=why)
+    centre_z = np.array([s[2] / np.linalg.norm(s) for s in lamps_mm])
+    linear = textures * (own[..., 2] / centre_z[:, None, None])[..., None].astype(np.float32)
+    moved = np.stack([
+        blended(plan, i, {int(k): linear[k] for k in np.unique(plan.indices[i])})
+        for i in range(len(textures))
+    ])  # fmt: skip
+    moved = np.where(plan.outside[..., None], textures, moved)  # kept as measured
+    kept = plan.turn_deg[plan.outside]
+    worst = float(kept.max()) if kept.size else 0.0
+    return moved, LightResampling(int(plan.outside.sum()), plan.outside.size, worst)
+
+
+def light_record(radiometry: Radiometry, slots: list[LightResampling]) -> Radiometry:
+    """The material's record with what :func:`per_texel_lights` did to each view slot
+    with data: ``sources["light"]`` (the lamps' source, as the irradiance's) where any
+    slot was resampled; ``skipped["light"]``: the texel captures kept as measured, and
+    the slots left as they were, with the reason."""
+    moved = [r for r in slots if r.skipped is None]
+    reasons = sorted({r.skipped for r in slots if r.skipped is not None})
+    said = []
+    outside = sum(r.outside for r in moved)
+    if outside:
+        said.append(
+            f"{outside} of {sum(r.captures for r in moved)} texel captures outside the hull "
+            f"of the light directions that texel was lit from: kept as measured (up to "
+            f"{max(r.worst_deg for r in moved):.1f}° off)"
+        )
+    if reasons:
+        left = f"{len(slots) - len(moved)} of {len(slots)} view slots" if moved else "every slot"
+        said.append(f"{'; '.join(reasons)}: {left} keeps each capture at the slot's nominal "
+                    "light direction")  # fmt: skip
+    skipped = radiometry.skipped | ({"light": "; ".join(said)} if said else {})
+    sources = radiometry.sources
+    if moved:
+        sources = sources | {"light": sources["irradiance"]}
+    return replace(radiometry, sources=sources, skipped=skipped)

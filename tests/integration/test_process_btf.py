@@ -192,6 +192,36 @@ def test_per_texel_views_are_resampled_and_recorded(archive):
         assert 0 < np.abs(got - want).max() <= 0.1 * np.abs(want).max()
 
 
+def test_per_texel_lights_are_resampled_and_recorded_with_per_texel_views(archive):
+    """The lamps 650 mm away, placed from the rig config: each texel's captures moved onto
+    the plan's lights, a few percent, and on the hull's rim some kept and counted; with
+    per-texel views too, both are recorded."""
+    run_stages(archive, [BtfStage(size=SIZE, components=6)])
+    nominal = btf_from_arrays(*_material(archive))
+    run_stages(archive, [BtfStage(size=SIZE, components=6, lights="per texel")])
+    arrays, attrs = _material(archive)
+    radiometry = json.loads(json.dumps(attrs["radiometry"]))
+    assert radiometry["sources"]["light"] == radiometry["sources"]["irradiance"]
+    assert "nominal" in radiometry["sources"]["light"]
+    kept = radiometry["skipped"]["light"]
+    count, total = (int(x) for x in kept.split(" texel captures")[0].split(" of "))
+    assert 0 < count < total == 3 * 6 * SIZE * SIZE  # the 45° ring: the hull's rim
+    resampled = btf_from_arrays(arrays, attrs)
+    for slot in range(3):
+        got = reconstruct(resampled, view=slot, light=2)
+        want = reconstruct(nominal, view=slot, light=2)
+        assert np.isfinite(got).all()
+        assert 0 < np.abs(got - want).max() <= 0.1 * np.abs(want).max()
+    run_stages(archive, [BtfStage(size=SIZE, components=6, lights="per texel",
+                                  views="per texel")])  # fmt: skip
+    both = json.loads(json.dumps(_material(archive)[1]["radiometry"]))
+    assert {"light", "view"} <= both["sources"].keys()
+    assert both["skipped"]["light"] == kept  # lights first, per slot: the same captures kept
+    run_stages(archive, [BtfStage(size=SIZE, components=6, lights="per texel", raw=True)])
+    raw = json.loads(json.dumps(_material(archive)[1]["radiometry"]))
+    assert "light" not in raw["sources"] and raw["skipped"]["light"].startswith("--raw")
+
+
 def test_saturated_texels_are_counted_in_the_material(archive, tmp_path):
     # 20 × the exposure: the frontal view's brightest texels clip
     bright = _record(tmp_path, 0.5, PLAN.replace("exposure_s = 0.05", "exposure_s = 1.0"))

@@ -237,3 +237,16 @@ def test_process_views_names_the_valid_ones_and_the_material_records_the_choice(
     assert "views 'nominal'" in views["nominal"]
     # an imported set has normtextures and no camera: the stage tried, and says why not
     assert views["per-texel"].startswith("imported normtextures: no camera to place")
+
+
+def test_process_lights_names_the_valid_ones_and_the_material_says_why_not(tmp_path):
+    archive = _imported(tmp_path)
+    result = _run("process", archive, "--stages", "btf", "--size", SIZE, "--lights", "own")
+    assert result.exit_code == 2, result.output
+    assert "--lights 'own': valid are nominal, per-texel" in _said(result)
+    result = _run("process", archive, "--stages", "btf", "--size", SIZE, "--lights", "per-texel")
+    assert result.exit_code == 0, result.output
+    with Archive.open(archive, mode="r") as recorded:
+        skipped = recorded.material["btf"].attrs["radiometry"]["skipped"]
+    # an imported set has normtextures and no lamp to place: the stage tried, and says why not
+    assert skipped["light"].startswith("imported normtextures: no lamp to place")

@@ -3,16 +3,19 @@
 import numpy as np
 import pytest
 
+from processing.offline import BtfStage
 from rig.errors import RigError
 from sim.model import SceneModel
 from sim.scene import scene_from_dict
 from sim.world import WorldSnapshot
 from studies.error_budget import (
     CONFIGS,
+    PROCESSINGS,
     REGISTRATION_TERMS,
     TERMS,
     components_of,
     plot,
+    run,
     scene_without,
 )
 
@@ -57,11 +60,19 @@ def test_an_unknown_term_names_the_valid_ones():
         scene_without("bumps", ("lens",))
 
 
+def test_an_unknown_processing_names_the_valid_ones():
+    with pytest.raises(RigError, match=r"\['sharpened'\]; .* processings \['raw', "):
+        run(processings=("sharpened",))
+    for options in PROCESSINGS.values():  # each a btf stage the options make valid
+        BtfStage(size=8, **options)
+
+
 def test_the_waterfall_is_drawn(tmp_path):
     rows = [{"scene": s, "plan": "coarse", "run": run, "processing": p, "components": c,
              "psnr_captured_db": 30.0 + k, "psnr_held_out_db": 22.0 + k}
             for s in ("bumps", "weave") for k, run in enumerate(("all terms on", "all terms off"))
-            for p in ("raw", "irradiance per texel") for c in (4, "lossless")]  # fmt: skip
+            for p in ("raw", "irradiance per texel", "lights per texel")
+            for c in (4, "lossless")]  # fmt: skip
     plot(rows, tmp_path / "budget.png")
     assert (tmp_path / "budget.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 

@@ -6,12 +6,8 @@ import numpy as np
 import pytest
 
 from processing.btf import CompressedBTF, compress_view
-from processing.offline.texel_view import (
-    SlotCamera,
-    per_texel_views,
-    texel_view_vectors,
-    view_resampling,
-)
+from processing.offline.texel_resample import texel_directions, texel_resampling
+from processing.offline.texel_view import SlotCamera, per_texel_views
 from rig.config import RigConfig
 from rig.geometry import direction_vector
 from rig.material import Radiometry
@@ -29,12 +25,12 @@ def _centres(distance_mm: float) -> list[np.ndarray]:
 
 
 def _own(distance_mm: float) -> np.ndarray:
-    return np.stack([texel_view_vectors(c, SAMPLE_MM, SIZE) for c in _centres(distance_mm)])
+    return np.stack([texel_directions(c, SAMPLE_MM, SIZE) for c in _centres(distance_mm)])
 
 
 def test_a_texel_sees_the_camera_from_where_it_lies():
     camera = np.array([0.0, -565.7, 565.7])  # 800 mm away at 45°
-    v = texel_view_vectors(camera, SAMPLE_MM, SIZE)
+    v = texel_directions(camera, SAMPLE_MM, SIZE)
     np.testing.assert_allclose(np.linalg.norm(v, axis=-1), 1.0)
     # row 0 lies at +y, away from the camera: it sees the camera lower (larger θ)
     theta = np.degrees(np.arccos(v[..., 2]))
@@ -43,7 +39,7 @@ def test_a_texel_sees_the_camera_from_where_it_lies():
 
 
 def test_a_telecentric_camera_needs_no_resampling():
-    plan = view_resampling(NOMINAL, _own(1e9))
+    plan = texel_resampling(NOMINAL, _own(1e9))
     assert plan.turn_deg.max() < 1e-4  # on the outer ring half the texels fall just outside
     own_weight = np.where(plan.indices == np.arange(len(NOMINAL))[:, None, None, None],
                           plan.weights, 0.0).sum(-1)  # fmt: skip
@@ -55,7 +51,7 @@ def test_the_blend_moves_a_smooth_view_dependence_towards_the_nominal_view():
     one closely: the blend lands nearer f(nominal) than the texel's own measurement.
     Nothing is invented outside the texel's hull: its own value, weight 1."""
     own = _own(800.0)
-    plan = view_resampling(NOMINAL, own)
+    plan = texel_resampling(NOMINAL, own)
     f = own[..., 2]  # (S, n, n)
     want = np.cos(np.radians(NOMINAL[:, 0]))[:, None, None]
     rows, cols = np.indices((SIZE, SIZE))
