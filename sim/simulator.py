@@ -345,12 +345,13 @@ class Simulator:
         if self.scene.has("shadows"):
             offset = self.scene.spec.params("shadows").offset_mm
 
-            def shadows(lamp_id, light):
+            def shadows(lamp_id, light, lit):
+                # What the lamp lights is fixed by the key: the cached mask answers for it.
                 key = (camera_id, *_pose_key(snapshot), lamp_id, round(snapshot.arc_deg, 9))
                 if key not in self._shadows:
                     self.counters["raycast.shadows"] += 1
                     self._shadows.put(key, visible_from(self.model, hits, light.position,
-                                                        offset_mm=offset))  # fmt: skip
+                                                        offset_mm=offset, where=lit))  # fmt: skip
                 return self._shadows[key]
 
         laser = self.scene.spec.params("laser") if self.scene.has("laser") else None
