@@ -19,8 +19,10 @@ import trimesh
 from scipy import stats
 
 from sim import Simulator
+from sim.illumination import visible_from
 from sim.model import SceneModel
 from sim.sensor import full_scale
+from sim.shading import LightSource
 from tests.sim.frame_sequence import (
     CLEAN_REFERENCE,
     REFERENCE,
@@ -99,3 +101,39 @@ def test_rays_that_cannot_meet_the_mesh_are_not_cast_and_answer_the_same():
         rising_above = (origins[:, 2] > 0) & (dirs[:, 2] >= 0)
         assert cast == len(origins) - rising_above.sum()
         assert expected.any() and not expected.all()  # both answers are exercised
+
+
+@pytest.mark.parametrize("kind", ["point", "spot", "directional"])
+def test_the_compiled_surface_irradiance_is_the_incident_irradiance_times_the_cosine(kind):
+    rng = np.random.default_rng(2)
+    points = rng.uniform(-30, 30, (5000, 3))
+    normals = rng.normal(size=(5000, 3))
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    light = LightSource(np.array([150.0, -60.0, 220.0]), kind, 7.0, cutoff_deg=4.0)
+    dirs, e = light.surface_irradiance(points, normals)
+    want_dirs, want_e = light.incident(points)
+    cos_i = np.einsum("ij,ij->i", normals, want_dirs)
+    np.testing.assert_allclose(dirs, want_dirs, rtol=0, atol=1e-15)
+    # The cosine summed in another order: 1e-13 of the value where it nearly cancels.
+    np.testing.assert_allclose(e, want_e * np.clip(cos_i, 0, None), rtol=1e-12, atol=1e-12)
+    assert (e == 0).any() and (e > 0).any()  # both sides of the cosine (and of the spot's cone)
+
+
+def test_shadow_rays_are_cast_only_where_the_lamp_lights_and_answer_as_for_all():
+    """The lamp's visibility where its light falls (cosθ_i > 0, inside a spot's cone) is the
+    visibility asked of every hit; fewer rays are cast."""
+    with Simulator(sequence_scene(noise=False)) as sim:
+        frame = sim.render_state("cam0", turntable_deg=37.5, arc_deg=60.0, lamps_on=["lamp5"])
+        (hits,) = sim._hits.values()
+        model = sim.model
+        light = model.lights(frame.snapshot)["lamp5"]
+        _, e = light.surface_irradiance(hits.points, hits.normals)
+        lit = e > 0
+        before = model.caster.rays
+        every = visible_from(model, hits, light.position, offset_mm=1e-3)
+        all_rays = model.caster.rays - before
+        some = visible_from(model, hits, light.position, offset_mm=1e-3, where=lit)
+        lit_rays = model.caster.rays - before - all_rays
+    np.testing.assert_array_equal(some[lit], every[lit])
+    assert not some[~lit].any() and (~lit).sum() > 100 and lit_rays < all_rays
+    assert not every[lit].all()  # some lit hits are in shadow
