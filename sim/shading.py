@@ -89,27 +89,20 @@ class SurfaceHits:
 
     @classmethod
     def build(cls, mesh, shape, pixels, origins, dirs, faces, albedo_fn) -> SurfaceHits:
-        """Reconstruct exact hits of rays ``dirs`` (n, 3) on their ``faces`` (n,)."""
-        tri = mesh.vertices[mesh.faces[faces]]
-        t, u, v = triangle_hits(origins, dirs, tri)
-        keep = np.isfinite(t) & (t > 0)
-        pixels, faces, t, u, v, dirs = (
-            pixels[keep],
-            faces[keep],
-            t[keep],
-            u[keep],
-            v[keep],
-            dirs[keep],
-        )
-        origins = origins[keep] if np.ndim(origins) == 2 else origins
-        points = origins + t[:, None] * dirs
-        vn = mesh.normals[mesh.faces[faces]]
-        normals = (1 - u - v)[:, None] * vn[:, 0] + u[:, None] * vn[:, 1] + v[:, None] * vn[:, 2]
-        normals /= np.linalg.norm(normals, axis=1, keepdims=True)
-        view = -dirs / np.linalg.norm(dirs, axis=1, keepdims=True)
-        # Seen from behind (inside a yarn end, under the plate): face the viewer.
-        back = np.einsum("ij,ij->i", normals, view) < 0
-        normals[back] *= -1
+        """Reconstruct exact hits of rays ``dirs`` (n, 3) on their ``faces`` (n,): the
+        :func:`triangle_hits` point, its barycentric vertex normal facing the viewer
+        (seen from behind: inside a yarn end, under the plate) and the view direction,
+        in one compiled pass with numpy's order of operations."""
+        n = len(faces)
+        points, normals, view = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
+        keep = np.empty(n, dtype=np.bool_)
+        _exact_hits(np.asarray(origins, np.float64).reshape(-1, 3), np.asarray(dirs, np.float64),
+                    np.asarray(faces, np.int64), mesh.vertices, mesh.faces, mesh.normals,
+                    points, normals, view, keep)  # fmt: skip
+        if not keep.all():
+            pixels, faces, points, normals, view = (
+                pixels[keep], faces[keep], points[keep], normals[keep], view[keep]
+            )  # fmt: skip
         materials = mesh.face_material[faces]
         return cls(
             shape=shape,
@@ -135,6 +128,50 @@ class SurfaceHits:
         """Bytes the hit arrays and what :meth:`reuse` kept hold."""
         arrays = [getattr(self, f.name) for f in fields(self) if f.name not in ("shape", "memo")]
         return _nbytes(arrays) + _nbytes(list(self.memo.values()))
+
+
+@njit(cache=True, nogil=True)
+def _exact_hits(origins, dirs, faces, vertices, triangles, vertex_normals, points, normals,
+                view, keep):  # fmt: skip
+    """:meth:`SurfaceHits.build`'s arithmetic, ray by ray, in the order numpy's
+    (:func:`triangle_hits`, the interpolation, the norms) performs it."""
+    many = origins.shape[0] > 1
+    for i in range(faces.shape[0]):
+        o = origins[i] if many else origins[0]
+        d = dirs[i]
+        ia, ib, ic = triangles[faces[i], 0], triangles[faces[i], 1], triangles[faces[i], 2]
+        a, b, c = vertices[ia], vertices[ib], vertices[ic]
+        e1x, e1y, e1z = b[0] - a[0], b[1] - a[1], b[2] - a[2]
+        e2x, e2y, e2z = c[0] - a[0], c[1] - a[1], c[2] - a[2]
+        px, py, pz = d[1] * e2z - d[2] * e2y, d[2] * e2x - d[0] * e2z, d[0] * e2y - d[1] * e2x
+        det = e1x * px + e1y * py + e1z * pz
+        if not abs(det) > 1e-14:
+            keep[i] = False
+            continue
+        inv = 1.0 / det
+        sx, sy, sz = o[0] - a[0], o[1] - a[1], o[2] - a[2]
+        u = (sx * px + sy * py + sz * pz) * inv
+        qx, qy, qz = sy * e1z - sz * e1y, sz * e1x - sx * e1z, sx * e1y - sy * e1x
+        v = (d[0] * qx + d[1] * qy + d[2] * qz) * inv
+        t = (e2x * qx + e2y * qy + e2z * qz) * inv
+        keep[i] = math.isfinite(t) and t > 0
+        w = 1 - u - v
+        na, nb, nc = vertex_normals[ia], vertex_normals[ib], vertex_normals[ic]
+        length = 0.0
+        for k in range(3):
+            points[i, k] = o[k] + t * d[k]
+            normals[i, k] = w * na[k] + u * nb[k] + v * nc[k]
+            length = length + normals[i, k] * normals[i, k] if k else normals[i, k] * normals[i, k]
+        d_length = math.sqrt((d[0] * d[0] + d[1] * d[1]) + d[2] * d[2])
+        length = math.sqrt(length)
+        facing = 0.0
+        for k in range(3):
+            normals[i, k] = normals[i, k] / length
+            view[i, k] = -d[k] / d_length
+            facing = facing + normals[i, k] * view[i, k] if k else normals[i, k] * view[i, k]
+        if facing < 0:
+            for k in range(3):
+                normals[i, k] = -normals[i, k]
 
 
 def _nbytes(value) -> int:

@@ -22,7 +22,7 @@ from sim import Simulator
 from sim.illumination import visible_from
 from sim.model import SceneModel
 from sim.sensor import full_scale
-from sim.shading import LightSource
+from sim.shading import LightSource, SurfaceHits, triangle_hits
 from tests.sim.frame_sequence import (
     CLEAN_REFERENCE,
     REFERENCE,
@@ -137,3 +137,36 @@ def test_shadow_rays_are_cast_only_where_the_lamp_lights_and_answer_as_for_all()
     np.testing.assert_array_equal(some[lit], every[lit])
     assert not some[~lit].any() and (~lit).sum() > 100 and lit_rays < all_rays
     assert not every[lit].all()  # some lit hits are in shadow
+
+
+def test_the_compiled_hit_reconstruction_is_numpys():
+    """Rays from a camera on random faces of the default mesh (some behind their origin,
+    some parallel to their face): the kept rays, points, normals facing the viewer and
+    view directions are those numpy's arithmetic gives, to the last bits' reordering."""
+    mesh = SceneModel(sequence_scene()).mesh
+    rng = np.random.default_rng(8)
+    faces = rng.integers(0, len(mesh.faces), 4000)
+    tri = mesh.vertices[mesh.faces[faces]]
+    w = rng.dirichlet([1, 1, 1], 4000)
+    origin = np.array([40.0, -25.0, 60.0])
+    dirs = np.einsum("ij,ijk->ik", w, tri) - origin
+    dirs[:100] *= -1  # the face behind the origin
+    dirs[100:200] = np.cross(tri[100:200, 1] - tri[100:200, 0], tri[100:200, 2] - tri[100:200, 0])
+    dirs[100:200] = np.cross(dirs[100:200], tri[100:200, 1] - tri[100:200, 0])  # in the plane
+    hits = SurfaceHits.build(mesh, (50, 80), np.arange(4000), origin, dirs, faces,
+                             lambda points, materials: np.ones((len(points), 3)))  # fmt: skip
+    t, u, v = triangle_hits(origin, dirs, tri)
+    keep = np.isfinite(t) & (t > 0)
+    assert not keep[:200].any() and keep[200:].all()
+    np.testing.assert_array_equal(hits.pixels, np.flatnonzero(keep))
+    t, u, v, d, f = t[keep], u[keep], v[keep], dirs[keep], faces[keep]
+    vn = mesh.normals[mesh.faces[f]]
+    normals = (1 - u - v)[:, None] * vn[:, 0] + u[:, None] * vn[:, 1] + v[:, None] * vn[:, 2]
+    normals /= np.linalg.norm(normals, axis=1, keepdims=True)
+    view = -d / np.linalg.norm(d, axis=1, keepdims=True)
+    back = np.einsum("ij,ij->i", normals, view) < 0
+    normals[back] *= -1
+    assert 0 < back.sum() < len(back)
+    np.testing.assert_allclose(hits.points, origin + t[:, None] * d, rtol=0, atol=1e-11)
+    np.testing.assert_allclose(hits.normals, normals, rtol=0, atol=1e-11)
+    np.testing.assert_allclose(hits.view_dirs, view, rtol=0, atol=1e-15)
