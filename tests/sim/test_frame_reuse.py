@@ -13,6 +13,8 @@ with the reference's in distribution.
 
 from __future__ import annotations
 
+from dataclasses import replace
+
 import numpy as np
 import pytest
 import trimesh
@@ -30,6 +32,8 @@ from tests.sim.frame_sequence import (
     render_sequence,
     sequence_scene,
 )
+
+LAMPS = [f"lamp{k}" for k in range(8)]
 
 
 @pytest.fixture(scope="module")
@@ -170,3 +174,23 @@ def test_the_compiled_hit_reconstruction_is_numpys():
     np.testing.assert_allclose(hits.points, origin + t[:, None] * d, rtol=0, atol=1e-11)
     np.testing.assert_allclose(hits.normals, normals, rtol=0, atol=1e-11)
     np.testing.assert_allclose(hits.view_dirs, view, rtol=0, atol=1e-15)
+
+
+def test_shadow_rays_from_a_views_hits_answer_as_trimeshs_embree_intersector():
+    """The compiled shadow rays and Embree's occlusion query give, ray for ray, what
+    trimesh's intersector answers for the same rays (grazing rays off the yarns included)."""
+    with Simulator(sequence_scene(noise=False, scale=0.25)) as sim:
+        frame = sim.render_state("cam3", turntable_deg=37.5, arc_deg=20.0, lamps_on=["lamp2"])
+        (hits,) = sim._hits.values()
+        model = sim.model
+        lights = model.lights(replace(frame.snapshot, lamps_on=frozenset(LAMPS)))
+    brute = trimesh.Trimesh(model.mesh.vertices, model.mesh.faces, process=False).ray
+    origins = hits.points + 1e-3 * hits.normals
+    blocked = 0
+    for light in lights.values():
+        dirs = light.position - origins
+        dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
+        expected = ~brute.intersects_any(origins, dirs)
+        np.testing.assert_array_equal(model.caster.sees(origins, light.position), expected)
+        blocked += (~expected).sum()
+    assert blocked > 1000
