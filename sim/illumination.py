@@ -32,11 +32,7 @@ def visible_from(
     """(n,) bool: the point ``position`` (sample frame, mm) sees each hit; with
     ``where`` (n,) bool, asked of those hits only (the others read False)."""
     origins = hits.reuse(("offset", offset_mm), lambda: hits.points + offset_mm * hits.normals)
-    if where is None:
-        return model.caster.sees(origins, position)
-    visible = np.zeros(len(origins), dtype=bool)
-    visible[where] = model.caster.sees(origins[where], position)
-    return visible
+    return model.caster.sees(origins, position, where)
 
 
 def laser_irradiance(

@@ -56,20 +56,25 @@ class RayCaster:
             occluded[cast] = self._intersector.intersects_any(origins[cast], dirs[cast])
         return occluded
 
-    def sees(self, origins: np.ndarray, point: np.ndarray) -> np.ndarray:
-        """(n,) bool: nothing lies between each origin (n, 3) and ``point`` (3,), mm.
+    def sees(
+        self, origins: np.ndarray, point: np.ndarray, where: np.ndarray | None = None
+    ) -> np.ndarray:
+        """(n,) bool: nothing lies between each origin (n, 3) and ``point`` (3,), mm;
+        with ``where`` (n,) bool, asked of those origins only (the others read False).
 
         :meth:`occluded` along the unit directions towards the point, which are
         computed only for the rays that are cast.
         """
         origins = np.asarray(origins, dtype=np.float64)
+        asked = np.ones(len(origins), dtype=bool) if where is None else np.asarray(where, bool)
         if self._occlusion is not None:
-            return self._occlusion.sees(origins, np.asarray(point, dtype=np.float64), self)
+            point = np.asarray(point, dtype=np.float64)
+            return self._occlusion.sees(origins, point, asked, self)
         towards = np.asarray(point, dtype=np.float64) - origins
-        cast = self._may_meet(origins, towards[:, 2] >= 0)
+        cast = np.intersect1d(self._may_meet(origins, towards[:, 2] >= 0), np.flatnonzero(asked))
         dirs = towards[cast]
         dirs /= np.linalg.norm(dirs, axis=1, keepdims=True)
-        visible = np.ones(len(origins), dtype=bool)
+        visible = asked.copy()
         self.rays += len(cast)
         if len(cast):
             visible[cast] = ~self._intersector.intersects_any(origins[cast], dirs)
@@ -99,13 +104,13 @@ class _EmbreeOcclusion:
                      vertices=((tm.vertices - self._origin) * self._scale).astype(np.float32),
                      indices=tm.faces.astype(np.int32))  # fmt: skip
 
-    def sees(self, origins: np.ndarray, point: np.ndarray, caster: RayCaster) -> np.ndarray:
+    def sees(self, origins, point, asked, caster: RayCaster) -> np.ndarray:
         n = len(origins)
         rays_o, rays_d = np.empty((n, 3), np.float32), np.empty((n, 3), np.float32)
         index = np.empty(n, np.int64)
-        m = _shadow_rays(np.ascontiguousarray(origins), point, caster._top_z, self._origin,
-                         self._scale, rays_o, rays_d, index)  # fmt: skip
-        visible = np.ones(n, dtype=bool)
+        m = _shadow_rays(np.ascontiguousarray(origins), point, asked, caster._top_z,
+                         self._origin, self._scale, rays_o, rays_d, index)  # fmt: skip
+        visible = asked.copy()
         caster.rays += m
         if m:
             hit = self._scene.run(rays_o[:m], rays_d[:m], query="OCCLUDED")
@@ -114,8 +119,8 @@ class _EmbreeOcclusion:
 
 
 @njit(cache=True, nogil=True)
-def _shadow_rays(origins, point, top_z, shift, scale, rays_o, rays_d, index):
-    """The rays towards ``point`` that may meet the mesh (:meth:`RayCaster._may_meet`),
+def _shadow_rays(origins, point, asked, top_z, shift, scale, rays_o, rays_d, index):
+    """The ``asked`` rays towards ``point`` that may meet the mesh (:meth:`RayCaster._may_meet`),
     as trimesh hands them to Embree: the origin rounded to float32, shifted and scaled,
     rounded again; the unit direction rounded to float32 and normalised once more. Their
     count; ``index`` says whose they are."""
@@ -124,7 +129,7 @@ def _shadow_rays(origins, point, top_z, shift, scale, rays_o, rays_d, index):
         x = point[0] - origins[i, 0]
         y = point[1] - origins[i, 1]
         z = point[2] - origins[i, 2]
-        if origins[i, 2] > top_z and z >= 0:
+        if not asked[i] or (origins[i, 2] > top_z and z >= 0):
             continue
         length = math.sqrt((x * x + y * y) + z * z)
         fx, fy, fz = np.float32(x / length), np.float32(y / length), np.float32(z / length)
