@@ -69,7 +69,7 @@ class RayCaster:
         asked = np.ones(len(origins), dtype=bool) if where is None else np.asarray(where, bool)
         if self._occlusion is not None:
             point = np.asarray(point, dtype=np.float64)
-            return self._occlusion.sees(origins, point, asked, self)
+            return self._occlusion.visible(origins, point, asked, self)
         towards = np.asarray(point, dtype=np.float64) - origins
         cast = np.intersect1d(self._may_meet(origins, towards[:, 2] >= 0), np.flatnonzero(asked))
         dirs = towards[cast]
@@ -104,7 +104,7 @@ class _EmbreeOcclusion:
                      vertices=((tm.vertices - self._origin) * self._scale).astype(np.float32),
                      indices=tm.faces.astype(np.int32))  # fmt: skip
 
-    def sees(self, origins, point, asked, caster: RayCaster) -> np.ndarray:
+    def visible(self, origins, point, asked, caster: RayCaster) -> np.ndarray:
         n = len(origins)
         rays_o, rays_d = np.empty((n, 3), np.float32), np.empty((n, 3), np.float32)
         index = np.empty(n, np.int64)
