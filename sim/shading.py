@@ -92,7 +92,7 @@ class SurfaceHits:
         """Reconstruct exact hits of rays ``dirs`` (n, 3) on their ``faces`` (n,): the
         :func:`triangle_hits` point, its barycentric vertex normal facing the viewer
         (seen from behind: inside a yarn end, under the plate) and the view direction,
-        in one compiled pass with numpy's order of operations."""
+        in one compiled pass: numpy's arithmetic (to the order of the last bits)."""
         n = len(faces)
         points, normals, view = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3))
         keep = np.empty(n, dtype=np.bool_)
@@ -133,8 +133,9 @@ class SurfaceHits:
 @njit(cache=True, nogil=True)
 def _exact_hits(origins, dirs, faces, vertices, triangles, vertex_normals, points, normals,
                 view, keep):  # fmt: skip
-    """:meth:`SurfaceHits.build`'s arithmetic, ray by ray, in the order numpy's
-    (:func:`triangle_hits`, the interpolation, the norms) performs it."""
+    """:meth:`SurfaceHits.build`'s arithmetic ray by ray, as numpy's (:func:`triangle_hits`,
+    the interpolation, the norms) does it; ``keep`` False for a ray parallel to its face
+    or hitting it behind the origin (its other outputs are then undefined)."""
     many = origins.shape[0] > 1
     for i in range(faces.shape[0]):
         o = origins[i] if many else origins[0]
