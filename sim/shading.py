@@ -231,8 +231,9 @@ class LightSource:
         spot = self.kind == "spot"
         axis = -self.position / np.linalg.norm(self.position)
         cos_cut = np.cos(np.deg2rad(self.cutoff_deg)) if spot else -2.0
-        _point_irradiance(np.asarray(self.position, np.float64), float(self.intensity_w_sr),
-                          axis, cos_cut, points, normals, dirs, e)  # fmt: skip
+        _point_irradiance(np.ascontiguousarray(self.position, np.float64),
+                          float(self.intensity_w_sr), np.ascontiguousarray(axis, np.float64),
+                          float(cos_cut), points, normals, dirs, e)  # fmt: skip
         return dirs, e
 
 
