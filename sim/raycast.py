@@ -94,15 +94,21 @@ class _EmbreeOcclusion:
     answers, without its float copies and its search for the nearest hit."""
 
     def __init__(self, tm: trimesh.Trimesh):
-        from embreex import rtcore_scene
-        from embreex.mesh_construction import TriangleMesh
-
+        self._tm = tm
         self._origin = tm.vertices.min(axis=0)
         self._scale = 100.0 / tm.scale  # trimesh's scale_to_box
-        self._scene = rtcore_scene.EmbreeScene()
-        TriangleMesh(scene=self._scene,
-                     vertices=((tm.vertices - self._origin) * self._scale).astype(np.float32),
-                     indices=tm.faces.astype(np.int32))  # fmt: skip
+        self._scene = None  # built for the first ray cast (a quarter second here)
+
+    def _embree(self):
+        if self._scene is None:
+            from embreex import rtcore_scene
+            from embreex.mesh_construction import TriangleMesh
+
+            vertices = ((self._tm.vertices - self._origin) * self._scale).astype(np.float32)
+            self._scene = rtcore_scene.EmbreeScene()
+            TriangleMesh(scene=self._scene, vertices=vertices,
+                         indices=self._tm.faces.astype(np.int32))  # fmt: skip
+        return self._scene
 
     def visible(self, origins, point, asked, caster: RayCaster) -> np.ndarray:
         n = len(origins)
@@ -113,7 +119,7 @@ class _EmbreeOcclusion:
         visible = asked.copy()
         caster.rays += m
         if m:
-            hit = self._scene.run(rays_o[:m], rays_d[:m], query="OCCLUDED")
+            hit = self._embree().run(rays_o[:m], rays_d[:m], query="OCCLUDED")
             visible[index[:m]] = hit == -1
         return visible
 
