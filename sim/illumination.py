@@ -15,18 +15,24 @@ import numpy as np
 
 from sim.model import SceneModel
 from sim.scene import LaserParams
-from sim.shading import LightSource, SurfaceHits, reflected_radiance
+from sim.shading import LightSource, SurfaceHits, reflected_radiance, surface_radiance
 from sim.world import WorldSnapshot
 
 __all__ = ["direct_radiance", "laser_irradiance", "visible_from"]
 
 
 def visible_from(
-    model: SceneModel, hits: SurfaceHits, position: np.ndarray, *, offset_mm: float
+    model: SceneModel,
+    hits: SurfaceHits,
+    position: np.ndarray,
+    *,
+    offset_mm: float,
+    where: np.ndarray | None = None,
 ) -> np.ndarray:
-    """(n,) bool: the point ``position`` (sample frame, mm) sees each hit."""
+    """(n,) bool: the point ``position`` (sample frame, mm) sees each hit; with
+    ``where`` (n,) bool, asked of those hits only (the others read False)."""
     origins = hits.reuse(("offset", offset_mm), lambda: hits.points + offset_mm * hits.normals)
-    return model.caster.sees(origins, position)
+    return model.caster.sees(origins, position, where)
 
 
 def laser_irradiance(
@@ -54,15 +60,16 @@ def direct_radiance(
     snapshot: WorldSnapshot,
     *,
     counters: Counter,
-    shadow_mask: Callable[[str, LightSource], np.ndarray] | None,
+    shadow_mask: Callable[[str, LightSource, np.ndarray], np.ndarray] | None,
     laser: LaserParams | None,
     specular: bool,
     offset_mm: float = 1e-3,
 ) -> np.ndarray:
     """Radiance (n, 3) W/(sr·m²) towards the camera from lamps and laser.
 
-    ``shadow_mask(lamp_id, light)`` returns the lamp's visibility of the hits
-    (the ``shadows`` effect) or is None (no cast shadows). ``laser`` carries
+    ``shadow_mask(lamp_id, light, lit)`` returns the lamp's visibility of the hits
+    (the ``shadows`` effect) where ``lit`` (n,) bool says the lamp's light falls (what
+    it says elsewhere is multiplied by 0), or is None (no cast shadows). ``laser`` carries
     the sheet's parameters when the ``laser`` effect is listed; the laser is
     always occluded where its source cannot see the point.
     """
@@ -70,13 +77,13 @@ def direct_radiance(
     radiance = np.zeros((len(hits.points), 3))
     for lamp_id, light in model.lights(snapshot).items():
         counters["stage.lambert"] += 1
-        dirs, e = light.incident(hits.points)
+        dirs, e = light.surface_irradiance(hits.points, hits.normals)
         if shadow_mask is not None:
             counters["stage.shadows"] += 1
-            e = e * shadow_mask(lamp_id, light)
+            e *= shadow_mask(lamp_id, light, e > 0)
         if lobes:
             counters["stage.specular"] += 1
-        radiance += reflected_radiance(hits, dirs, e, lobes)
+        radiance += surface_radiance(hits, dirs, e, lobes)
     if laser is not None and snapshot.laser_on:
         counters["stage.laser"] += 1
         source, normal, d = model.laser_sheet(snapshot)

@@ -69,6 +69,16 @@ class _SingleSampleRenderer(pyrender.Renderer):
         self._main_db, self._main_db_ms = dbs
         self._main_fb_dims = dims
 
+    def _read_main_framebuffer(self, scene, flags):
+        """The colour buffer as drawn, (H, W, 3) uint8, and no depth: pyrender's reads
+        and linearises the depth image too and copies both buffers first (a third
+        of a pass on llvmpipe); the ids need neither."""
+        width, height = self._main_fb_dims
+        GL.glBindFramebuffer(GL.GL_READ_FRAMEBUFFER, self._main_fb_ms)
+        buffer = GL.glReadPixels(0, 0, width, height, GL.GL_RGB, GL.GL_UNSIGNED_BYTE)
+        color = np.frombuffer(buffer, dtype=np.uint8).reshape(height, width, 3)
+        return color[::-1], None
+
 
 class _SharedDisplayEGL(egl.EGLPlatform):
     """pyrender's EGL platform, with a real release and a shared display.

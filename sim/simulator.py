@@ -44,7 +44,7 @@ from sim.sensor import (
     quantize,
     vignetting_factor,
 )
-from sim.shading import SurfaceHits
+from sim.shading import LightSource, SurfaceHits
 from sim.truth import (
     FOOTPRINT_RAYS,
     TexelTruth,
@@ -148,6 +148,21 @@ class Simulator:
         # shared stream would give each frame the noise of whichever came first.
         self._noise_streams: dict[str, np.random.SeedSequence] = {}
         self._reference = None
+        self._compile_passes()
+
+    def _compile_passes(self) -> None:
+        """Compile the per-pixel passes (or load them from numba's cache) on empty inputs
+        of a frame's types: a camera server's first capture would otherwise wait seconds
+        for them, past its timeout."""
+        model, none = self.model, np.zeros(0, np.int64)
+        hits = model.hits((0, 0), none, np.zeros(3), np.zeros((0, 3)), none)
+        lamp = LightSource(np.array([0.0, 0.0, 1000.0]), "point", 1.0)
+        lamp.surface_irradiance(hits.points, hits.normals)
+        if self.scene.has("shadows") or self.scene.has("laser"):
+            model.caster.sees(hits.points, lamp.position, np.zeros(0, bool))
+        if self.scene.has("noise"):
+            add_noise(np.zeros(1), bit_depth=8, full_well_e=1.0, read_noise_e=1.0,
+                      rng=np.random.default_rng(0))  # fmt: skip
 
     # -- life cycle -------------------------------------------------------
     def close(self) -> None:
@@ -252,9 +267,7 @@ class Simulator:
     ) -> StepTiming:  # fmt: skip
         """How long moving from ``start``, settling, exposing and reading out take."""
         rig = self.scene.rig
-        move, settle = motion_s(
-            rig, (start.turntable_deg, start.arc_deg), (turntable_deg, arc_deg)
-        )
+        move, settle = motion_s(rig, (start.turntable_deg, start.arc_deg), (turntable_deg, arc_deg))
         capture = shots_s(rig, [camera_id], [self._exposure(exposure_s)])
         return StepTiming(float(move), float(settle), 0.0, capture)
 
@@ -345,12 +358,13 @@ class Simulator:
         if self.scene.has("shadows"):
             offset = self.scene.spec.params("shadows").offset_mm
 
-            def shadows(lamp_id, light):
+            def shadows(lamp_id, light, lit):
+                # What the lamp lights is fixed by the key: the cached mask answers for it.
                 key = (camera_id, *_pose_key(snapshot), lamp_id, round(snapshot.arc_deg, 9))
                 if key not in self._shadows:
                     self.counters["raycast.shadows"] += 1
                     self._shadows.put(key, visible_from(self.model, hits, light.position,
-                                                        offset_mm=offset))  # fmt: skip
+                                                        offset_mm=offset, where=lit))  # fmt: skip
                 return self._shadows[key]
 
         laser = self.scene.spec.params("laser") if self.scene.has("laser") else None

@@ -130,8 +130,8 @@ def image_truth(
     hits = camera_hits(model, camera_id, snapshot.turntable_deg)
     offset = scene.spec.params("shadows").offset_mm if scene.has("shadows") else 1e-3
 
-    def shadows(_lamp_id, light):
-        return visible_from(model, hits, light.position, offset_mm=offset)
+    def shadows(_lamp_id, light, lit):
+        return visible_from(model, hits, light.position, offset_mm=offset, where=lit)
 
     values = direct_radiance(
         model, hits, snapshot, counters=Counter(),

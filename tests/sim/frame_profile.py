@@ -29,6 +29,7 @@ STAGES = [
     ("whole frame", ("sim/simulator.py", "render")),
     ("view: GL face ids + hit reconstruction (once per view)", ("sim/simulator.py", "_pixel_hits")),
     ("radiance: shadows, incidence, shading", ("sim/simulator.py", "_radiance")),
+    ("of which shadow rays (`RayCaster.sees`)", ("sim/raycast.py", "sees")),
     ("shot + read noise (`add_noise`)", ("sim/sensor.py", "add_noise")),
     ("quantisation (`quantize`)", ("sim/sensor.py", "quantize")),
 ]

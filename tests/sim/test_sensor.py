@@ -2,11 +2,12 @@
 
 import numpy as np
 import pytest
+from scipy import stats
 
 from rig.camera import PinholeCamera
 from rig.kinematics import laser_plane
-from sim import Simulator
-from sim.sensor import add_noise, distort, distortion_maps, quantize
+from sim import Simulator, sensor
+from sim.sensor import add_noise, distort, distortion_maps, quantize, standard_normal
 from tests.sim.sim_scenes import small_scene
 
 
@@ -19,6 +20,37 @@ def test_noise_mean_and_variance_follow_the_model():
     assert noisy.var() == pytest.approx(100 * g + (5 * g) ** 2, rel=0.02)
     q = quantize(noisy, np.uint8)
     assert q.var() == pytest.approx(100 * g + (5 * g) ** 2 + 1 / 12, rel=0.03)
+
+
+def test_the_compiled_normal_draw_follows_the_normal_law_into_its_tails():
+    """Counts in bins out to the ziggurat's tail (beyond 3.654) and its last layers against
+    the normal law's (chi-square), from two million draws."""
+    rng = np.random.default_rng(11)
+    z = standard_normal(rng, (1000, 2000))
+    assert z.shape == (1000, 2000) and z.dtype == np.float32
+    edges = np.array([-np.inf, -4, -3.654, -3.449, -3, -2, -1, 0, 1, 2, 3, 3.449, 3.654, 4, np.inf])
+    expected = np.diff(stats.norm.cdf(edges)) * z.size
+    observed = np.histogram(z, edges)[0]
+    assert stats.chisquare(observed, expected).pvalue > 1e-3
+    assert observed[[0, -1]].sum() > 80  # the tail beyond 4 is drawn (127 expected)
+    assert not np.array_equal(standard_normal(rng, (100,)), standard_normal(rng, (100,)))
+
+
+def test_a_draw_that_runs_out_of_words_goes_on_where_it_stopped():
+    words = np.random.default_rng(4).bit_generator.random_raw(600).view(np.uint32)
+    whole = np.empty(1000, np.float32)
+    assert (
+        sensor._ziggurat(words, whole, 0, sensor._KI, sensor._WI, sensor._FI, sensor._ZIG_R) == 1000
+    )
+    part = np.empty(1000, np.float32)
+    reached = sensor._ziggurat(words[:500], part, 0, sensor._KI, sensor._WI, sensor._FI,
+                               sensor._ZIG_R)  # fmt: skip
+    assert 450 < reached < 500  # one word a value, more where one is rejected
+    np.testing.assert_array_equal(part[:reached], whole[:reached])
+    more = np.random.default_rng(5).bit_generator.random_raw(600).view(np.uint32)
+    assert sensor._ziggurat(more, part, reached, sensor._KI, sensor._WI, sensor._FI,
+                            sensor._ZIG_R) == 1000  # fmt: skip
+    assert np.isfinite(part).all() and not np.array_equal(part[reached:], whole[reached:])
 
 
 def test_rendered_noise_is_normalised_around_the_truth():

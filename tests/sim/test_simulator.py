@@ -1,6 +1,9 @@
 """Simulator API: frames, timing, life cycle, memory."""
 
 import dataclasses
+import json
+import subprocess
+import sys
 import tracemalloc
 
 import numpy as np
@@ -99,3 +102,27 @@ def test_the_hits_cache_holds_at_most_its_bytes(monkeypatch):
         assert sum(hits.nbytes for hits in sim._hits.values()) <= 2.5 * one
     finally:
         sim.close()
+
+
+_COMPILED = """
+import json
+from sim import Simulator, raycast, sensor, shading
+from tests.sim.frame_sequence import sequence_scene
+
+passes = (shading._exact_hits, shading._point_irradiance, raycast._shadow_rays,
+          sensor._ziggurat, sensor._gaussian_dn)
+with Simulator(sequence_scene()) as sim:
+    built = [len(p.signatures) for p in passes]
+    sim.render_state("cam2", turntable_deg=37.5, lamps_on=["lamp1"])
+    print(json.dumps([built, [len(p.signatures) for p in passes]]))
+"""
+
+
+def test_a_new_simulator_has_its_compiled_passes_before_the_first_frame():
+    """A camera server's first capture must not wait for numba (seconds, past its
+    timeout): the passes a frame runs are compiled, for a frame's own types, when the
+    simulator is made (in a fresh process: this one may have compiled them already)."""
+    reply = subprocess.run([sys.executable, "-c", _COMPILED], capture_output=True, text=True,
+                           check=True)  # fmt: skip
+    built, after_frame = json.loads(reply.stdout.strip().splitlines()[-1])
+    assert all(n >= 1 for n in built) and after_frame == built
