@@ -32,7 +32,7 @@ from numba import njit
 
 from processing.registration._errors import RegistrationError
 
-__all__ = ["fit_corners", "gray_image", "refine_corners", "sample_gray"]
+__all__ = ["fit_corners", "gray_image", "refine_corners"]
 
 _SPAN = (0.15, 0.85)  # the part of each edge used, away from the corners
 _STEPS_PER_PX = 8
@@ -100,21 +100,6 @@ def gray_image(frame: np.ndarray) -> np.ndarray:
     out = np.empty(frame.shape[:2])
     _gray_image(frame, out)
     return out
-
-
-def sample_gray(gray: np.ndarray, points_px: np.ndarray) -> np.ndarray:
-    """Bilinear grey levels (n,) float64 of ``gray`` (H, W) float64 at ``points_px``
-    (n, 2) (x = column, y = row); outside, the nearest edge pixel's."""
-    points = np.ascontiguousarray(points_px, dtype=np.float64).reshape(-1, 2)
-    out = np.empty(len(points))
-    _sample(np.ascontiguousarray(gray, dtype=np.float64), points, out)
-    return out
-
-
-@njit(cache=True, nogil=True)
-def _sample(gray, points, out):
-    for i in range(points.shape[0]):
-        out[i] = _bilinear(gray, points[i, 0], points[i, 1])
 
 
 @njit(cache=True, nogil=True)
