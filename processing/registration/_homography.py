@@ -2,9 +2,9 @@
 
 Every marker corner found gives one correspondence between its (undistorted)
 image position and its known position on the plate (mm, z = 0). The fit is a
-normalised DLT [1]_ (OpenCV's ``findHomography`` without RANSAC) refined by
-Gauss–Newton on the reprojection error in the image, with markers whose
-corners disagree by more than ``outlier_px`` dropped and the fit repeated.
+normalised DLT [1]_ refined by Gauss–Newton on the reprojection error in the
+image (one compiled call, :mod:`._gauss_newton`), with markers whose corners
+disagree by more than ``outlier_px`` dropped and the fit repeated.
 Before a frame may be warped, the fit's conditioning is checked: how much
 corner noise it would amplify at the corners of the sample square.
 
@@ -22,7 +22,7 @@ import cv2
 import numpy as np
 
 from processing.registration._errors import Reason, RegistrationError
-from processing.registration._gauss_newton import noise_gain, refine_homography
+from processing.registration._gauss_newton import fit_homography, noise_gain
 from processing.registration._markers import MarkerDetection, marker_corners_mm
 from rig.camera import PinholeCamera
 from rig.config import Holder
@@ -115,19 +115,6 @@ def _apply(H: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return out, w
 
 
-def _fit(plane: np.ndarray, image: np.ndarray) -> np.ndarray:
-    """The plane → image homography (3, 3), ‖H‖ = 1, of least squared image reprojection error.
-
-    OpenCV's normalised DLT and Levenberg–Marquardt (in C++, on float32 points: within
-    ~1e-6 of the minimum) start Gauss–Newton in float64, which then converges in two
-    or three steps; from a DLT of its own in numpy it took ten, a fifth of a registration.
-    """
-    H, _ = cv2.findHomography(plane, image, 0)
-    if H is None:  # degenerate points: the DLT's answer is arbitrary, the checks flag it
-        H = np.eye(3)
-    return refine_homography(H / np.linalg.norm(H), plane, image)
-
-
 def fit_plane_homography(
     detection: MarkerDetection,
     holder: Holder,
@@ -212,7 +199,7 @@ def fit_plane_homography(
         if spread[1] < min_spread * spread[0]:
             return flagged(Reason.COLLINEAR_MARKERS, ids[keep], outliers=ids[~keep])
         image = image_all[keep].reshape(-1, 2)
-        H = _fit(plane, image)
+        H = fit_homography(plane, image)
         projected = _apply(H, plane)
         pred = projected[0]
         rms = np.sqrt(np.mean(np.sum((pred - image) ** 2, axis=1).reshape(-1, 4), axis=1))

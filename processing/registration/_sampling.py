@@ -74,8 +74,8 @@ def project_box_bilinear(
         Texel centres on the plate.
     sub_mm : (n_sub, 2) float64
         Sub-sample offsets from a texel's centre.
-    out : (n, C) float64, C-contiguous, zeros
-        The texels' mean values are written in place.
+    out : (n, C) float64 or float32, C-contiguous
+        The texels' mean values are written in place (summed in float64).
     valid : (n,) bool
         Set False (never True) where a sub-sample lies outside the frame's
         pixel area ``[−0.5, W − 0.5] × [−0.5, H − 0.5]``.
