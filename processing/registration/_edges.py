@@ -122,7 +122,7 @@ def _refine_quads(gray, quads, modules, ok):
     # Scratch for the edge fits, sized for the longest edge and widest reach any
     # round can reach (a corner moves by at most a module per round): allocated
     # once per call, not per edge.
-    longest = reach = 0.0
+    longest = 0.0
     for i in range(quads.shape[0]):
         for k in range(4):
             p0, p1 = quads[i, k], quads[i, (k + 1) % 4]
@@ -131,7 +131,7 @@ def _refine_quads(gray, quads, modules, ok):
                 longest = max(longest, side)
     grown = longest * (1.0 + 2.0 * _ITERATIONS / modules)
     reach = 0.8 * grown / modules
-    scratch = _Scratch(_n_normals(grown), _n_steps(reach))
+    scratch = _scratch(_n_normals(grown), _n_steps(reach))
     for i in range(quads.shape[0]):
         corners[:] = quads[i]
         if _refine_quad(gray, corners, modules, scratch):
@@ -208,8 +208,8 @@ def _edge_line(gray, p0, p1, length, ox, oy, reach_px, line, scratch):
         x0, y0 = bx + offsets[0] * ox, by + offsets[0] * oy
         x1, y1 = bx + offsets[n_steps - 1] * ox, by + offsets[n_steps - 1] * oy
         inside = (
-            0.0 <= min(x0, x1) and max(x0, x1) < cols - 1.0
-            and 0.0 <= min(y0, y1) and max(y0, y1) < rows - 1.0
+            min(x0, x1) >= 0.0 and max(x0, x1) < cols - 1.0
+            and min(y0, y1) >= 0.0 and max(y0, y1) < rows - 1.0
         )  # fmt: skip
         for j in range(n_steps):
             x = bx + offsets[j] * ox
@@ -268,7 +268,7 @@ def _edge_line(gray, p0, p1, length, ox, oy, reach_px, line, scratch):
 
 
 @njit(cache=True, nogil=True)
-def _Scratch(n_normals, n_steps):
+def _scratch(n_normals, n_steps):
     """Scratch for edges of at most ``n_normals`` normals of ``n_steps`` samples."""
     return _ScratchArrays(
         np.empty(n_normals), np.empty(n_steps), np.empty((n_normals, 2)),

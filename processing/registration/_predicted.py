@@ -169,14 +169,16 @@ def _read_bits(gray, quads, bits, modules, reads):
 @njit(cache=True, nogil=True)
 def _ring_of(levels, inset, out):
     """The cells of the ring ``inset`` cells in from the edge of ``levels`` (n, n) into
-    ``out`` (4 (n − 2 inset − 1),), row by row."""
+    ``out`` (4 (n − 2 inset − 1),), in no particular order (the medians and the all-dark
+    check do not need one)."""
     lo, hi = inset, levels.shape[0] - 1 - inset
     k = 0
-    for r in range(lo, hi + 1):
-        for c in range(lo, hi + 1):
-            if r == lo or r == hi or c == lo or c == hi:
-                out[k] = levels[r, c]
-                k += 1
+    for c in range(lo, hi + 1):  # the top and bottom rows
+        out[k], out[k + 1] = levels[lo, c], levels[hi, c]
+        k += 2
+    for r in range(lo + 1, hi):  # the sides between them
+        out[k], out[k + 1] = levels[r, lo], levels[r, hi]
+        k += 2
 
 
 keep_fresh(__name__, _edges)
