@@ -195,7 +195,7 @@ def _edge_line(gray, p0, p1, length, ox, oy, reach_px, line, scratch):
     n_normals = _n_normals(length)
     n_steps = _n_steps(reach_px)
     if n_normals > scratch.profile.shape[0] or n_steps > scratch.profile.shape[1]:
-        return False  # an edge grown past any a round can give: the corner check fails it
+        return False  # past the scratch's bound (a non-finite quad): never a fitted edge
     t = _linspace(_SPAN[0], _SPAN[1], n_normals, scratch.t)
     offsets = _linspace(-reach_px, reach_px, n_steps, scratch.offsets)
     base, profile, points = scratch.base, scratch.profile, scratch.points

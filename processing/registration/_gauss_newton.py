@@ -6,10 +6,12 @@ Levenberg–Marquardt on float32 points) followed by Gauss–Newton steps in num
 ~40 small calls (Jacobians, products through BLAS, ``lstsq``, SVDs, an inverse)
 whose overhead, not their arithmetic, was a fifth of a frame's registration.
 Here the DLT, the Gauss–Newton steps (the Jacobian formed directly in the gauge
-basis) and the noise gain are one compiled call each, LAPACK reached through
-numba's bindings to the routines numpy calls; from the DLT the steps reach the
-same minimum as from OpenCV's start (to 1e-15 of the unit-norm H on the default
-scene's frames). Cached on disk like the edge fits (:mod:`._edges`).
+basis) and the noise gain are one compiled call each. LAPACK's reduced SVD is the
+only routine they reach (through numba): the null vector, the least-squares steps
+and the covariance all come from it, which keeps the first compile at ~9 s (~15 s
+with ``lstsq``, ``eigh`` and ``inv`` besides). From the DLT the steps reach the same
+minimum as from OpenCV's start (to 1e-15 of the unit-norm H on the default scene's
+frames). Cached on disk like the edge fits (:mod:`._edges`).
 
 References
 ----------
@@ -40,7 +42,7 @@ def fit_homography(plane, image):
     if not (ok_plane and ok_image):
         return np.eye(3)
     n = plane.shape[0]
-    A = np.zeros((2 * n, 9))
+    A = np.zeros((max(2 * n, 9), 9))
     for i in range(n):
         px = to_plane[0, 0] * plane[i, 0] + to_plane[0, 2]
         py = to_plane[1, 1] * plane[i, 1] + to_plane[1, 2]
@@ -50,14 +52,14 @@ def fit_homography(plane, image):
         A[i, 6], A[i, 7], A[i, 8] = -ix * px, -ix * py, -ix
         A[n + i, 3], A[n + i, 4], A[n + i, 5] = px, py, 1.0
         A[n + i, 6], A[n + i, 7], A[n + i, 8] = -iy * px, -iy * py, -iy
-    # The null vector of A: the eigenvector of AᵀA (9 × 9) of the least eigenvalue. Squaring
-    # A's condition costs the start digits that the Gauss–Newton steps give back.
-    h = np.linalg.eigh(A.T @ A)[1][:, 0].copy().reshape(3, 3)
-    H = np.linalg.inv(to_image) @ h @ to_plane
+    # The null vector of A: its last right singular vector (rows of zeros added up to
+    # nine leave it unchanged and give the reduced SVD its ninth vector).
+    h = np.linalg.svd(A, False)[2][8].copy().reshape(3, 3)
+    H = _times3(_times3(_inverse_similarity(to_image), h), to_plane)
     norm = np.sqrt(np.sum(H * H))
     if not (norm > 0 and np.isfinite(norm)):
         return np.eye(3)
-    if H[2, 2] < 0:  # the eigenvector's sign is arbitrary; OpenCV's DLT had H[2, 2] = 1
+    if H[2, 2] < 0:  # the singular vector's sign is arbitrary; OpenCV's DLT had H[2, 2] = 1
         norm = -norm
     return refine_homography(H / norm, plane, image)
 
@@ -109,7 +111,7 @@ def refine_homography(H, plane, image):
             u, v = _project(H, plane[i, 0], plane[i, 1])
             residual[i] = image[i, 0] - u
             residual[n + i] = image[i, 1] - v
-        step = np.linalg.lstsq(J, residual)[0]
+        step = _least_squares(J, residual)
         norm = 0.0
         for a in range(3):
             for b in range(3):
@@ -131,25 +133,79 @@ def noise_gain(H, plane, sample_corners):
     basis = _gauge_basis(H)
     J = np.empty((2 * plane.shape[0], 8))
     _jacobian(H, plane, basis, J)
-    singular = np.linalg.svd(J, full_matrices=False)[1]
+    _, singular, vt = np.linalg.svd(J, False)
     if singular[-1] <= 1e-10 * singular[0]:
         return 1e12
-    cov = np.linalg.inv(J.T @ J)
     k = sample_corners.shape[0]
     Js = np.empty((2 * k, 8))
     _jacobian(H, sample_corners, basis, Js)
+    # (JᵀJ)⁻¹ = V S⁻² Vᵀ: a row's variance j (JᵀJ)⁻¹ jᵀ = ‖S⁻¹ Vᵀ jᵀ‖².
     variance = 0.0
-    spread = np.empty(8)
     for i in range(2 * k):
-        _times(Js[i], cov, spread)  # cov is symmetric: Js[i] @ cov = cov @ Js[i]
-        variance += np.dot(Js[i], spread)
+        for a in range(8):
+            along = 0.0
+            for b in range(8):
+                along += vt[a, b] * Js[i, b]
+            variance += (along / singular[a]) ** 2
     return np.sqrt(variance / (2 * k) * 2.0)
 
 
 @njit(cache=True, nogil=True)
 def _gauge_basis(H):
-    """(9, 8): an orthonormal basis of the entries' space orthogonal to H."""
-    return np.ascontiguousarray(np.linalg.svd(H.reshape(1, 9).copy())[2][1:].T)
+    """(9, 8): an orthonormal basis of the entries' space orthogonal to H: the columns but
+    one of the Householder reflection taking H's direction to a coordinate axis."""
+    h = H.ravel() / np.sqrt(np.sum(H * H))
+    k = np.argmax(np.abs(h))
+    v = h.copy()
+    v[k] += 1.0 if h[k] >= 0 else -1.0
+    scale = 2.0 / np.sum(v * v)
+    basis = np.empty((9, 8))
+    for a in range(9):
+        column = 0
+        for b in range(9):
+            if b != k:
+                basis[a, column] = (1.0 if a == b else 0.0) - scale * v[a] * v[b]
+                column += 1
+    return basis
+
+
+@njit(cache=True, nogil=True)
+def _least_squares(J, r):
+    """The least-squares step x minimising ‖J x − r‖ (``np.linalg.lstsq(J, r)``: singular
+    values below ε · max(J's shape) · the largest dropped), by the reduced SVD."""
+    u, singular, vt = np.linalg.svd(J, False)
+    cutoff = 2.220446049250313e-16 * max(J.shape[0], J.shape[1]) * singular[0]
+    x = np.zeros(J.shape[1])
+    for a in range(len(singular)):
+        if singular[a] <= cutoff:
+            continue
+        along = 0.0
+        for i in range(J.shape[0]):
+            along += u[i, a] * r[i]
+        along /= singular[a]
+        for b in range(J.shape[1]):
+            x[b] += vt[a, b] * along
+    return x
+
+
+@njit(cache=True, nogil=True)
+def _inverse_similarity(T):
+    """The inverse of a similarity ``[[s, 0, tx], [0, s, ty], [0, 0, 1]]`` (:func:`_normaliser`)."""
+    inverse = np.eye(3)
+    inverse[0, 0] = inverse[1, 1] = 1.0 / T[0, 0]
+    inverse[0, 2], inverse[1, 2] = -T[0, 2] / T[0, 0], -T[1, 2] / T[1, 1]
+    return inverse
+
+
+@njit(cache=True, nogil=True)
+def _times3(a, b):
+    """``a @ b`` of two (3, 3) matrices, without BLAS."""
+    out = np.zeros((3, 3))
+    for i in range(3):
+        for j in range(3):
+            for k in range(3):
+                out[i, j] += a[i, k] * b[k, j]
+    return out
 
 
 @njit(cache=True, nogil=True)
