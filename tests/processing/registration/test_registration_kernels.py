@@ -1,6 +1,6 @@
 """The compiled pieces of a tracked registration against the numpy they replaced: the edge
-fits' level medians, the marker bits, and the homography's DLT, Gauss–Newton steps and
-noise gain."""
+fits' level medians, the marker bits, the homography's DLT, Gauss–Newton steps and noise
+gain, and the float32 texels of the pinhole sampling."""
 
 from __future__ import annotations
 
@@ -10,11 +10,12 @@ import pytest
 from scipy import ndimage
 from scipy.optimize import least_squares
 
-from processing.registration import marker_corners_mm
+from processing.registration import PlaneHomography, Reason, Region, marker_corners_mm, rectify
 from processing.registration._edges import _median
 from processing.registration._gauss_newton import fit_homography, noise_gain
 from processing.registration._markers import to_gray
 from processing.registration._predicted import _marker_bits, _reads_as
+from rig.geometry import texel_centers_mm
 from tests.processing.registration.plate_frames import project
 
 
@@ -135,3 +136,26 @@ def test_the_noise_gain_is_the_covariance_formula_in_numpy():
     J, Js = jacobian(plane), jacobian(corners)
     variance = np.einsum("ij,jk,ik->i", Js, np.linalg.inv(J.T @ J), Js)
     assert noise_gain(H, plane, corners) == pytest.approx(np.sqrt(np.mean(variance) * 2.0))
+
+
+def test_texels_off_the_frame_read_zero_and_the_grid_follows_the_region():
+    """The pinhole path writes float32 texels straight from the compiled pass: those whose
+    footprint leaves the frame are zero and flagged; the kept texel grids of two regions
+    are each their own (the box of bilinear samples of a linear ramp is the ramp)."""
+    frame = np.add.outer(np.arange(48.0), 2.0 * np.arange(64.0))[:, :, None]  # 48 × 64
+    H = np.array([[2.0, 0.0, 10.0], [0.0, -2.0, 24.0], [0.0, 0.0, 1.0]])  # 1 mm = 2 px
+    empty = np.zeros(0, np.int64)
+    hom = PlaneHomography(
+        H, np.linalg.inv(H), True, Reason.OK, empty, np.zeros(0), 0.0, 0.0, empty
+    )  # the sample square's −x part (x < −5.25 mm) lies left of the frame
+    whole = rectify(frame, hom, sample_mm=40.0, size=16)
+    valid = whole.valid
+    assert valid.any() and not valid.all()
+    assert whole.texture.dtype == np.float32
+    np.testing.assert_array_equal(whole.texture[~valid], 0.0)
+    for center in ((4.0, 2.0), (8.0, -3.0)):
+        part = rectify(frame, hom, sample_mm=40.0, size=8, region=Region(center, 8.0))
+        assert part.valid.all()
+        xy = texel_centers_mm(8.0, 8) + np.array(center)
+        col, row = 2.0 * xy[..., 0] + 10.0, -2.0 * xy[..., 1] + 24.0
+        np.testing.assert_allclose(part.texture[..., 0], row + 2.0 * col, rtol=1e-6)
