@@ -35,13 +35,21 @@ def look_at(eye, target, up=(0.0, 0.0, 1.0)) -> tuple[np.ndarray, np.ndarray]:
         raise ValueError("look_at: eye and target are the same point")
     z = forward / dist
     up = np.asarray(up, dtype=np.float64)
-    if np.linalg.norm(np.cross(z, up)) < 1e-9:
+    if np.linalg.norm(_cross(z, up)) < 1e-9:
         up = np.array([1.0, 0.0, 0.0]) if abs(z[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
-    x = np.cross(z, -up)  # image y points down, so "up" is -y
+    x = _cross(z, -up)  # image y points down, so "up" is -y
     x /= np.linalg.norm(x)
-    y = np.cross(z, x)
+    y = _cross(z, x)
     R = np.stack([x, y, z])
     return R, -R @ eye
+
+
+def _cross(a: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``np.cross`` of two 3-vectors, in its arithmetic: its axis handling took most of a
+    camera model's construction, which registration does for every frame."""
+    return np.array(
+        [a[1] * b[2] - a[2] * b[1], a[2] * b[0] - a[0] * b[2], a[0] * b[1] - a[1] * b[0]]
+    )
 
 
 @dataclass(frozen=True)
@@ -76,7 +84,10 @@ class PinholeCamera:
                 raise ValueError(f"PinholeCamera.{name}: expected finite {shape}, got {value}")
             value.setflags(write=False)
             object.__setattr__(self, name, value)
-        if not np.allclose(self.R @ self.R.T, np.eye(3), atol=1e-9):
+        # np.allclose(R Rᵀ, I, atol=1e-9) written out (R is finite): its checks took
+        # a third of a camera model's construction.
+        identity = np.eye(3)
+        if not np.all(np.abs(self.R @ self.R.T - identity) <= 1e-9 + 1e-5 * identity):
             raise ValueError("PinholeCamera.R is not a rotation matrix")
 
     def scaled(self, scale: float) -> PinholeCamera:

@@ -25,17 +25,23 @@ cached next to this module, so later processes load it (0.3 s).
 from __future__ import annotations
 
 import math
+from collections import namedtuple
 
 import numpy as np
 from numba import njit
 
 from processing.registration._errors import RegistrationError
 
-__all__ = ["fit_corners", "gray_image", "refine_corners", "sample_gray"]
+__all__ = ["fit_corners", "gray_image", "refine_corners"]
 
 _SPAN = (0.15, 0.85)  # the part of each edge used, away from the corners
 _STEPS_PER_PX = 8
 _ITERATIONS = 2
+
+# Scratch arrays of the edge fits of one call: t (n_normals,), offsets (n_steps,), base
+# (n_normals, 2), profile (n_normals, n_steps), points (n_normals, 2) and the end levels
+# (n_normals · n_steps,).
+_ScratchArrays = namedtuple("_ScratchArrays", "t offsets base profile points levels")
 
 
 def refine_corners(gray: np.ndarray, quads: np.ndarray, *, modules: int) -> np.ndarray:
@@ -96,21 +102,6 @@ def gray_image(frame: np.ndarray) -> np.ndarray:
     return out
 
 
-def sample_gray(gray: np.ndarray, points_px: np.ndarray) -> np.ndarray:
-    """Bilinear grey levels (n,) float64 of ``gray`` (H, W) float64 at ``points_px``
-    (n, 2) (x = column, y = row); outside, the nearest edge pixel's."""
-    points = np.ascontiguousarray(points_px, dtype=np.float64).reshape(-1, 2)
-    out = np.empty(len(points))
-    _sample(np.ascontiguousarray(gray, dtype=np.float64), points, out)
-    return out
-
-
-@njit(cache=True, nogil=True)
-def _sample(gray, points, out):
-    for i in range(points.shape[0]):
-        out[i] = _bilinear(gray, points[i, 0], points[i, 1])
-
-
 @njit(cache=True, nogil=True)
 def _gray_image(frame, out):
     for r in range(frame.shape[0]):
@@ -128,15 +119,28 @@ def _refine_quads(gray, quads, modules, ok):
     """Refine every (4, 2) quad of ``quads`` in place, ``ok[i]`` where it succeeded;
     one that fails is left as it was."""
     corners = np.empty((4, 2))
+    # Scratch for the edge fits, sized for the longest edge and widest reach any
+    # round can reach (a corner moves by at most a module per round): allocated
+    # once per call, not per edge.
+    longest = 0.0
+    for i in range(quads.shape[0]):
+        for k in range(4):
+            p0, p1 = quads[i, k], quads[i, (k + 1) % 4]
+            side = math.hypot(p1[0] - p0[0], p1[1] - p0[1])
+            if side == side:  # a NaN quad fails its first edge
+                longest = max(longest, side)
+    grown = longest * (1.0 + 2.0 * _ITERATIONS / modules)
+    reach = 0.8 * grown / modules
+    scratch = _scratch(_n_normals(grown), _n_steps(reach))
     for i in range(quads.shape[0]):
         corners[:] = quads[i]
-        if _refine_quad(gray, corners, modules):
+        if _refine_quad(gray, corners, modules, scratch):
             quads[i] = corners
             ok[i] = True
 
 
 @njit(cache=True, nogil=True)
-def _refine_quad(gray, corners, modules):
+def _refine_quad(gray, corners, modules, scratch):
     """Two rounds of edge fits on ``corners`` (4, 2), in place; False where one fails."""
     lines = np.empty((4, 3))  # per edge: normal x, normal y, offset d of n·x = d
     new = np.empty((4, 2))
@@ -157,7 +161,8 @@ def _refine_quad(gray, corners, modules):
                 ox * (far0[0] - p0[0]) + oy * (far0[1] - p0[1])
                 + ox * (far1[0] - p1[0]) + oy * (far1[1] - p1[1])
             )  # fmt: skip
-            if not _edge_line(gray, p0, p1, length, ox, oy, 0.8 * depth / modules, lines[k]):
+            reach = 0.8 * depth / modules
+            if not _edge_line(gray, p0, p1, length, ox, oy, reach, lines[k], scratch):
                 return False
         for k in range(4):
             # Corner k joins edge k−1 (from corner k−1) and edge k (to corner k+1).
@@ -179,7 +184,7 @@ def _refine_quad(gray, corners, modules):
 
 
 @njit(cache=True, nogil=True)
-def _edge_line(gray, p0, p1, length, ox, oy, reach_px, line):
+def _edge_line(gray, p0, p1, length, ox, oy, reach_px, line, scratch):
     """Fit the edge p0→p1 (outward unit normal (ox, oy)) into ``line``; False if it fails.
 
     On each normal the profile f(s) ∈ [0, 1] (0 = black border, 1 = white
@@ -187,38 +192,60 @@ def _edge_line(gray, p0, p1, length, ox, oy, reach_px, line):
     symmetric kernel (the pixel's box among them) ∫ f ds = R − e, so the
     edge lies at e = R − ∫ f ds whatever the sub-pixel phase of the edge.
     """
-    n_normals = max(4, int(length * (_SPAN[1] - _SPAN[0])))
-    n_steps = max(9, int(2 * reach_px * _STEPS_PER_PX) | 1)
-    t = _linspace(_SPAN[0], _SPAN[1], n_normals)
-    offsets = _linspace(-reach_px, reach_px, n_steps)
-    base = np.empty((n_normals, 2))
-    profile = np.empty((n_normals, n_steps))
+    n_normals = _n_normals(length)
+    n_steps = _n_steps(reach_px)
+    if n_normals > scratch.profile.shape[0] or n_steps > scratch.profile.shape[1]:
+        return False  # past the scratch's bound (a non-finite quad): never a fitted edge
+    t = _linspace(_SPAN[0], _SPAN[1], n_normals, scratch.t)
+    offsets = _linspace(-reach_px, reach_px, n_steps, scratch.offsets)
+    base, profile, points = scratch.base, scratch.profile, scratch.points
+    rows, cols = gray.shape
     for i in range(n_normals):
-        base[i, 0] = p0[0] + t[i] * (p1[0] - p0[0])
-        base[i, 1] = p0[1] + t[i] * (p1[1] - p0[1])
+        bx = base[i, 0] = p0[0] + t[i] * (p1[0] - p0[0])
+        by = base[i, 1] = p0[1] + t[i] * (p1[1] - p0[1])
+        # A normal whose ends lie inside the pixel grid lies inside it whole: its
+        # samples need no clamping (the same values, a third fewer operations).
+        x0, y0 = bx + offsets[0] * ox, by + offsets[0] * oy
+        x1, y1 = bx + offsets[n_steps - 1] * ox, by + offsets[n_steps - 1] * oy
+        inside = (
+            min(x0, x1) >= 0.0 and max(x0, x1) < cols - 1.0
+            and min(y0, y1) >= 0.0 and max(y0, y1) < rows - 1.0
+        )  # fmt: skip
         for j in range(n_steps):
-            x = base[i, 0] + offsets[j] * ox
-            y = base[i, 1] + offsets[j] * oy
-            profile[i, j] = _bilinear(gray, x, y)
+            x = bx + offsets[j] * ox
+            y = by + offsets[j] * oy
+            profile[i, j] = _interpolate(gray, x, y) if inside else _bilinear(gray, x, y)
     ends = max(1, n_steps // 6)
     # Levels per edge, from the ends of all its normals: less noisy than per normal.
-    dark = np.median(profile[:, :ends].copy())
-    bright = np.median(profile[:, n_steps - ends :].copy())
+    levels = scratch.levels
+    for i in range(n_normals):
+        for j in range(ends):
+            levels[i * ends + j] = profile[i, j]
+    dark = _median(levels, n_normals * ends)
+    for i in range(n_normals):
+        for j in range(ends):
+            levels[i * ends + j] = profile[i, n_steps - ends + j]
+    bright = _median(levels, n_normals * ends)
     if bright - dark <= 0.2 * max(abs(bright), abs(dark), 1e-12):
         return False
-    f = np.empty(n_steps)
-    points = np.empty((n_normals, 2))
     n_clean = 0
+    gain = 1.0 / (bright - dark)  # a product per sample, not a division
     for i in range(n_normals):
-        for j in range(n_steps):
-            f[j] = min(max((profile[i, j] - dark) / (bright - dark), 0.0), 1.0)
         # Normals crossing something other than one edge (a neighbour's module,
         # the sample) have a wrong end; keep those that start dark and end bright.
-        if f[:ends].max() >= 0.25 or f[n_steps - ends :].min() <= 0.75:
+        clean = True
+        for j in range(ends):
+            clean &= (profile[i, j] - dark) * gain < 0.25
+            clean &= (profile[i, n_steps - ends + j] - dark) * gain > 0.75
+        if not clean:
             continue
+        # The trapezoids of the normalised profile, taken as it is normalised.
         area = 0.0
-        for j in range(n_steps - 1):
-            area += (offsets[j + 1] - offsets[j]) * (f[j + 1] + f[j]) / 2.0
+        before = min(max((profile[i, 0] - dark) * gain, 0.0), 1.0)
+        for j in range(1, n_steps):
+            f = min(max((profile[i, j] - dark) * gain, 0.0), 1.0)
+            area += (offsets[j] - offsets[j - 1]) * (f + before) / 2.0
+            before = f
         e = reach_px - area
         points[n_clean, 0] = base[i, 0] + e * ox
         points[n_clean, 1] = base[i, 1] + e * oy
@@ -241,14 +268,91 @@ def _edge_line(gray, p0, p1, length, ox, oy, reach_px, line):
 
 
 @njit(cache=True, nogil=True)
-def _linspace(start, stop, num):
-    """``np.linspace(start, stop, num)`` in numpy's arithmetic (i · step + start)."""
-    out = np.empty(num)
+def _scratch(n_normals, n_steps):
+    """Scratch for edges of at most ``n_normals`` normals of ``n_steps`` samples."""
+    return _ScratchArrays(
+        np.empty(n_normals), np.empty(n_steps), np.empty((n_normals, 2)),
+        np.empty((n_normals, n_steps)), np.empty((n_normals, 2)),
+        np.empty(n_normals * n_steps),
+    )  # fmt: skip
+
+
+@njit(cache=True, nogil=True)
+def _n_normals(length):
+    """Normals across an edge ``length`` px long: one per pixel of its span."""
+    return max(4, int(length * (_SPAN[1] - _SPAN[0])))
+
+
+@njit(cache=True, nogil=True)
+def _n_steps(reach_px):
+    """Samples along a normal reaching ``reach_px`` either side: odd, ≥ 9."""
+    return max(9, int(2 * reach_px * _STEPS_PER_PX) | 1)
+
+
+@njit(cache=True, nogil=True)
+def _median(values, n):
+    """``np.median(values[:n])``, reordering ``values[:n]``: the middle value, or the mean
+    of the two middle values for even n (numpy's arithmetic). ``np.median`` copied the
+    levels twice and selected with a branch per comparison that the noisy levels
+    mispredict half the time: a third of the edge fits."""
+    k = n // 2
+    upper = _select(values, n, k)
+    if n % 2:
+        return upper
+    lower = values[0]  # after the selection values[:k] ≤ values[k]: the (k − 1)-th is their max
+    for i in range(1, k):
+        lower = max(lower, values[i])
+    return (lower + upper) / 2
+
+
+@njit(cache=True, nogil=True)
+def _select(values, n, k):
+    """The k-th smallest of ``values[:n]``, partitioning in place so that
+    ``values[:k] ≤ values[k] ≤ values[k + 1:n]``: quickselect with Lomuto's partition
+    made branch-free (every element swapped, the boundary advanced by the comparison),
+    the pivot the median of three; equal values are grouped, so a flat run (a saturated
+    plate) takes one pass."""
+    lo, hi = 0, n - 1
+    while lo < hi:
+        mid = (lo + hi) // 2
+        a, b, c = values[lo], values[mid], values[hi]
+        pick = mid if (a <= b) == (b <= c) else (lo if (b <= a) == (a <= c) else hi)
+        pivot = values[pick]
+        values[pick], values[hi] = values[hi], pivot
+        below = _partition(values, lo, hi, pivot, False)  # [lo, below) < pivot
+        if k < below:
+            hi = below - 1
+            continue
+        upto = _partition(values, below, hi, pivot, True)  # [below, upto) == pivot
+        values[upto], values[hi] = values[hi], values[upto]
+        if k <= upto:
+            return pivot
+        lo = upto + 1
+    return values[k]
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _partition(values, lo, hi, pivot, equal):
+    """Move the values of ``values[lo:hi]`` that are < ``pivot`` (``equal``: ≤) to its
+    front, branch-free; returns where they end."""
+    store = lo
+    for i in range(lo, hi):
+        x = values[i]
+        values[i] = values[store]
+        values[store] = x
+        store += (x <= pivot) if equal else (x < pivot)
+    return store
+
+
+@njit(cache=True, nogil=True)
+def _linspace(start, stop, num, out):
+    """``np.linspace(start, stop, num)`` in numpy's arithmetic (i · step + start), into
+    ``out[:num]``, which it returns."""
     step = (stop - start) / (num - 1)
     for i in range(num):
         out[i] = i * step + start
     out[num - 1] = stop
-    return out
+    return out[:num]
 
 
 @njit(cache=True, nogil=True)
@@ -259,7 +363,19 @@ def _bilinear(gray, x, y):
     y = min(max(y, 0.0), rows - 1.0)
     c0 = min(int(x), cols - 2)
     r0 = min(int(y), rows - 2)
-    fx, fy = x - c0, y - r0
+    return _blend(gray, r0, c0, x - c0, y - r0)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _interpolate(gray, x, y):
+    """:func:`_bilinear` at 0 ≤ x < W − 1, 0 ≤ y < H − 1, where it needs no clamping."""
+    c0, r0 = int(x), int(y)
+    return _blend(gray, r0, c0, x - c0, y - r0)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _blend(gray, r0, c0, fx, fy):
+    """The bilinear mix of pixels (r0, c0) … (r0 + 1, c0 + 1) at fractions fx, fy."""
     top = (1.0 - fx) * gray[r0, c0] + fx * gray[r0, c0 + 1]
     bottom = (1.0 - fx) * gray[r0 + 1, c0] + fx * gray[r0 + 1, c0 + 1]
     return (1.0 - fy) * top + fy * bottom

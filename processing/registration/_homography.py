@@ -2,9 +2,9 @@
 
 Every marker corner found gives one correspondence between its (undistorted)
 image position and its known position on the plate (mm, z = 0). The fit is a
-normalised DLT [1]_ (OpenCV's ``findHomography`` without RANSAC) refined by
-Gauss–Newton on the reprojection error in the image, with markers whose
-corners disagree by more than ``outlier_px`` dropped and the fit repeated.
+normalised DLT [1]_ refined by Gauss–Newton on the reprojection error in the
+image (one compiled call, :mod:`._gauss_newton`), with markers whose corners
+disagree by more than ``outlier_px`` dropped and the fit repeated.
 Before a frame may be warped, the fit's conditioning is checked: how much
 corner noise it would amplify at the corners of the sample square.
 
@@ -22,11 +22,10 @@ import cv2
 import numpy as np
 
 from processing.registration._errors import Reason, RegistrationError
+from processing.registration._gauss_newton import fit_homography, noise_gain
 from processing.registration._markers import MarkerDetection, marker_corners_mm
 from rig.camera import PinholeCamera
 from rig.config import Holder
-
-_GN_ITERATIONS = 10
 
 __all__ = ["PlaneHomography", "fit_plane_homography", "pose_plane_homography", "undistort_px"]
 
@@ -116,68 +115,6 @@ def _apply(H: np.ndarray, points: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     return out, w
 
 
-def _fit(plane: np.ndarray, image: np.ndarray) -> np.ndarray:
-    """The plane → image homography (3, 3), ‖H‖ = 1, of least squared image reprojection error.
-
-    OpenCV's normalised DLT and Levenberg–Marquardt (in C++, on float32 points: within
-    ~1e-6 of the minimum) start Gauss–Newton in float64, which then converges in two
-    or three steps; from a DLT of its own in numpy it took ten, a fifth of a registration.
-    """
-    H, _ = cv2.findHomography(plane, image, 0)
-    if H is None:  # degenerate points: the DLT's answer is arbitrary, the checks flag it
-        H = np.eye(3)
-    return _refine(H / np.linalg.norm(H), plane, image)
-
-
-def _jacobian(H: np.ndarray, plane: np.ndarray, projected=None) -> np.ndarray:
-    """d(image point)/d(H entries): (2n, 9), for H acting on (x, y, 1); rows u then v.
-
-    ``projected`` is ``_apply(H, plane)`` where the caller has it already.
-    """
-    n = len(plane)
-    u, v = (_apply(H, plane) if projected is None else projected)[0].T
-    w = H[2, 0] * plane[:, 0] + H[2, 1] * plane[:, 1] + H[2, 2]
-    J = np.zeros((2 * n, 9))
-    J[:n, 0], J[:n, 1], J[:n, 2] = plane[:, 0] / w, plane[:, 1] / w, 1.0 / w
-    J[n:, 3:6] = J[:n, 0:3]
-    J[:n, 6:9] = -u[:, None] * J[:n, 0:3]
-    J[n:, 6:9] = -v[:, None] * J[:n, 0:3]
-    return J
-
-
-def _refine(H: np.ndarray, plane: np.ndarray, image: np.ndarray) -> np.ndarray:
-    """Gauss–Newton on the image reprojection error, with ‖H‖ = 1 as a gauge."""
-    # Steps orthogonal to the starting H (scaling H changes nothing): every homography
-    # near it is reached that way, and the basis is computed once.
-    basis = np.linalg.svd(H.reshape(1, 9))[2][1:].T  # (9, 8)
-    for _ in range(_GN_ITERATIONS):
-        projected = _apply(H, plane)
-        pred = projected[0]
-        residual = np.concatenate([image[:, 0] - pred[:, 0], image[:, 1] - pred[:, 1]])
-        J = _jacobian(H, plane, projected)
-        step, *_ = np.linalg.lstsq(J @ basis, residual, rcond=None)
-        H = H + (basis @ step).reshape(3, 3)
-        H = H / np.linalg.norm(H)
-        # Converged: a step of 1e-12 of the unit-norm H moves points by ~1e-9 px.
-        if np.max(np.abs(step)) < 1e-12:
-            break
-    return H
-
-
-def _noise_gain(H: np.ndarray, plane: np.ndarray, sample_corners: np.ndarray, projected) -> float:
-    """RMS image-position std at the sample corners for unit corner noise [1]_ §5.2
-    (``projected``: ``_apply(H, plane)``)."""
-    basis = np.linalg.svd(H.reshape(1, 9))[2][1:].T
-    J = _jacobian(H, plane, projected) @ basis
-    singular = np.linalg.svd(J, compute_uv=False)
-    if singular[-1] <= 1e-10 * singular[0]:
-        return 1e12
-    cov = np.linalg.inv(J.T @ J)
-    Js = _jacobian(H, sample_corners) @ basis
-    variance = np.einsum("ij,jk,ik->i", Js, cov, Js)
-    return float(np.sqrt(np.mean(variance) * 2.0))
-
-
 def fit_plane_homography(
     detection: MarkerDetection,
     holder: Holder,
@@ -262,7 +199,7 @@ def fit_plane_homography(
         if spread[1] < min_spread * spread[0]:
             return flagged(Reason.COLLINEAR_MARKERS, ids[keep], outliers=ids[~keep])
         image = image_all[keep].reshape(-1, 2)
-        H = _fit(plane, image)
+        H = fit_homography(plane, image)
         projected = _apply(H, plane)
         pred = projected[0]
         rms = np.sqrt(np.mean(np.sum((pred - image) ** 2, axis=1).reshape(-1, 4), axis=1))
@@ -277,7 +214,7 @@ def fit_plane_homography(
     mean_err = float(np.mean(distance))
     half = holder.sample_mm / 2
     sample_corners = np.array([[-half, half], [half, half], [half, -half], [-half, -half]])
-    gain = _noise_gain(H, plane, sample_corners, projected)
+    gain = noise_gain(H, plane, sample_corners)
     w_plate = projected[1]
     _, w_sample = _apply(H, sample_corners)
     # All plate points, markers and sample alike, must lie on one side of the

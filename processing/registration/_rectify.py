@@ -25,6 +25,7 @@ References
 
 from __future__ import annotations
 
+import functools
 from dataclasses import dataclass
 
 import numpy as np
@@ -219,12 +220,8 @@ def rectify(
         raise RegistrationError(f"sample_mm = {sample_mm}: must be > 0")
     step = side / size
     n_out = size + extend_texels
-    # The shared grid, extended past the last column (+x) and row (−y).
-    grid = texel_centers_mm(step * n_out, n_out) + (step * extend_texels / 2) * np.array(
-        [1.0, -1.0]
-    )
-    if region is not None:
-        grid = grid + np.asarray(region.center_mm, dtype=np.float64)
+    center = None if region is None else tuple(float(v) for v in region.center_mm)
+    grid = _texel_grid(float(side), size, extend_texels, center)
     H = homography.plane_to_image
     # Without a lens model the sample positions are the homography's alone: footprint,
     # positions and samples come from compiled passes without (n, 2) temporaries.
@@ -236,22 +233,22 @@ def rectify(
     if filter == "area":  # each sample takes the pixel it falls in (nearest, order 0)
         order = 0
     sx, sy = subgrid((fx, fy), filter=filter, max_supersample=max_supersample)
-    offsets_x = ((np.arange(sx) + 0.5) / sx - 0.5) * step
-    offsets_y = ((np.arange(sy) + 0.5) / sy - 0.5) * step
-    sub = np.stack(np.meshgrid(offsets_x, offsets_y), axis=-1).reshape(-1, 2)  # (sx*sy, 2)
+    sub = _sub_offsets(sx, sy, step)
 
     height, width, channels = image.shape
     if order != 1:  # nearest (the area filter) or cubic, by scipy
         planes = [np.asarray(image[:, :, c], dtype=np.float64) for c in range(channels)]
         if order == 3:
             planes = [ndimage.spline_filter(p, order=3, mode="nearest") for p in planes]
-    texture = np.zeros((n_out, n_out, channels), np.float64)
     valid = np.ones((n_out, n_out), bool)
-    if order == 1 and pinhole:
+    if order == 1 and pinhole:  # the texels' means rounded to float32 as they are stored
+        texture = np.empty((n_out, n_out, channels), np.float32)
         flat = texture.reshape(-1, channels)
         project_box_bilinear(image, H, grid.reshape(-1, 2), sub, flat, valid.reshape(-1))
-        texture[~valid] = 0.0
-        return Normtexture(texture.astype(np.float32), valid, (sx, sy))
+        if not valid.all():
+            texture[~valid] = 0.0
+        return Normtexture(texture, valid, (sx, sy))
+    texture = np.zeros((n_out, n_out, channels), np.float64)
     rows_per_strip = max(1, _MAX_SAMPLES_PER_STRIP // (n_out * len(sub)))
     for r0 in range(0, n_out, rows_per_strip):
         block = grid[r0 : r0 + rows_per_strip]  # (r, n_out, 2)
@@ -275,6 +272,34 @@ def rectify(
             strip[:, :, c] = values.reshape(shape).mean(axis=2)
     texture[~valid] = 0.0
     return Normtexture(texture.astype(np.float32), valid, (sx, sy))
+
+
+@functools.lru_cache(maxsize=32)
+def _texel_grid(
+    side_mm: float, size: int, extend_texels: int, center_mm: tuple[float, float] | None
+) -> np.ndarray:
+    """(n, n, 2) read-only texel centres, n = ``size + extend_texels``: the shared grid of a
+    square of ``side_mm`` (centred on ``center_mm``), extended past the last column (+x)
+    and row (−y). Kept: every frame of a session asks for the same one."""
+    step = side_mm / size
+    n_out = size + extend_texels
+    grid = texel_centers_mm(step * n_out, n_out) + (step * extend_texels / 2) * np.array(
+        [1.0, -1.0]
+    )
+    if center_mm is not None:
+        grid = grid + np.asarray(center_mm, dtype=np.float64)
+    grid.setflags(write=False)
+    return grid
+
+
+@functools.lru_cache(maxsize=64)
+def _sub_offsets(sx: int, sy: int, step_mm: float) -> np.ndarray:
+    """(sx · sy, 2) read-only offsets from a texel's centre of its sub-samples, x fastest."""
+    offsets_x = ((np.arange(sx) + 0.5) / sx - 0.5) * step_mm
+    offsets_y = ((np.arange(sy) + 0.5) / sy - 0.5) * step_mm
+    sub = np.column_stack([np.tile(offsets_x, sy), np.repeat(offsets_y, sx)])
+    sub.setflags(write=False)
+    return sub
 
 
 def blend_edges(texture: np.ndarray, *, blend: int) -> np.ndarray:

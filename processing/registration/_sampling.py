@@ -74,8 +74,8 @@ def project_box_bilinear(
         Texel centres on the plate.
     sub_mm : (n_sub, 2) float64
         Sub-sample offsets from a texel's centre.
-    out : (n, C) float64, C-contiguous, zeros
-        The texels' mean values are written in place.
+    out : (n, C) float64 or float32, C-contiguous
+        The texels' mean values are written in place (summed in float64).
     valid : (n,) bool
         Set False (never True) where a sub-sample lies outside the frame's
         pixel area ``[−0.5, W − 0.5] × [−0.5, H − 0.5]``.
@@ -103,24 +103,38 @@ def homography_footprint_px(
 @njit(cache=True, nogil=True)
 def _box_bilinear(frame, pixels, n_sub, out):
     for t in range(out.shape[0]):
+        s0 = s1 = s2 = 0.0
         for k in range(t * n_sub, (t + 1) * n_sub):
-            _accumulate(frame, pixels[k, 0], pixels[k, 1], out, t)
-        for c in range(out.shape[1]):
-            out[t, c] /= n_sub
+            v0, v1, v2 = _bilinear(frame, pixels[k, 0], pixels[k, 1])
+            s0, s1, s2 = s0 + v0, s1 + v1, s2 + v2
+        _store(out, t, s0, s1, s2, n_sub)
 
 
 @njit(cache=True, nogil=True)
 def _project_box_bilinear(frame, H, centers, sub, out, valid):
     rows, cols = frame.shape[0], frame.shape[1]
     n_sub = sub.shape[0]
+    # H (c + o) = H c + H (o, 0): the sub-samples' offsets through H's linear part, once.
+    shift = np.empty((n_sub, 3))
+    for k in range(n_sub):
+        for a in range(3):
+            shift[k, a] = H[a, 0] * sub[k, 0] + H[a, 1] * sub[k, 1]
     for t in range(out.shape[0]):
+        cx, cy = centers[t, 0], centers[t, 1]
+        bx = H[0, 0] * cx + H[0, 1] * cy + H[0, 2]
+        by = H[1, 0] * cx + H[1, 1] * cy + H[1, 2]
+        bw = H[2, 0] * cx + H[2, 1] * cy + H[2, 2]
+        inside = True
+        s0 = s1 = s2 = 0.0
         for k in range(n_sub):
-            x, y = _project(H, centers[t, 0] + sub[k, 0], centers[t, 1] + sub[k, 1])
-            if not (-0.5 <= x <= cols - 0.5 and -0.5 <= y <= rows - 0.5):
-                valid[t] = False
-            _accumulate(frame, x, y, out, t)
-        for c in range(out.shape[1]):
-            out[t, c] /= n_sub
+            w = 1.0 / (bw + shift[k, 2])
+            x, y = (bx + shift[k, 0]) * w, (by + shift[k, 1]) * w
+            inside &= (x >= -0.5) & (x <= cols - 0.5) & (y >= -0.5) & (y <= rows - 0.5)
+            v0, v1, v2 = _bilinear(frame, x, y)
+            s0, s1, s2 = s0 + v0, s1 + v1, s2 + v2
+        if not inside:
+            valid[t] = False
+        _store(out, t, s0, s1, s2, n_sub)
 
 
 @njit(cache=True, nogil=True)
@@ -143,9 +157,10 @@ def _project(H, px, py):
 
 
 @njit(cache=True, nogil=True, inline="always")
-def _accumulate(frame, x, y, total, t):
-    """Add the bilinear value at (x, y) of every channel to ``total[t]``; outside, the
-    nearest edge pixel's; a non-finite position reads pixel (0, 0)."""
+def _bilinear(frame, x, y):
+    """The bilinear value at (x, y) of channels 0, 1, 2 (0.0 past the frame's C); outside,
+    the nearest edge pixel's; a non-finite position reads pixel (0, 0). Summed in local
+    accumulators by the callers: added into ``out`` per sample, the sums went through memory."""
     rows, cols = frame.shape[0], frame.shape[1]
     if not (x - x == 0.0 and y - y == 0.0):
         x = y = 0.0
@@ -154,7 +169,24 @@ def _accumulate(frame, x, y, total, t):
     c0 = min(int(x), cols - 2)
     r0 = min(int(y), rows - 2)
     fx, fy = x - c0, y - r0
-    for c in range(frame.shape[2]):
-        top = (1.0 - fx) * frame[r0, c0, c] + fx * frame[r0, c0 + 1, c]
-        bottom = (1.0 - fx) * frame[r0 + 1, c0, c] + fx * frame[r0 + 1, c0 + 1, c]
-        total[t, c] += (1.0 - fy) * top + fy * bottom
+    v0 = _lerp2(frame, r0, c0, 0, fx, fy)
+    if frame.shape[2] == 1:
+        return v0, 0.0, 0.0
+    return v0, _lerp2(frame, r0, c0, 1, fx, fy), _lerp2(frame, r0, c0, 2, fx, fy)
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _lerp2(frame, r0, c0, c, fx, fy):
+    """Channel c bilinear between pixels (r0, c0) and (r0 + 1, c0 + 1) at fractions fx, fy."""
+    top = (1.0 - fx) * frame[r0, c0, c] + fx * frame[r0, c0 + 1, c]
+    bottom = (1.0 - fx) * frame[r0 + 1, c0, c] + fx * frame[r0 + 1, c0 + 1, c]
+    return (1.0 - fy) * top + fy * bottom
+
+
+@njit(cache=True, nogil=True, inline="always")
+def _store(out, t, s0, s1, s2, n_sub):
+    """``out[t]`` = the sums of texel t's sub-samples / ``n_sub`` (C ∈ {1, 3})."""
+    out[t, 0] = s0 / n_sub
+    if out.shape[1] == 3:
+        out[t, 1] = s1 / n_sub
+        out[t, 2] = s2 / n_sub
