@@ -90,7 +90,8 @@ def lamp_positions(config: RigConfig, calibration: CalibrationFile | None, sourc
             # the centre's irradiance k cos θ / r² as calibrated over the config's
             intensity = lamp.intensity if result.intensity is None else result.intensity
             gains[lamp.id] = float(
-                intensity * plane_irradiance(positions[lamp.id], np.zeros(3))
+                intensity
+                * plane_irradiance(positions[lamp.id], np.zeros(3))
                 / (lamp.intensity * plane_irradiance(nominal, np.zeros(3)))
             )
         else:

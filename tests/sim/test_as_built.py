@@ -24,7 +24,7 @@ def _scene(as_built: dict | None = None):
     [
         ({"lamp_intensity": 1.0}, "as_built.lamp_intensity: Input should be less than 1"),
         ({"lamp_position_mm": -2.0}, "as_built.lamp_position_mm: Input should be greater than or"),
-        ({"camera_rotation_deg": 20.0}, "as_built.camera_rotation_deg: Input should be less than or"),
+        ({"camera_rotation_deg": 20.0}, "as_built.camera_rotation_deg: Input should be less"),
         ({"seed": -1}, "as_built.seed: Input should be greater than or equal to 0"),
         ({"lamp_offset": 1.0}, "as_built.lamp_offset: unknown field; valid fields here are"),
     ],

@@ -42,17 +42,21 @@ def _score(rows, processing, components=4):
 def test_the_calibrated_lamps_lift_the_captured_pairs_above_the_nominal_processing(rows):
     nominal, calibrated = _score(rows, "nominal"), _score(rows, "calibrated")
     exact = _score(rows, "exact rig")
-    # measured: MARGIN_DB
-    assert calibrated["psnr_captured_db"] >= nominal["psnr_captured_db"] + 3.0
+    # measured: 25.9 dB nominal, 38.5 calibrated, 39.4 on the exact rig
+    assert calibrated["psnr_captured_db"] >= nominal["psnr_captured_db"] + 6.0
     assert calibrated["psnr_captured_db"] <= exact["psnr_captured_db"] + 0.5
 
 
 def test_the_calibration_finds_each_lamps_irradiance_better_than_the_config(rows):
     lamps = [r for r in rows if "lamp" in r]
     assert len(lamps) == len(RigConfig().light_arc.lamps)
+    # measured: ≤ 0.06 % calibrated, up to 10 % from the config
     worst = max(abs(r["irradiance_error_pct"]) for r in lamps)
-    assert worst < 0.5 * max(abs(r["nominal_irradiance_error_pct"]) for r in lamps)
-    assert all(r["position_error_mm"] < 1.5 * r["nominal_error_mm"] + 3.0 for r in lamps)
+    assert worst < 0.5
+    assert max(abs(r["nominal_irradiance_error_pct"]) for r in lamps) > 5.0
+    # the sphere's places triangulate a near lamp to 1 % of its distance (docs/calibration.md)
+    radius = RigConfig().light_arc.radius_mm
+    assert all(r["position_error_mm"] < 0.01 * radius for r in lamps)
 
 
 def test_the_rig_as_built_records_its_nominal_config_and_other_frames(tmp_path: Path):
