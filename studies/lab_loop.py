@@ -77,8 +77,9 @@ PROCESSING = ("nominal", "calibrated", "exact rig")
 #: The per-view PCA components scored beside the lossless model.
 COMPONENTS = 4
 
-#: The cameras that see the mirror sphere, and its rendering's supersampling
-#: (``rig calibrate lamps --sim``: 4 × 4; its board's and ball's edges need it).
+#: The cameras that see the mirror sphere (``rig calibrate lamps --sim``: every
+#: camera; three keep the rendering to minutes) and the targets' supersampling
+#: (the CLI's 4 × 4: the ball's outline and highlight).
 LAMP_CAMERAS = ("cam0", "cam2", "cam4")
 SUPERSAMPLE = 4
 
@@ -99,7 +100,8 @@ def run(
     over its mean; ``nominal_irradiance_error_pct``: the config's). Then one per
     (scene, plan, processing, c): ``processing`` (:data:`PROCESSING`),
     ``components`` (c, or ``lossless``), ``psnr_captured_db``,
-    ``psnr_held_out_db`` (as :func:`studies.render_loop.scores`), ``truth_rays``.
+    ``psnr_held_out_db`` (as :func:`studies.render_loop.scores`), ``truth_rays``
+    (the footprint truth's rays per texel side), ``slots`` (view slots registered).
     """
     as_built = dict(AS_BUILT if as_built is None else as_built)
     scenes = ("bumps",) if quick and scenes == tuple(SCENES) else scenes
@@ -114,6 +116,7 @@ def run(
     with tempfile.TemporaryDirectory(prefix="rig-bench-lab-loop-") as tmp:
         workdir = Path(tmp)
         calibration = calibrate(workdir / "calibrations", config, as_built, cameras=cameras)
+        # the draw depends on the rig and the table alone: any sample's scene holds it
         rows = lamp_errors(calibration, scene_from_dict(_scene("bumps", as_built)))
         for name in scenes:
             for plan in plans:
