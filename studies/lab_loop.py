@@ -86,11 +86,12 @@ SUPERSAMPLE = 4
 
 def run(
     quick: bool = False, *, scenes: tuple[str, ...] = tuple(SCENES),
-    plans: tuple[str, ...] = ("coarse",), as_built: dict | None = None,
+    plans: tuple[str, ...] | None = None, as_built: dict | None = None,
 ) -> list[dict]:  # fmt: skip
-    """``quick``: the bumps at 32² texels, the sphere seen by two cameras; else
-    both samples at 64². ``plans``: the render loop's (:data:`~studies.render_loop.PLANS`);
-    ``as_built``: the rig's ``[as_built]`` table (default :data:`AS_BUILT`).
+    """``quick``: the bumps at 32² texels on the coarse plan, the sphere seen by two
+    cameras; else both samples at 64² on the coarse and medium plans. ``plans``: which
+    of the render loop's (:data:`~studies.render_loop.PLANS`); ``as_built``: the rig's
+    ``[as_built]`` table (default :data:`AS_BUILT`).
 
     Rows, first one per calibrated lamp: ``lamp``, ``position_error_mm`` (calibrated
     against where the lamp stands as built; ``nominal_error_mm``: the config's),
@@ -105,6 +106,7 @@ def run(
     """
     as_built = dict(AS_BUILT if as_built is None else as_built)
     scenes = ("bumps",) if quick and scenes == tuple(SCENES) else scenes
+    plans = plans if plans is not None else (("coarse",) if quick else ("coarse", "medium"))
     unknown = [s for s in scenes if s not in SCENES] + [p for p in plans if p not in PLANS]
     if unknown:
         raise RigError(
