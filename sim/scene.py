@@ -2,7 +2,8 @@
 
 A scene TOML names the sample (a registered generator and its parameters), the
 materials, the rig (a rig-config file and/or inline overrides of its fields),
-the render scale, the radiometry and the list of effects; an effect's
+how far the simulated rig stands off that config (``[as_built]``,
+:mod:`sim.as_built`), the render scale, the radiometry and the list of effects; an effect's
 parameters go in a table of the same name, which is only allowed when the
 effect is listed. Every problem is reported at once, one line each, naming the
 field, the value and what would be valid.
