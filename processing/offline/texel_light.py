@@ -18,9 +18,10 @@ from the rig config's lamp geometry (the nominal light arc); the material
 records which. A calibrated lamp brighter or nearer than the config's gives the
 sample's centre more irradiance: its calibrated k cos θ / r² over the config's
 scales its texels too (the calibrated lamps' mean ratio set to 1: a white
-target gives intensities relative to one another, not their absolute scale). Directional lamps give every texel the same irradiance. What the
-turn of the light's direction does to a tilted texel's shading (or to a cast
-shadow) is not corrected: the texel keeps the slot's light direction.
+target gives intensities relative to one another, not their absolute scale).
+Directional lamps give every texel the same irradiance. What the turn of the
+light's direction does to a tilted texel's shading (or to a cast shadow) is
+not corrected: the texel keeps the slot's light direction.
 """
 
 from __future__ import annotations
