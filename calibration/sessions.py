@@ -42,14 +42,15 @@ from calibration.response import ResponseCurve, ResponseError, calibrate_respons
 from processing.mdf import profile_axis_for
 from processing.offline import frame_camera
 from rig.archive import Archive
-from rig.calfile import CameraResult, LampResult, LaserResult
+from rig.calfile import CalibrationFile, CameraResult, LampResult, LaserResult
 from rig.config import RigConfig
-from rig.material import FlatFieldMaps
+from rig.material import FlatFieldMaps, copy_flat_field
 
 __all__ = [
     "FlatFieldMaps",
     "LampRun",
     "LaserFrame",
+    "apply_calibration",
     "calibrate_cameras",
     "calibrate_lamps",
     "calibrate_laser",
@@ -313,3 +314,14 @@ def _with_intensities(results: dict, white_archive, failed: dict):
 
 def _full_scale(image) -> float:
     return float(np.iinfo(image.dtype).max) if image.dtype.kind == "u" else float(image.max())
+
+
+def apply_calibration(calibration: CalibrationFile, path: str | Path, session: str | Path) -> int:
+    """Store ``calibration`` (read from the file at ``path``) in a session archive
+    recorded earlier, with the flat fields it names, for re-processing to use
+    (``rig calibrate … --apply``); returns the archive's calibration version."""
+    with Archive.open(session, mode="a") as recorded:
+        version = recorded.set_calibration(calibration.model_dump(mode="json", exclude_none=True))
+        if calibration.lamps_flat_field is not None:
+            copy_flat_field(path, calibration.lamps_flat_field, recorded.path)
+    return version

@@ -29,6 +29,7 @@ def target_scene(
     *,
     scale: float = 0.5,
     supersample: int = 4,
+    as_built: dict | None = None,
 ) -> Scene:
     """The simulated rig ``config`` with ``target``'s calibration part on the turntable.
 
@@ -38,7 +39,9 @@ def target_scene(
     a sharp Phong lobe); ``white``: the flat white target (in the recess, at
     ``targets.white.height_mm``).
     ``supersample`` anti-aliases the printed board (4: corners within ~0.05 px).
-    Cameras with zero distortion get ``DEFAULT_DISTORTION``.
+    Cameras with zero distortion get ``DEFAULT_DISTORTION``. ``as_built``: the
+    scene's ``[as_built]`` table (``sim.as_built``), for a rig not built exactly to
+    ``config``; the same table gives every target's scene the same deviations.
     """
     if target not in TARGETS:
         raise ValueError(f"no simulated target for {target!r}; valid are {list(TARGETS)}")
@@ -73,6 +76,7 @@ def target_scene(
         "rig": {"overrides": rig},
         "render": {"scale": scale, "supersample": supersample},
         "lens_distortion": {"coefficients": list(lens)},
+        "as_built": dict(as_built or {}),
     }
     if target == "laser":
         data["laser"] = {"power_w": 0.1}  # the line near half of full scale at 5 ms

@@ -148,8 +148,9 @@ class SceneModel:
     def camera(self, camera_id: str, snapshot: WorldSnapshot | None = None) -> PinholeCamera:
         """The camera's model in the sample frame (turntable at 0); in the Bonn lab,
         where ``snapshot``'s arm and rail put it."""
-        rig = self.scene.rig
-        return sim_kind(rig.kind).camera(rig, camera_id, snapshot)
+        rig, as_built = self.scene.rig, self.scene.as_built
+        camera = sim_kind(rig.kind).camera(rig, camera_id, snapshot)
+        return camera if as_built is None else as_built.camera(camera_id, camera)
 
     def camera_rays(self, camera: PinholeCamera, turntable_deg: float):
         """Pinhole rays through every pixel centre in the sample frame.
@@ -170,14 +171,17 @@ class SceneModel:
 
     def lights(self, snapshot: WorldSnapshot) -> dict[str, LightSource]:
         """The lit lamps of a snapshot, placed in the sample frame."""
-        rig = self.scene.rig
+        rig, as_built = self.scene.rig, self.scene.as_built
+        kind = sim_kind(rig.kind)
         out = {}
         for lamp_id in sorted(snapshot.lamps_on):
             lamp = rig.lamp(lamp_id)
-            pos = sim_kind(rig.kind).lamp_mm(rig, lamp_id, snapshot)
-            out[lamp_id] = LightSource.from_lamp(
-                lamp, pos, self.scene.spec.radiometry.intensity_w_sr
-            )
+            pos = kind.lamp_mm(rig, lamp_id, snapshot)
+            intensity = self.scene.spec.radiometry.intensity_w_sr
+            if as_built is not None:  # where the lamp stands as built, how bright it is
+                pos = pos + kind.mount_offset_mm(rig, as_built.lamp_offset_mm[lamp_id], snapshot)
+                intensity = intensity * as_built.lamp_gain[lamp_id]
+            out[lamp_id] = LightSource.from_lamp(lamp, pos, intensity)
         return out
 
     def laser_sheet(self, snapshot: WorldSnapshot) -> tuple[np.ndarray, np.ndarray, float]:

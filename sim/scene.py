@@ -2,7 +2,8 @@
 
 A scene TOML names the sample (a registered generator and its parameters), the
 materials, the rig (a rig-config file and/or inline overrides of its fields),
-the render scale, the radiometry and the list of effects; an effect's
+how far the simulated rig stands off that config (``[as_built]``,
+:mod:`sim.as_built`), the render scale, the radiometry and the list of effects; an effect's
 parameters go in a table of the same name, which is only allowed when the
 effect is listed. Every problem is reported at once, one line each, naming the
 field, the value and what would be valid.
@@ -36,6 +37,7 @@ from rig.config import RigConfig
 from rig.errors import ConfigError
 from rig.kinds import rig_kind
 from rig.tomlfile import format_validation_error, read_toml
+from sim.as_built import AsBuilt, AsBuiltSpec
 from sim.materials import ImageAlbedo, MaterialSpec
 from sim.samples import generator
 
@@ -191,6 +193,9 @@ class SceneSpec(_Closed):
     rig: RigSpec = RigSpec()
     render: RenderSpec = RenderSpec()
     radiometry: Radiometry = Radiometry()
+    as_built: AsBuiltSpec = Field(
+        AsBuiltSpec(), description="how far the simulated rig stands off its config"
+    )
     effects: tuple[Effect, ...] = ()
     shadows: ShadowParams | None = None
     laser: LaserParams | None = None
@@ -230,13 +235,17 @@ class Scene:
 
     ``rig`` is the effective rig config: file + overrides, cameras scaled by
     ``render.scale`` and carrying the lens-distortion coefficients, so that
-    ``rig.camera_model(id)`` describes the simulated images exactly.
+    ``rig.camera_model(id)`` describes the simulated images exactly when the
+    rig is built to its config. ``as_built`` (None when it is) holds where the
+    simulated rig's lamps and cameras stand off ``rig`` (``[as_built]``); the
+    simulator renders with them, ``rig`` stays what the daemon is told.
     """
 
     spec: SceneSpec
     rig: RigConfig
     sample_params: BaseModel
     source: str
+    as_built: AsBuilt | None = None
 
     def has(self, effect: str) -> bool:
         return effect in self.spec.effects
@@ -298,7 +307,9 @@ def scene_from_dict(data: dict, *, source: str = "scene", base_dir: Path = Path(
         for name, m in spec.materials.items()
     }  # fmt: skip
     spec = spec.model_copy(update={"materials": materials})
-    return Scene(spec=spec, rig=rig, sample_params=sample_params, source=source)
+    as_built = None if spec.as_built.exact else AsBuilt.draw(spec.as_built, rig)
+    return Scene(spec=spec, rig=rig, sample_params=sample_params, source=source,
+                 as_built=as_built)  # fmt: skip
 
 
 def _rig(spec: SceneSpec, base_dir: Path, source: str, problems: list[str]) -> RigConfig | None:

@@ -157,9 +157,9 @@ def _capture(target: str, rig, archive: Path, capture: CaptureOptions) -> None:
 
 def _compute(target: str, source: Path, rig, out: Path | None, apply: list[Path]) -> dict:
     """Compute ``target`` from ``source``, update the calibration file; what failed."""
-    from rig.archive import Archive, software_versions
+    from calibration.sessions import apply_calibration
+    from rig.archive import software_versions
     from rig.calfile import CalibrationFile, Provenance, load_calibration, write_calibration
-    from rig.material import copy_flat_field
 
     path = out or Path(rig.calibration or "calibrations/calibration.toml")
     prepare_folder(path.parent, "--out")  # the plots beside it come first
@@ -172,10 +172,7 @@ def _compute(target: str, source: Path, rig, out: Path | None, apply: list[Path]
     write_calibration(updated, path)
     console.print(escape(f"calibration: {path} ({target})"))
     for session in apply:
-        with Archive.open(session, mode="a") as recorded:
-            version = recorded.set_calibration(updated.model_dump(mode="json", exclude_none=True))
-            if updated.lamps_flat_field is not None:
-                copy_flat_field(path, updated.lamps_flat_field, recorded.path)
+        version = apply_calibration(updated, path, session)
         console.print(escape(f"{session}: calibration version {version}"))
     return failed
 

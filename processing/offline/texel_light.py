@@ -15,7 +15,11 @@ amount).
 Where the lamps stood comes from the archive's calibration
 (``rig calibrate lamps``: a near lamp's ``position_mm``) where it has one, else
 from the rig config's lamp geometry (the nominal light arc); the material
-records which. Directional lamps give every texel the same irradiance.
+records which. A calibrated lamp brighter or nearer than the config's gives the
+sample's centre more irradiance: its calibrated k cos θ / r² over the config's
+scales its texels too (the calibrated lamps' mean ratio set to 1: a white
+target gives intensities relative to one another, not their absolute scale).
+Directional lamps give every texel the same irradiance.
 
 What the turn of the light's direction does to a tilted texel's shading (or to
 a cast shadow) is left in the data unless the stage asks for per-texel light
@@ -28,7 +32,7 @@ outside the hull of its own keeps its sample and is counted.
 
 from __future__ import annotations
 
-from dataclasses import dataclass, replace
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -64,10 +68,13 @@ class LampPositions:
 
     positions_mm : lamp id → (3,) float64 mm, arc-0° frame (point and spot lamps)
     source : where they come from (the calibration session, or the rig config)
+    centre_gain : lamp id → the irradiance it gives the sample's centre over what the
+        rig config's lamp gives there (calibrated lamps; 1 for the others)
     """
 
     positions_mm: dict[str, np.ndarray]
     source: str
+    centre_gain: dict[str, float] = field(default_factory=dict)
 
 
 def plane_irradiance(source: np.ndarray, points: np.ndarray) -> np.ndarray:
@@ -89,16 +96,27 @@ def lamp_positions(config: RigConfig, calibration: CalibrationFile | None, sourc
     if not near or not kind.lamps_on_arc:
         return None
     calibrated = calibration.lamps if calibration is not None else {}
-    positions, origins = {}, set()
+    positions, origins, gains = {}, set(), {}
     for lamp in near:
         result = calibrated.get(lamp.id)
+        nominal = kind.recorded_lamp_mm(config, lamp.id, {})  # every axis at 0
         if result is not None and result.position_mm is not None:
             positions[lamp.id] = np.asarray(result.position_mm, dtype=np.float64)
             origins.add(f"calibrated lamp positions, {source}")
+            # the centre's irradiance k cos θ / r² as calibrated over the config's
+            intensity = lamp.intensity if result.intensity is None else result.intensity
+            gains[lamp.id] = float(
+                intensity
+                * plane_irradiance(positions[lamp.id], np.zeros(3))
+                / (lamp.intensity * plane_irradiance(nominal, np.zeros(3)))
+            )
         else:
-            positions[lamp.id] = kind.recorded_lamp_mm(config, lamp.id, {})  # every axis at 0
+            positions[lamp.id] = nominal
             origins.add("the rig config's lamp geometry (nominal)")
-    return LampPositions(positions, "; ".join(sorted(origins)))
+    if gains:  # relative intensities carry no absolute scale: their mean keeps the config's
+        mean = float(np.mean(list(gains.values())))
+        gains = {k: g / mean for k, g in gains.items()}
+    return LampPositions(positions, "; ".join(sorted(origins)), gains)
 
 
 def texel_irradiance(
@@ -113,7 +131,9 @@ def texel_irradiance(
 ) -> tuple[np.ndarray, np.ndarray]:
     """Irradiance on the texel grid over the sample centre's, for one step's lamp:
     cos θ / r² on the reference plane z = 0 (:func:`plane_irradiance`), the lamp at
-    its arc-0° position turned by ``arc_deg − turntable_deg`` about the vertical axis.
+    its arc-0° position turned by ``arc_deg − turntable_deg`` about the vertical axis;
+    times the lamp's ``centre_gain`` (a calibrated lamp brighter at the centre than
+    the config's).
 
     Returns
     -------
@@ -127,7 +147,7 @@ def texel_irradiance(
     centre = plane_irradiance(source, np.zeros(3))
     if not centre > 0:  # the lamp at or below the horizon: it lights nothing
         return np.full((size, size), IRRADIANCE_FLOOR), np.ones((size, size), bool)
-    ratio = plane_irradiance(source, points) / centre
+    ratio = plane_irradiance(source, points) / centre * positions.centre_gain.get(lamp, 1.0)
     spec = config.lamp(lamp)
     if spec.kind == "spot":
         to_lamp = source - points

@@ -3,11 +3,14 @@
 What the simulator must know of a kind beyond its config: where a world
 snapshot (axes, arm, rail) puts a camera and a lamp in the sample frame. A
 module per kind registers one object at import
-(``SIM_KINDS.register("sim", name)``) with two methods:
+(``SIM_KINDS.register("sim", name)``) with three methods:
 
 - ``camera(config, camera_id, snapshot) -> PinholeCamera``: the camera's model in
   the sample frame (a rig of axes: with the turntable at 0, the renderer turns it);
-- ``lamp_mm(config, lamp_id, snapshot) -> (3,) ndarray``: the lamp's position (mm).
+- ``lamp_mm(config, lamp_id, snapshot) -> (3,) ndarray``: the lamp's position (mm);
+- ``mount_offset_mm(config, offset_mm, snapshot) -> (3,) ndarray``: a lamp's offset
+  from its place, given in its mount's frame (``sim.as_built``; the frame in which
+  ``rig calibrate lamps`` reports positions), in the sample frame at the snapshot.
 """
 
 from __future__ import annotations

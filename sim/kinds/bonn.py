@@ -25,5 +25,9 @@ class BonnWorld:
     def lamp_mm(self, config: RigConfig, lamp_id: str, snapshot: WorldSnapshot) -> np.ndarray:
         return bonn.lamp_position_mm(config, snapshot.plate_rotation())
 
+    def mount_offset_mm(self, config: RigConfig, offset_mm, snapshot: WorldSnapshot) -> np.ndarray:
+        """The lamp is fixed in the lab: an offset in the lab's frame, seen from the plate."""
+        return snapshot.plate_rotation().T @ np.asarray(offset_mm, dtype=np.float64)
+
 
 SIM_KINDS.register("sim", "bonn")(BonnWorld())

@@ -21,5 +21,9 @@ class VirtexWorld:
     def lamp_mm(self, config: RigConfig, lamp_id: str, snapshot: WorldSnapshot) -> np.ndarray:
         return rig_kind(config).recorded_lamp_mm(config, lamp_id, {})  # nothing moves
 
+    def mount_offset_mm(self, config: RigConfig, offset_mm, snapshot: WorldSnapshot) -> np.ndarray:
+        """The ring stands still: an offset in the stage's frame is one in the sample's."""
+        return np.asarray(offset_mm, dtype=np.float64)
+
 
 SIM_KINDS.register("sim", "virtex")(VirtexWorld())

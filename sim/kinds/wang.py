@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from rig.config import RigConfig
-from rig.kinematics import lamp_position_mm
+from rig.kinematics import lamp_position_mm, rotate_z
 from sim.kinds import SIM_KINDS
 from sim.world import WorldSnapshot
 
@@ -23,6 +23,10 @@ class WangWorld:
         return lamp_position_mm(
             config, lamp_id, arc_deg=snapshot.arc_deg, turntable_deg=snapshot.turntable_deg
         )
+
+    def mount_offset_mm(self, config: RigConfig, offset_mm, snapshot: WorldSnapshot) -> np.ndarray:
+        """An offset in the light arc's frame at arc 0°, turned with the arc and the turntable."""
+        return rotate_z(offset_mm, snapshot.arc_deg - snapshot.turntable_deg)
 
 
 SIM_KINDS.register("sim", "wang")(WangWorld())
