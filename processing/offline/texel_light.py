@@ -105,11 +105,13 @@ def lamp_positions(config: RigConfig, calibration: CalibrationFile | None, sourc
             origins.add(f"calibrated lamp positions, {source}")
             # the centre's irradiance k cos θ / r² as calibrated over the config's
             intensity = lamp.intensity if result.intensity is None else result.intensity
-            gains[lamp.id] = float(
+            gain = float(
                 intensity
                 * plane_irradiance(positions[lamp.id], np.zeros(3))
                 / (lamp.intensity * plane_irradiance(nominal, np.zeros(3)))
             )
+            if gain > 0:  # one at or below the plane lights nothing (texel_irradiance floors)
+                gains[lamp.id] = gain
         else:
             positions[lamp.id] = nominal
             origins.add("the rig config's lamp geometry (nominal)")
