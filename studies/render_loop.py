@@ -26,6 +26,7 @@ from pathlib import Path
 
 import numpy as np
 from matplotlib.figure import Figure
+from matplotlib.ticker import NullFormatter
 
 from orchestrator.local import run_local
 from processing.btf import CompressedBTF, interpolate, psnr_db, reconstruct, rmse
@@ -400,6 +401,7 @@ def plot(rows: list[dict], path: str | Path) -> None:
     per c, one panel per scene; dashed: the material at the captured pairs nearest
     the held-out ones (the measurement's floor), dotted: the other sample's score."""
     scenes = list(dict.fromkeys(r["scene"] for r in rows))
+    longest = max(r["capture_s"] for r in rows) / 60
     fig = Figure(figsize=(5 * len(scenes), 3.8))
     axes = np.atleast_1d(fig.subplots(1, len(scenes), sharey=True))
     for ax, scene in zip(axes, scenes, strict=True):
@@ -421,9 +423,13 @@ def plot(rows: list[dict], path: str | Path) -> None:
                         textcoords="offset points", xytext=(-30, 8 if k % 2 else -14),
                         fontsize=7)  # fmt: skip
         ax.set_title(f"{scene}: rendered vs the simulator's truth at held-out directions")
-        ax.set_xlabel("capture time, session estimate (min)")
+        ax.set_xscale("log")  # plans from a minute and a half (coarse) to an hour (H1)
+        ax.xaxis.set_minor_formatter(NullFormatter())
+        ticks = [t for t in (1, 2, 5, 10, 20, 50, 100, 200) if t <= 2 * longest]
+        ax.set_xticks(ticks, labels=[str(t) for t in ticks])
+        ax.set_xlabel("capture time, session estimate (min, log scale)")
         ax.title.set_fontsize(9)
-        ax.legend(fontsize=8)
+        ax.legend(fontsize=8, loc="lower right")
     axes[0].set_ylabel("PSNR (dB)")
     fig.tight_layout()
     fig.savefig(path, dpi=110)
