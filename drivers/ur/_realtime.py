@@ -173,6 +173,8 @@ class StateStream:
         self._buffer = bytearray()
         try:
             self._sock = socket.create_connection((host, port), timeout=timeout_s)
+            # a script goes out at once, not held back for the ACK of the last one
+            self._sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         except OSError as err:
             raise DeviceTimeout(
                 device, "connect", f"no real-time interface at {host}:{port}: {err}"

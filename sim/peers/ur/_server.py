@@ -74,7 +74,7 @@ class ControllerServer:
         host: str = "127.0.0.1",
         dashboard_port: int = 0,
         realtime_port: int = 0,
-        rate_hz: float = 125.0,
+        rate_hz: float = 500.0,
     ):
         self.state = state
         self.host = host
@@ -141,6 +141,8 @@ class ControllerServer:
     def _accept(self, listener: socket.socket, role: str) -> None:
         sock, _ = listener.accept()
         sock.setblocking(False)
+        # a controller sends each packet as it is made: no coalescing while an ACK is awaited
+        sock.setsockopt(socket.IPPROTO_TCP, socket.TCP_NODELAY, 1)
         client = _Client(sock, role)
         self._clients.append(client)
         self._selector.register(sock, selectors.EVENT_READ, client)

@@ -2,7 +2,7 @@
 
 It answers the driver (``drivers.ur``) on loopback ports with the bytes a
 controller sends: the dashboard's text replies, and the 1116-byte state
-packets at 125 Hz (the CB3 rate) carrying the joints, the tool pose by the
+packets at 500 Hz (the rate of the e-Series models the config names) carrying the joints, the tool pose by the
 model's forward kinematics (``rig.ur_kinematics``), the robot and safety
 modes and the program state. It runs the URScript it is sent (``movej``,
 ``movel``, ``set_tcp``, ``stopj``), moving the joints in joint space at the
