@@ -125,19 +125,23 @@ PROCESSINGS: dict[str, dict] = {
     "irradiance per texel": {},
     "lights per texel": {"lights": "per texel"},
     "lights and views per texel": {"lights": "per texel", "views": "per texel"},
+    "lights by model": {"lights": "model"},
 }
 
 #: The per-view PCA components scored beside the lossless model.
 COMPONENTS = 4
 
 
-def scene_without(name: str, off: tuple[str, ...]) -> dict:
-    """The scene dict of ``SCENES[name]`` with the terms in ``off`` switched off."""
+def scene_without(name: str, off: tuple[str, ...], *, render_scale: float | None = None) -> dict:
+    """The scene dict of ``SCENES[name]`` with the terms in ``off`` switched off, its
+    frames rendered at ``render_scale`` of the camera's resolution (None: the scene's)."""
     unknown = [term for term in off if term not in TERMS]
     if unknown:
         raise RigError(f"unknown error terms {unknown}; valid terms {list(TERMS)}")
     off = tuple(term for term in off if term not in REGISTRATION_TERMS)
     spec = dict(SCENES[name])
+    if render_scale is not None:
+        spec["render"] = spec["render"] | {"scale": render_scale}
     if "noise" in off:
         spec["effects"] = [e for e in spec["effects"] if e != "noise"]
     overrides = {}
@@ -196,11 +200,11 @@ def _fit_ratio(measured: np.ndarray, truth: np.ndarray) -> float:
     return float(np.sum(measured * measured) / np.sum(measured * truth))
 
 
-def _converged(material, sim, scale):
+def _converged(material, sim, scale, most: int):
     """Footprint truths at the held-out and captured pairs, their rays per texel side
-    and the larger change of the two scores at the last doubling (dB)."""
+    (at most ``most``) and the larger change of the two scores at the last doubling (dB)."""
     btf = material.btf
-    truth = loop_truth(material, sim, scale, HELD_OUT, components=components_of(btf))
+    truth = loop_truth(material, sim, scale, HELD_OUT, components=components_of(btf), most=most)
     own, at = truth.held_out, truth.captured
     dirs = [(btf.view_dirs_deg[j], btf.light_dirs_deg[i]) for j, i in truth.pairs]
     rays = max(own.rays, at.rays)
@@ -216,12 +220,15 @@ def run(
     quick: bool = False, *, scenes: tuple[str, ...] = tuple(SCENES),
     plans: tuple[str, ...] | None = None, runs: tuple[tuple[str, ...], ...] = CONFIGS,
     processings: tuple[str, ...] = ("raw", "irradiance per texel"),
+    render_scale: float | None = None, truth_rays: int = 32,
 ) -> list[dict]:  # fmt: skip
     """``quick``: 32² texels, the coarse plan; else 64² texels, the coarse and
     medium plans. ``scenes``, ``plans``: which of the render loop's to run;
     ``runs``: which terms are off in each run (default :data:`CONFIGS`; the run
     with the most terms off converges the truth); ``processings``: which of
-    :data:`PROCESSINGS` each session goes through.
+    :data:`PROCESSINGS` each session goes through; ``render_scale``: the frames'
+    resolution as a fraction of the camera's (None: the loop's scenes', 0.5);
+    ``truth_rays``: the most rays per texel side the truth may double to.
 
     Rows, one per (scene, plan, run, processing, c): ``scene``, ``plan``, ``run``
     (which terms are off), ``off`` (their names), ``processing`` (``raw``, or the
@@ -236,12 +243,16 @@ def run(
     the derived one, :func:`~studies.render_loop.irradiance_scale`, at the
     captured and the held-out pairs), ``truth_rays`` / ``truth_change_db`` (the
     footprint truth's rays per texel side, and how far the last doubling moved the
-    scores of the all-off run: converged below 0.1 dB).
+    scores of the all-off run: converged below 0.1 dB), ``render_scale``.
     """
     size = 32 if quick else 64
     plans = plans if plans is not None else (("coarse",) if quick else ("coarse", "medium"))
     unknown = [s for s in scenes if s not in SCENES] + [p for p in plans if p not in PLANS]
     unknown += [p for p in processings if p not in PROCESSINGS]
+    if render_scale is not None and not 0 < render_scale <= 4:
+        raise RigError(f"render_scale={render_scale}: valid is 0 < scale ≤ 4 (the camera's 1)")
+    if truth_rays < 8:
+        raise RigError(f"truth_rays={truth_rays}: valid is ≥ 8 (the truth starts at 4 rays)")
     if unknown or not processings:
         raise RigError(
             f"unknown scene, plan or processing {unknown}; valid scenes {list(SCENES)}, "
@@ -252,7 +263,8 @@ def run(
         with contextlib.ExitStack() as stack:
             sim = stack.enter_context(Simulator(scene_from_dict(SCENES[name])))
             for plan in plans:
-                rows += _plan_rows(name, plan, sim, size, runs, processings)
+                rows += _plan_rows(name, plan, sim, size, runs, processings,
+                                   render_scale=render_scale, truth_rays=truth_rays)  # fmt: skip
     return rows
 
 
@@ -268,14 +280,17 @@ def _sensor(archive: Path, material, scene, config: RigConfig, filter: str) -> d
             "channels": camera.channels, "noise": noise}  # fmt: skip
 
 
-def _plan_rows(name: str, plan: str, sim: Simulator, size: int, runs, processings) -> list[dict]:
+def _plan_rows(
+    name: str, plan: str, sim: Simulator, size: int, runs, processings, *,
+    render_scale: float | None = None, truth_rays: int = 32,
+) -> list[dict]:  # fmt: skip
     measured = {}
     lights = len(parse_plan(plan_toml(plan)).captures.btf.lights.resolve().directions)
     sessions: dict[tuple, list] = {}  # runs that differ in registration share the frames
     for off in runs:
         sessions.setdefault(tuple(t for t in off if t not in REGISTRATION_TERMS), []).append(off)
     for scene_off, group in sessions.items():
-        scene = scene_from_dict(scene_without(name, scene_off))
+        scene = scene_from_dict(scene_without(name, scene_off, render_scale=render_scale))
         with tempfile.TemporaryDirectory(prefix="rig-error-budget-") as tmp:
             archive, config = record(scene, plan_toml(plan), Path(tmp))
             scale = irradiance_scale(scene, config)
@@ -289,7 +304,7 @@ def _plan_rows(name: str, plan: str, sim: Simulator, size: int, runs, processing
                     measured[off, way] = (material, scale, sensor)
     strictest = max(runs, key=len)  # the highest scores ask the most of the truth
     first = measured[strictest, processings[-1]]
-    held_truth, captured_truth, rays, change = _converged(first[0], sim, first[1])
+    held_truth, captured_truth, rays, change = _converged(first[0], sim, first[1], truth_rays)
     rows = []
     for off in runs:
         for way in processings:
@@ -301,6 +316,8 @@ def _plan_rows(name: str, plan: str, sim: Simulator, size: int, runs, processing
                     "processing": way, "components": label,
                     **_scores(material, scale, (held_truth, captured_truth), c, sensor),
                     "truth_rays": rays, "truth_change_db": change,
+                    "render_scale": SCENES[name]["render"]["scale"] if render_scale is None
+                    else render_scale,
                 })  # fmt: skip
     return rows
 

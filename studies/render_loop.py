@@ -30,7 +30,7 @@ from matplotlib.ticker import NullFormatter
 
 from orchestrator.local import run_local
 from processing.btf import CompressedBTF, interpolate, psnr_db, reconstruct, rmse
-from processing.offline import BtfStage, run_stages
+from processing.offline import BtfStage, PbrStage, run_stages
 from render import DirectionalLight, Renderer
 from render.texel_view import texel_camera, texel_quad
 from rig.clock import VirtualClock
@@ -177,8 +177,12 @@ def record(
 
 def process(archive: Path, *, size: int, components: int, raw: bool = False, **options) -> Material:
     """The archive's ``btf`` stage (``raw``: without the calibration's corrections;
-    ``options``: more :class:`~processing.offline.BtfStage` fields)."""
+    ``options``: more :class:`~processing.offline.BtfStage` fields; with ``"model"``
+    directions the ``pbr`` stage is fitted to the stage's nominal output first)."""
     stage = BtfStage(size=size, components=components, raw=raw, **options)
+    if "model" in (stage.lights, stage.views):  # the model is fitted to the BTF as measured
+        run_stages(archive, [BtfStage(size=size, components=components, raw=raw), PbrStage()],
+                   workers=1)  # fmt: skip
     run_stages(archive, [stage], workers=1)
     return read_material(archive)
 
@@ -275,18 +279,19 @@ class LoopTruth:
 
 
 def loop_truth(material: Material, sim: Simulator, scale: float, held_out, *,
-               components: int) -> LoopTruth:  # fmt: skip
+               components: int, most: int = 32) -> LoopTruth:  # fmt: skip
     """The truths at ``held_out`` and the captured pairs nearest them, converged on
     the scores of ``components`` components (smaller c share them: their errors are
-    larger, so the truth's own error weighs less in them)."""
+    larger, so the truth's own error weighs less in them), with at most ``most`` rays
+    per texel side."""
     btf, valid = material.btf, np.asarray(material.btf_slot_valid, bool)
     pairs = captured_pairs(btf, valid, held_out)
     captured_dirs = [(btf.view_dirs_deg[j], btf.light_dirs_deg[i]) for j, i in pairs]
     full = truncated(btf, components)
-    own = converged_truth(sim, held_out, interpolated(full, valid, held_out) / scale)
+    own = converged_truth(sim, held_out, interpolated(full, valid, held_out) / scale, most=most)
     peak = float(own.values.max())
     at_captured = converged_truth(sim, captured_dirs, reconstructed(full, pairs) / scale,
-                                  peak=peak)  # fmt: skip
+                                  peak=peak, most=most)  # fmt: skip
     return LoopTruth(own, at_captured, pairs, peak)
 
 

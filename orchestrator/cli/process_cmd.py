@@ -73,7 +73,7 @@ def archive_flagged_lines(archive_path: Path) -> list[str]:
 
 
 #: --views and --lights as the btf stage names them (processing.offline.btf.DIRECTIONS)
-_DIRECTIONS = {"nominal": "nominal", "per-texel": "per texel"}
+_DIRECTIONS = {"nominal": "nominal", "per-texel": "per texel", "model": "model"}
 #: the stages with preview PNGs, and what writes them
 _PREVIEWS = {"ps": write_ps_previews, "mdf": write_mdf_previews}
 
@@ -116,18 +116,22 @@ def process(
         str,
         typer.Option(
             "--views",
-            help="btf: nominal (each texel at its view slot's direction) or per-texel (each "
+            help="btf: nominal (each texel at its view slot's direction), per-texel (each "
             "texel's own direction through the calibrated camera, resampled onto the plan's "
-            "views; texels outside the measured directions are kept and counted)",
+            "views; texels outside the measured directions are kept and counted) or model "
+            "(each texel scaled by how much the fitted PBR model changes between its own "
+            "direction and the slot's; run the pbr stage at this --size first)",
         ),
     ] = "nominal",
     lights: Annotated[
         str,
         typer.Option(
             "--lights",
-            help="btf: nominal (each texel at its capture's light direction) or per-texel "
+            help="btf: nominal (each texel at its capture's light direction), per-texel "
             "(each texel's own direction to the placed lamp, resampled onto the plan's "
-            "lights; texels outside the measured directions are kept and counted)",
+            "lights; texels outside the measured directions are kept and counted) or model "
+            "(each texel scaled by how much the fitted PBR model changes between its own "
+            "direction and the plan's; run the pbr stage at this --size first)",
         ),
     ] = "nominal",
 ) -> None:

@@ -49,21 +49,23 @@ from processing.offline.texel_light import (
     per_texel_lights,
     texel_irradiance,
 )
+from processing.offline.texel_model import model_params, model_record, moved_by_model
+from processing.offline.texel_resample import texel_directions
 from processing.offline.texel_view import per_texel_views, slot_camera
 from processing.registration import FILTERS, rectify, register_capture
 from rig.archive import Archive
 from rig.config import RigConfig
 from rig.interchange import imported_normtextures
 from rig.kinds import rig_kind
-from rig.material import Radiometry, write_btf
+from rig.material import Radiometry, read_pbr, write_btf
 
 __all__ = [
     "DIRECTIONS", "BtfSlot", "BtfStage", "resample_texels", "slot_normtextures", "slot_table",
 ]  # fmt: skip
 
-#: ``BtfStage.views`` and ``.lights``: each texel at its slot's nominal direction, or
-#: resampled from its own.
-DIRECTIONS = ("nominal", "per texel")
+#: ``BtfStage.views`` and ``.lights``: each texel at its slot's nominal direction,
+#: resampled from its own, or moved from its own by the fitted reflectance model.
+DIRECTIONS = ("nominal", "per texel", "model")
 
 
 @dataclass(frozen=True)
@@ -88,7 +90,9 @@ class BtfStage:
     texel"`` (each texel resampled from its own view directions onto the slots',
     ``processing.offline.texel_view``; not with ``raw``); ``lights``: the same for each
     texel's own light directions to the placed lamps (``processing.offline.texel_light``;
-    not with ``raw``)."""
+    not with ``raw``). ``"model"`` (either): each texel's capture scaled by how much the
+    material's fitted PBR model (the ``pbr`` stage's, at this ``size``) changes between
+    the texel's own directions and the nominal ones (``processing.offline.texel_model``)."""
 
     size: int = 128
     components: int = 8
@@ -126,10 +130,12 @@ class BtfStage:
                 filter=self.filter, from_pose=self.from_pose,
             )  # fmt: skip
             lamps = [r.lamp for r in archive.step_table() if r.index in dict(item.captures)]
-            per_texel = self.views == "per texel" and not self.raw
-            camera = slot_camera(archive, config, item) if per_texel else None
+            own_view = self.views != "nominal" and not self.raw
+            camera = slot_camera(archive, config, item) if own_view else None
             why_not = self._lights_kept(archive, positions)
             own = None if why_not else _slot_lamps(archive, item, positions)
+            model = self._model(archive) if "model" in (self.views, self.lights) else None
+            light_deg = None if model is None else slot_table(archive).light_dirs_deg
         cameras = [c for _, c in item.captures]
         record = _slot_record(corrections.record(cameras=cameras, lamps=lamps), positions)
         result = {"slot": item, "flagged": flagged, "compressed": None, "radiometry": record,
@@ -138,11 +144,57 @@ class BtfStage:
             return result
         stack = np.stack(textures).astype(np.float32)
         if why_not:
-            lights = LightResampling(skipped=why_not)
-        else:
-            stack, lights = per_texel_lights(stack, *own, sample_mm=config.holder.sample_mm)
-        compressed = compress_view(stack, components=self.components)
-        return result | {"compressed": compressed, "lights": lights}
+            result["lights"] = LightResampling(skipped=why_not)
+        elif self.lights == "per texel":
+            stack, result["lights"] = per_texel_lights(
+                stack, *own, sample_mm=config.holder.sample_mm
+            )
+        if model is not None:
+            stack, result["model"] = self._moved(
+                stack, item, model, light_deg, lamps=None if own is None else own[0],
+                why_not=why_not, camera=camera, sample_mm=config.holder.sample_mm,
+            )  # fmt: skip
+        return result | {"compressed": compress_view(stack, components=self.components)}
+
+    def _model(self, archive: Archive):
+        """The material's fitted PBR model as :func:`model_params`, or why there is none."""
+        if self.raw:
+            return "--raw"
+        try:
+            group = archive.material["pbr"]
+        except (KeyError, FileNotFoundError):
+            return "no fitted PBR model in the material: run the pbr stage first"
+        maps = read_pbr(group)
+        if maps.size != self.size:
+            return (f"the fitted PBR model is {maps.size}² texels, the stage's grid "
+                    f"{self.size}²: fit pbr at this size first")  # fmt: skip
+        return model_params(maps)
+
+    def _moved(self, stack, item: BtfSlot, model, light_deg, *, lamps, why_not, camera,
+               sample_mm: float):  # fmt: skip
+        """The slot's normtextures moved by the fitted model (``model``: its parameters, or
+        why there are none), and what was done (``ModelMove``, or why not, a string).
+        ``lamps``: each capture's lamp (``lamp_mm``), None where not placed (``why_not``)."""
+        if isinstance(model, str):
+            return stack, model
+        n = stack.shape[1]
+        own_lights = centre_z = own_view = None
+        if self.lights == "model":
+            if lamps is None:
+                return stack, why_not
+            if any(p is None for p in lamps):
+                return stack, "directional lamps: every texel is lit from the slot's direction"
+            own_lights = np.stack([texel_directions(p, sample_mm, n) for p in lamps])
+            if not own_lights[..., 2].min() > 0.0:
+                return stack, "a lamp at or below some texel's horizon"
+            centre_z = np.array([p[2] / np.linalg.norm(p) for p in lamps])
+        if self.views == "model":
+            if camera.centre_mm is None:
+                return stack, camera.source
+            own_view = texel_directions(camera.centre_mm, sample_mm, n)
+        return moved_by_model(stack, model, light_deg=np.asarray(light_deg, np.float64),
+                              view_deg=item.view_deg, own_lights=own_lights,
+                              centre_z=centre_z, own_view=own_view)  # fmt: skip
 
     def _lights_kept(self, archive: Archive, lamps: LampPositions | None) -> str | None:
         """Why every texel keeps its captures' light directions, or None: resampled."""
@@ -183,11 +235,14 @@ class BtfStage:
         radiometry = _merged([r["radiometry"] for r in results])
         radiometry.skipped.update(_texel_flags(sum((r["counts"] for r in results), Counter())))
         radiometry = light_record(radiometry, [r["lights"] for r in results if "lights" in r])
+        if "model" in (self.views, self.lights):
+            radiometry = model_record(radiometry, [r["model"] for r in results if "model" in r],
+                                      lights=self.lights, views=self.views)  # fmt: skip
         if self.raw or self.views == "nominal":
             why = "--raw" if self.raw else "views 'nominal'"
             radiometry = replace(radiometry, skipped=radiometry.skipped | {
                 "view": f"{why}: each texel keeps its slot's nominal view"})  # fmt: skip
-        else:
+        elif self.views == "per texel":
             model, radiometry = per_texel_views(
                 model, [r["camera"] for r in results], np.array([s is not None for s in slots]),
                 radiometry, components=self.components,

@@ -96,7 +96,8 @@ def evaluate(params: PbrParams, light: np.ndarray, view: np.ndarray) -> np.ndarr
     Parameters
     ----------
     params : PbrParams with leading shape (T,)
-    light, view : (M, 3) unit vectors, sample frame, pointing away from the surface
+    light, view : (M, 3) unit vectors, sample frame, pointing away from the surface; or
+        (T, M, 3), each texel's own
 
     Returns
     -------
@@ -117,8 +118,8 @@ def evaluate_terms(params: PbrParams, light: np.ndarray, view: np.ndarray):
     depend on max(sheen_colour); the colours enter only where shown).
     """
     p = params.map(lambda a: np.asarray(a, np.float64)[:, None])  # (T, 1, ...)
-    lx, ly, lz = (np.asarray(light, np.float64)[None, :, k] for k in range(3))
-    vx, vy, vz = (np.asarray(view, np.float64)[None, :, k] for k in range(3))
+    lx, ly, lz = _per_texel(light)
+    vx, vy, vz = _per_texel(view)
     nx, ny, nz = (p.normal[..., k] for k in range(3))
     t, b = anisotropy_frame(p.anisotropy_deg)
     hx, hy, hz = lx + vx, ly + vy, lz + vz
@@ -157,6 +158,13 @@ def evaluate_terms(params: PbrParams, light: np.ndarray, view: np.ndarray):
     diffuse = scaling * (1.0 - fresnel) * cosine
     specular = np.pi * scaling * fresnel * distribution * visibility * cosine
     return diffuse, specular, np.pi * _charlie(r, n_h, n_l, n_v) * cosine
+
+
+def _per_texel(directions) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """x, y, z of (M, 3) directions shared by every texel, as (1, M), or of (T, M, 3)."""
+    d = np.asarray(directions, np.float64)
+    d = d[None] if d.ndim == 2 else d
+    return d[..., 0], d[..., 1], d[..., 2]
 
 
 def _charlie(r, n_h, n_l, n_v):

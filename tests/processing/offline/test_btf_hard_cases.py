@@ -121,6 +121,34 @@ def test_a_plan_with_one_light_compresses_interpolates_and_resamples(one_light, 
     assert int(outside[1]) <= kept.sum() < kept.size
 
 
+def test_directions_moved_by_the_model_need_its_fit_and_say_so(session):
+    """--lights/--views model scale each texel capture by the fitted PBR model's change
+    between its own directions and the nominal ones: without a fit (or one at another
+    size) nothing moves and the record says why; with one, every value moves by a few %
+    at most, nowhere a NaN."""
+    measured, record = _process(session, "--lights", "model")
+    assert record["skipped"]["model"] == (
+        "no fitted PBR model in the material: run the pbr stage first: every slot kept at "
+        "the texels' own directions"
+    )
+    assert "model" not in record["sources"]
+    result = CliRunner().invoke(app, ["process", str(session), "--stages", "pbr", "--workers",
+                                      "1"])  # fmt: skip
+    assert result.exit_code == 0, result.output
+    moved, record = _process(session, "--lights", "model", "--views", "model")
+    assert record["sources"]["model"].startswith("lights and views moved by the fitted PBR model")
+    assert np.isfinite(moved).all()
+    change = np.abs(moved - measured) / measured.max()
+    assert 1e-4 < change.max() < 0.1  # a lamp 650 mm and a camera 800 mm away: a few %
+    # a fit on another grid is not used
+    args = ["--stages", "btf", "--size", str(2 * SIZE), "--lights", "model", "--workers", "1"]
+    result = CliRunner().invoke(app, ["process", str(session), *args])
+    assert result.exit_code == 0, result.output
+    with Archive.open(session) as arch:
+        why = dict(arch.material["btf"].attrs)["radiometry"]["skipped"]["model"]
+    assert why.startswith(f"the fitted PBR model is {SIZE}² texels, the stage's grid {2 * SIZE}²")
+
+
 def test_a_plan_with_one_view_keeps_its_views_and_says_why(tmp_path):
     archive = _record(tmp_path, "[[30, 0]]", "[[45, 0], [30, 120], [60, 240]]")
     values, record = _process(archive, "--components", "8", "--views", "per-texel")
