@@ -1,13 +1,12 @@
 """A simulated Universal Robots controller: dashboard server and real-time interface.
 
-It answers the driver (``drivers.ur``) on loopback ports with the bytes a
-controller sends: the dashboard's text replies, and the 1116-byte state
-packets at 500 Hz (the rate of the e-Series models the config names) carrying the joints, the tool pose by the
-model's forward kinematics (``rig.ur_kinematics``), the robot and safety
-modes and the program state. It runs the URScript it is sent (``movej``,
-``movel``, ``set_tcp``, ``stopj``), moving the joints in joint space at the
-program's speed within the joint limits; a pose it cannot reach is refused
-in its log and nothing moves.
+It answers the driver (``drivers.ur``) on loopback ports with the bytes a controller
+sends: the dashboard's text replies, and the 1116-byte state packets at 500 Hz (the rate
+of the e-Series models the config names) carrying the joints, the tool pose by the
+model's forward kinematics (``rig.ur_kinematics``), the robot and safety modes and the
+program state. It runs the URScript it is sent (``movej``, ``movel``, ``set_tcp``,
+``stopj``), moving the joints in joint space at the program's speed within the joint
+limits; a pose it cannot reach is refused in its log and nothing moves.
 
 Faults, at run time or from the fault table: ``protective_stop_move`` (the
 n-th move from start, 1-based) stops at ``protective_stop_fraction`` (default
