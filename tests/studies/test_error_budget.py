@@ -55,6 +55,26 @@ def test_pixels_integrate_their_area_when_point_pixels_are_off():
     assert scene_from_dict(scene_without("bumps", ("point pixels",))).spec.render.supersample > 1
 
 
+def test_the_frames_render_at_the_scale_asked_and_the_terms_stay_off():
+    """The half-resolution sensor is held fixed by default; the camera's own resolution
+    (or any other) is asked for, with every term still switched off as named."""
+    assert scene_from_dict(scene_without("weave", ())).spec.render.scale == 0.5
+    full = scene_from_dict(scene_without("weave", ("point pixels",), render_scale=1.0))
+    assert (full.spec.render.scale, full.spec.render.supersample) == (1.0, 3)
+    half = scene_from_dict(scene_without("weave", ("point pixels",)))
+    assert full.rig.camera_arc.cameras[0].fx_px == 2 * half.rig.camera_arc.cameras[0].fx_px
+
+
+@pytest.mark.parametrize(
+    ("options", "message"),
+    [({"render_scale": 0.0}, "render_scale=0.0: valid is 0 < scale ≤ 4"),
+     ({"truth_rays": 4}, "truth_rays=4: valid is ≥ 8")],
+)  # fmt: skip
+def test_a_bad_scale_or_truth_says_what_is_valid(options, message):
+    with pytest.raises(RigError, match=message):
+        run(**options)
+
+
 def test_an_unknown_term_names_the_valid_ones():
     with pytest.raises(RigError, match="unknown error terms \\['lens'\\]; valid terms"):
         scene_without("bumps", ("lens",))
