@@ -14,10 +14,12 @@ the nominal one. Then, as a lab would:
    through the daemon in virtual time;
 2. **measure** the render loop's BTF plan on the same rig
    (:func:`studies.render_loop.record`);
-3. **process** it three ways: with the nominal config only (the archive holds
+3. **process** it four ways: with the nominal config only (the archive holds
    no calibration), with the lamp calibration stored in the archive as
-   ``rig calibrate lamps --apply`` stores it, and, for reference, the same plan
-   on a rig built exactly to its config;
+   ``rig calibrate lamps --apply`` stores it, that with each texel's light moved
+   from its own direction to the calibrated lamp by the fitted PBR model
+   (``lights="model"``), and, for reference, the same plan on a rig built exactly
+   to its config;
 4. **score** each as the render loop does (:func:`studies.render_loop.scores`:
    at the captured pairs nearest the held-out ones and at the held-out pairs,
    against the footprint truth).
@@ -71,8 +73,10 @@ __all__ = ["AS_BUILT", "PROCESSING", "calibrate", "lamp_errors", "run"]
 #: ±5 % off its intensity (uniform draws from the seed).
 AS_BUILT = {"seed": 7, "lamp_position_mm": 5.0, "lamp_intensity": 0.05}
 
-#: How each material was processed.
-PROCESSING = ("nominal", "calibrated", "exact rig")
+#: How each material was processed: the config's lamps; the calibrated lamps; the
+#: calibrated lamps with each texel's light moved from its own direction by the fitted
+#: PBR model (``BtfStage(lights="model")``); on a rig built exactly to its config.
+PROCESSING = ("nominal", "calibrated", "calibrated, lights by model", "exact rig")
 
 #: The per-view PCA components scored beside the lossless model.
 COMPONENTS = 4
@@ -217,6 +221,9 @@ def _sample_rows(folder: Path, name: str, plan: str, as_built: dict, calibration
         if built is not None:
             apply_calibration(load_calibration(calibration), calibration, archive)
             materials["calibrated"] = process(archive, size=size, components=lights)
+            materials["calibrated, lights by model"] = process(
+                archive, size=size, components=lights, lights="model"
+            )
     with contextlib.closing(Simulator(scene_from_dict(SCENES[name]))) as sim:
         # the most demanding score converges the truth: the rig built to its config
         truth = loop_truth(materials["exact rig"], sim, scale, HELD_OUT, components=lights)

@@ -173,8 +173,9 @@ STUDIES: tuple[Study, ...] = (
             "The render loop as a lab runs it: a simulated rig whose lamps stand ±5 mm and "
             "±5 % off its config, its lamps calibrated by the mirror-sphere and white-target "
             "sessions, the coarse and medium BTF plans measured on it and processed with the "
-            "nominal config, with the calibration applied, and on a rig built exactly to its "
-            "config; PSNR at captured and held-out pairs, and the calibrated lamps' errors "
+            "nominal config, with the calibration applied (and each texel's light moved by the "
+            "fitted PBR model), and on a rig built exactly to its config; PSNR at captured "
+            "and held-out pairs, and the calibrated lamps' errors "
             "(--quick: the bumps at 32² texels on the coarse plan)."
         ),
     ),

@@ -47,6 +47,14 @@ def test_the_calibrated_lamps_lift_the_captured_pairs_above_the_nominal_processi
     assert calibrated["psnr_captured_db"] <= exact["psnr_captured_db"] + 0.5
 
 
+def test_the_lights_moved_by_the_model_gain_at_the_captured_pairs(rows):
+    calibrated = _score(rows, "calibrated", "lossless")
+    moved = _score(rows, "calibrated, lights by model", "lossless")
+    # measured: 38.4 dB calibrated, 39.7 moved (39.4 on the exact rig as measured)
+    assert moved["psnr_captured_db"] >= calibrated["psnr_captured_db"] + 0.3
+    assert moved["psnr_held_out_db"] >= calibrated["psnr_held_out_db"] - 0.1
+
+
 def test_the_calibration_finds_each_lamps_irradiance_better_than_the_config(rows):
     lamps = [r for r in rows if "lamp" in r]
     assert len(lamps) == len(RigConfig().light_arc.lamps)
