@@ -13,6 +13,7 @@ import pytest
 from orchestrator.client import DaemonClient, follow, wait_for_state
 from orchestrator.wire.endpoints import Endpoints
 from rig.archive import Archive
+from rig.errors import RigError
 from rig.plan import parse_plan
 from rig.schedule import compile_plan
 from tests.orchestrator.daemon.conftest import LAMP_PLAN, TINY_PLAN, running_daemon
@@ -110,6 +111,14 @@ def test_daemon_killed_mid_session_resumes_without_loss_or_repeat(config, tmp_pa
     assert done["session"]["committed"] == done["session"]["steps"]
 
 
+def _live_rows_now(path: Path) -> set[tuple[str, int, int]]:
+    """:func:`_live_rows` of an archive being written: empty while a batch is half written."""
+    try:
+        return _live_rows(path)
+    except (AssertionError, OSError, KeyError, ValueError, RigError):
+        return set()
+
+
 def _live_rows(path: Path) -> set[tuple[str, int, int]]:
     """(camera, step, sub) of every complete row of live/stats; the arrays agree in length."""
     rows = set()
@@ -142,12 +151,15 @@ def test_live_results_written_before_a_crash_survive_it(config, tmp_path):
                 assert time.monotonic() < deadline, "the worker never said hello"
                 time.sleep(0.05)
             client.request("submit", plan_toml=LAMP_PLAN, archive=str(path))
-            started = None
             for event in follow(endpoints, timeout_s=10):
-                if event["topic"] == "progress":
-                    started = started or time.monotonic()
-                    if event["step"] >= 4 and time.monotonic() - started > 1.5:  # a flush
-                        break
+                if event["topic"] == "progress" and event["step"] >= 4:
+                    break
+            # killed once a flush has put rows on disk (the writer flushes every second; a
+            # loaded machine's worker may send its first results later than that)
+            deadline = time.monotonic() + 30
+            while not _live_rows_now(path):
+                assert time.monotonic() < deadline, "no live row was written within 30 s"
+                time.sleep(0.1)
             daemon.send_signal(signal.SIGKILL)
             assert daemon.wait(10) == -signal.SIGKILL
     finally:
