@@ -170,6 +170,12 @@ def process(
     for option, value in (("--views", views), ("--lights", lights)):
         if value not in _DIRECTIONS:
             raise ConfigError(f"{option} {value!r}: valid are {', '.join(_DIRECTIONS)}")
+        if value == "model" and "btf" in names and "pbr" in names:
+            raise ConfigError(
+                f"{option} model moves the BTF by the fitted PBR model, which --stages "
+                f"{stages} would fit after it: run --stages btf,pbr first, then --stages btf "
+                f"{option} model"
+            )
     flat = flat_beyond_mm or None
     options = {
         "btf": {"size": size, "components": components, "raw": raw, "views": _DIRECTIONS[views],

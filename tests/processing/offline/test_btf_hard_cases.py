@@ -147,6 +147,12 @@ def test_directions_moved_by_the_model_need_its_fit_and_say_so(session):
     with Archive.open(session) as arch:
         why = dict(arch.material["btf"].attrs)["radiometry"]["skipped"]["model"]
     assert why.startswith(f"the fitted PBR model is {SIZE}² texels, the stage's grid {2 * SIZE}²")
+    # the model fitted in the same command would come after the move: refused, nothing run
+    args = ["--stages", "btf,pbr", "--views", "model"]
+    result = CliRunner().invoke(app, ["process", str(session), *args])
+    assert result.exit_code == 2
+    assert "--views model moves the BTF by the fitted PBR model" in result.output
+    assert "run --stages btf,pbr first, then --stages btf --views model" in result.output
 
 
 def test_a_plan_with_one_view_keeps_its_views_and_says_why(tmp_path):
