@@ -43,6 +43,7 @@ from processing.offline.texel_light import (
     IRRADIANCE_FLOOR,
     LampPositions,
     LightResampling,
+    lamp_directions,
     lamp_mm,
     lamp_positions,
     light_record,
@@ -135,7 +136,9 @@ class BtfStage:
             why_not = self._lights_kept(archive, positions)
             own = None if why_not else _slot_lamps(archive, item, positions)
             model = self._model(archive) if "model" in (self.views, self.lights) else None
-            light_deg = None if model is None else slot_table(archive).light_dirs_deg
+            light_deg = None  # the plan's light directions, where the model moves anything
+            if model is not None:
+                light_deg = own[1] if own is not None else slot_table(archive).light_dirs_deg
         cameras = [c for _, c in item.captures]
         record = _slot_record(corrections.record(cameras=cameras, lamps=lamps), positions)
         result = {"slot": item, "flagged": flagged, "compressed": None, "radiometry": record,
@@ -182,12 +185,10 @@ class BtfStage:
         if self.lights == "model":
             if lamps is None:
                 return stack, why_not
-            if any(p is None for p in lamps):
-                return stack, "directional lamps: every texel is lit from the slot's direction"
-            own_lights = np.stack([texel_directions(p, sample_mm, n) for p in lamps])
-            if not own_lights[..., 2].min() > 0.0:
-                return stack, "a lamp at or below some texel's horizon"
-            centre_z = np.array([p[2] / np.linalg.norm(p) for p in lamps])
+            found = lamp_directions(lamps, sample_mm=sample_mm, size=n)
+            if isinstance(found, str):
+                return stack, found
+            own_lights, centre_z = found
         if self.views == "model":
             if camera.centre_mm is None:
                 return stack, camera.source

@@ -48,6 +48,7 @@ __all__ = [
     "IRRADIANCE_FLOOR",
     "LampPositions",
     "LightResampling",
+    "lamp_directions",
     "lamp_mm",
     "lamp_positions",
     "light_record",
@@ -188,6 +189,20 @@ class LightResampling:
     skipped: str | None = None
 
 
+def lamp_directions(
+    lamps_mm: list[np.ndarray | None], *, sample_mm: float, size: int
+) -> tuple[np.ndarray, np.ndarray] | str:
+    """Each texel's own light: (L, size, size, 3) unit vectors from each texel to each
+    capture's lamp (:func:`lamp_mm`), and (L,) the cosine of each lamp's direction at the
+    sample's centre (the irradiance correction's reference); or why there are none."""
+    if any(source is None for source in lamps_mm):
+        return "directional lamps: every texel is lit from the slot's light direction"
+    own = np.stack([texel_directions(source, sample_mm, size) for source in lamps_mm])
+    if not own[..., 2].min() > 0.0:
+        return "a lamp at or below some texel's horizon"
+    return own, np.array([source[2] / np.linalg.norm(source) for source in lamps_mm])
+
+
 def per_texel_lights(
     textures: np.ndarray, lamps_mm: list[np.ndarray | None], nominal_deg: np.ndarray, *,
     sample_mm: float,
@@ -218,24 +233,18 @@ def per_texel_lights(
         own surround them, as measured elsewhere (``textures`` itself when skipped)
     record : LightResampling
     """
-    why = None
-    if any(source is None for source in lamps_mm):
-        why = "directional lamps: every texel is lit from the slot's light direction"
-    elif len(lamps_mm) < 3:
+    found = lamp_directions(lamps_mm, sample_mm=sample_mm, size=textures.shape[1])
+    why = found if isinstance(found, str) else None
+    if why is None and len(lamps_mm) < 3:
         why = f"{len(lamps_mm)} light(s) per view: no hull of light directions to resample in"
-    else:
-        n = textures.shape[1]
-        own = np.stack([texel_directions(source, sample_mm, n) for source in lamps_mm])
-        if not own[..., 2].min() > 0.0:
-            why = "a lamp at or below some texel's horizon"
     if why is None:
+        own, centre_z = found
         try:
             plan = texel_resampling(np.asarray(nominal_deg, np.float64), own, exact_for="linear")
         except ValueError as err:  # the lights on one great circle
             why = f"the light directions span no hull ({err})"
     if why is not None:
         return textures, LightResampling(skipped=why)
-    centre_z = np.array([s[2] / np.linalg.norm(s) for s in lamps_mm])
     linear = textures * (own[..., 2] / centre_z[:, None, None])[..., None].astype(np.float32)
     moved = np.stack([
         blended(plan, i, {int(k): linear[k] for k in np.unique(plan.indices[i])})

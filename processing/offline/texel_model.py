@@ -107,9 +107,7 @@ def moved_by_model(
                  else np.moveaxis(own_lights.reshape(lights, texels, 3), 0, 1))  # fmt: skip
     view_own = (np.broadcast_to(nominal_view, shape) if own_view is None
                 else np.broadcast_to(own_view.reshape(texels, 1, 3), shape))  # fmt: skip
-    # a light that stays is the texel's own in both: only the view's change is asked
-    light_to = light_own if own_lights is None else nominal_light
-    target = evaluate_pbr(params, light_to, nominal_view)  # (T, L, C)
+    target = evaluate_pbr(params, nominal_light, nominal_view)  # (T, L, C)
     own = evaluate_pbr(params, light_own, view_own)
     brightest = np.maximum(target.max(axis=1, keepdims=True), own.max(axis=1, keepdims=True))
     floor = MODEL_FLOOR * np.maximum(brightest, np.finfo(np.float64).tiny)
