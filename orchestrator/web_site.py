@@ -26,6 +26,7 @@ import numpy as np
 from orchestrator.cli.view_scene import auto_exposure_ev, parse_camera, parse_light
 from processing.offline.btf import resample_texels
 from rig.errors import ConfigError
+from rig.geometry import LIGHT_COSINE_FLOOR
 from rig.material import CompressedBTF, Material, pbr_layers, read_material, sheen_albedo
 
 __all__ = ["CAMERA", "CANVAS", "LIGHT", "MESHES", "write_site"]
@@ -99,6 +100,7 @@ def _material_data(material: Material, *, max_texels: int) -> dict:
     return {
         "size": size, "components": c, "sample_mm": material.sample_mm,
         "views": btf.view_vectors.tolist(), "lights": btf.light_vectors.tolist(),
+        "light_cosine_floor": LIGHT_COSINE_FLOOR,
         "slot_valid": [1.0 if v else 0.0 for v in (np.ones(len(btf.view_dirs_deg), bool)
                                                     if valid is None else valid)],
         "btf": _b64(images), "weights": _b64(padded),

@@ -18,7 +18,7 @@ from processing.btf import (
     compress_global_svd,
     compress_view,
     compress_view_svd,
-    direction_weights,
+    light_weights,
     psnr_db,
     reconstruct,
     rmse,
@@ -138,7 +138,7 @@ def run(
         reference[:, kept], view_dirs_deg=dirs, light_dirs_deg=dirs[kept], components=16
     )
     for method in ("nearest", "nearest4", "barycentric"):
-        weights = [direction_weights(model.light_vectors, dirs[li], method=method) for li in held]
+        weights = [light_weights(model.light_vectors, dirs[li], method=method) for li in held]
         squared = 0.0
         for v in range(len(dirs)):
             for li, (idx, w) in zip(held, weights, strict=True):

@@ -47,7 +47,7 @@ from render.pem.median_cut import median_cut, render_median_cut
 from render.pem.regions import PartialMaps, partial_maps, region_radiance
 from render.pem.renderer import PemRenderer
 from render.points.renderer import Renderer
-from rig.geometry import direction_vector, nearest_directions
+from rig.geometry import carry_light_cosine, direction_vector, nearest_directions
 from rig.material import CompressedBTF, Material, PsView
 from studies.render_speed import random_material
 
@@ -88,8 +88,9 @@ def _directional_sum(btf, mesh, vertex, frame, directions, irradiance, view_deg)
     if len(seen) == 0:
         return texture
     lights = nearest_directions(btf.light_vectors, local[seen], k=4)
+    weights = carry_light_cosine(lights, btf.light_vectors, local[seen])
     g = np.zeros((len(btf.light_dirs_deg), 3))
-    np.add.at(g, lights.indices, lights.weights[..., None] * irradiance[seen, None, :])
+    np.add.at(g, lights.indices, weights[..., None] * irradiance[seen, None, :])
     view = nearest_directions(btf.view_vectors, direction_vector(*view_deg)[None], k=4)
     for i in np.flatnonzero(np.any(g != 0, axis=1)):
         texture += g[i] * btf.blend(view.indices[0], view.weights[0], [i], [1.0])

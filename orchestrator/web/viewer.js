@@ -30,6 +30,7 @@ precision highp float; precision highp int; precision highp sampler2DArray;
 #define N_VIEWS ${m.views.length}
 #define N_TABLE_LIGHTS ${m.lights.length}
 #define COMPONENTS ${m.components}
+#define LIGHT_COSINE_FLOOR ${m.light_cosine_floor.toFixed(6)}
 in vec3 v_position; in vec3 v_normal; in vec4 v_tangent; in vec2 v_uv;
 out vec4 frag;
 uniform vec3 eye; uniform vec3 to_light; uniform float uv_scale; uniform float exposure;
@@ -85,6 +86,9 @@ vec3 shade_btf(vec2 st, vec3 view_local, vec3 light_local) {
   ivec4 vi, li; vec4 vw, lw;
   nearest(view_local, true, vi, vw);
   nearest(light_local, false, li, lw);
+  // A light's blend carries the irradiance's cosine (rig.geometry.carry_light_cosine).
+  float cos_q = on_hemisphere(light_local).z;
+  for (int m = 0; m < 4; ++m) lw[m] *= cos_q / max(light_dirs[li[m]].z, LIGHT_COSINE_FLOOR);
   vec3 total = vec3(0.0);
   for (int j = 0; j < 4; ++j) {
     if (vw[j] == 0.0) continue;

@@ -19,7 +19,13 @@ from processing.btf._colour import (
 )
 from processing.btf._compress import compress_btf, compress_global_svd
 from processing.btf._errors import BtfError
-from processing.btf._interpolate import Method, direction_weights, interpolate, reconstruct
+from processing.btf._interpolate import (
+    Method,
+    direction_weights,
+    interpolate,
+    light_weights,
+    reconstruct,
+)
 from processing.btf._pca import ViewSlot, compress_view, compress_view_svd
 from processing.btf._quality import psnr_db, rmse
 from processing.btf._slots import Displaced, SlotTable, view_slots
@@ -42,6 +48,7 @@ __all__ = [
     "direction_weights",
     "from_linear",
     "interpolate",
+    "light_weights",
     "linear_units",
     "psnr_db",
     "reconstruct",

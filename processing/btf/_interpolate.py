@@ -3,9 +3,12 @@
 A light direction between the measured ones blends the textures of nearby
 measured lights: the 4 nearest with Shepard weights (``"nearest4"``, as the
 seed), the 3 corners of the spherical triangle holding it (``"barycentric"``),
-or just the nearest (``"nearest"``, the baseline). A view direction blends the
-view slots the same way (seed 000 eq. (5)). All are exact at measured
-directions: a query on a table direction gets weight 1 there.
+or just the nearest (``"nearest"``, the baseline). A light's weights carry the
+irradiance's cosine (``rig.geometry.carry_light_cosine``): a texture holds
+cos θ_i of its light, so each is scaled by cos θ_query / cos θ_i. A view
+direction blends the view slots the same way, without the cosine (seed 000
+eq. (5)). All are exact at measured directions: a query on a table direction
+gets weight 1 there.
 """
 
 from __future__ import annotations
@@ -15,10 +18,16 @@ from typing import Literal
 import numpy as np
 
 from processing.btf._errors import BtfError
-from rig.geometry import barycentric_weights, direction_vector, nearest_directions
+from rig.geometry import (
+    Interpolation,
+    barycentric_weights,
+    carry_light_cosine,
+    direction_vector,
+    nearest_directions,
+)
 from rig.material import CompressedBTF, GlobalSVD
 
-__all__ = ["Method", "direction_weights", "interpolate", "reconstruct"]
+__all__ = ["Method", "direction_weights", "interpolate", "light_weights", "reconstruct"]
 
 Method = Literal["nearest", "nearest4", "barycentric"]
 _METHODS = ("nearest", "nearest4", "barycentric")
@@ -35,26 +44,37 @@ def direction_weights(table_vectors, query_deg, *, method: Method) -> tuple[np.n
         (θ, φ) of the wanted direction, degrees.
     method : {"nearest", "nearest4", "barycentric"}
     """
+    found = _blend(table_vectors, query_deg, method)
+    return found.indices[0], found.weights[0]
+
+
+def light_weights(table_vectors, query_deg, *, method: Method) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`direction_weights` of a light: each weight times cos θ_query / cos θ_i
+    (``rig.geometry.carry_light_cosine``; they no longer sum to 1)."""
+    found = _blend(table_vectors, query_deg, method)
+    query = direction_vector(*np.asarray(query_deg, np.float64))[None, :]
+    return found.indices[0], carry_light_cosine(found, table_vectors, query)[0]
+
+
+def _blend(table_vectors, query_deg, method: Method) -> Interpolation:
     q = np.asarray(query_deg, dtype=np.float64)
     if q.shape != (2,) or not np.all(np.isfinite(q)) or not 0 <= q[0] <= 90:
         raise BtfError(f"direction {query_deg}: expected finite (theta_deg, phi_deg), θ in [0, 90]")
     table = np.asarray(table_vectors, dtype=np.float64)
     query = direction_vector(q[0], q[1])[None, :]
     if method == "nearest":
-        found = nearest_directions(table, query, k=1)
-    elif method == "nearest4":
-        found = nearest_directions(table, query, k=min(4, len(table)))
-    elif method == "barycentric":
+        return nearest_directions(table, query, k=1)
+    if method == "nearest4":
+        return nearest_directions(table, query, k=min(4, len(table)))
+    if method == "barycentric":
         try:
-            found = barycentric_weights(table, query)
+            return barycentric_weights(table, query)
         except ValueError as err:
             raise BtfError(
                 "barycentric interpolation needs ≥ 3 measured directions spanning the "
                 "hemisphere; use method='nearest4'"
             ) from err
-    else:
-        raise BtfError(f"method = {method!r}: valid are {_METHODS}")
-    return found.indices[0], found.weights[0]
+    raise BtfError(f"method = {method!r}: valid are {_METHODS}")
 
 
 def reconstruct(model: CompressedBTF | GlobalSVD, *, view: int, light: int) -> np.ndarray:
@@ -88,6 +108,6 @@ def interpolate(
     (N, N, C) float32
         Exactly :func:`reconstruct` when both directions were measured.
     """
-    light_idx, light_w = direction_weights(model.light_vectors, light_deg, method=light_method)
+    light_idx, light_w = light_weights(model.light_vectors, light_deg, method=light_method)
     view_idx, view_w = direction_weights(model.view_vectors, view_deg, method=view_method)
     return model.blend(view_idx, view_w, light_idx, light_w)

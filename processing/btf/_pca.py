@@ -26,7 +26,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from processing.btf._errors import BtfError
-from processing.btf._interpolate import Method, direction_weights
+from processing.btf._interpolate import Method, light_weights
 from rig.geometry import direction_vector
 from rig.material import CompressedBTF, check_directions
 
@@ -81,7 +81,7 @@ class ViewSlot:
             "light_dirs_deg", light_dirs_deg, len(self.weights), error=BtfError
         )
         vectors = direction_vector(lights[:, 0], lights[:, 1])
-        index, weight = direction_weights(vectors, light_deg, method=method)
+        index, weight = light_weights(vectors, light_deg, method=method)
         return self._slot().blend([0], [1.0], index, weight)
 
     def _slot(self) -> CompressedBTF:

@@ -13,7 +13,7 @@ import numpy as np
 
 from render._errors import RenderError
 from render.core.lookup import BLEND_METHODS
-from rig.geometry import barycentric_weights, nearest_directions
+from rig.geometry import barycentric_weights, carry_light_cosine, nearest_directions
 
 __all__ = ["hemicube", "light_table"]
 
@@ -73,7 +73,8 @@ def hemicube(resolution: int) -> tuple[np.ndarray, np.ndarray]:
 
 def light_table(light_vectors, directions: np.ndarray, method: str):
     """The measured lights each of ``directions`` blends and their weights, as the
-    point-light path blends them: (T, k) int64 indices, (T, k) float64 weights."""
+    point-light path blends them (carrying the light's cosine):
+    (T, k) int64 indices, (T, k) float64 weights."""
     if method not in BLEND_METHODS:
         raise RenderError(f"light_method = {method!r}: valid are {BLEND_METHODS}")
     table = np.asarray(light_vectors, np.float64)
@@ -85,4 +86,4 @@ def light_table(light_vectors, directions: np.ndarray, method: str):
     else:
         k = 1 if method == "nearest" else min(4, len(table))
         found = nearest_directions(table, directions, k=k)
-    return found.indices, found.weights
+    return found.indices, carry_light_cosine(found, table, directions)

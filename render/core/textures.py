@@ -15,12 +15,14 @@ import numpy as np
 
 from render._errors import RenderError
 from render.core.lookup import DirectionLookup
+from rig.geometry import LIGHT_COSINE_FLOOR
 from rig.material import GlobalSVD, PbrMaps, pbr_layers, sheen_albedo
 
 __all__ = [
     "BtfTextures",
     "PbrTextures",
     "PsTextures",
+    "light_cosine_texture",
     "lookup_texture",
     "material_sampling",
     "upload_btf",
@@ -173,6 +175,16 @@ def lookup_texture(ctx: moderngl.Context, lookup: DirectionLookup) -> moderngl.T
     texels = lookup.cell_texels()
     layers, r = texels.shape[:2]
     texture = ctx.texture_array((r, r, layers), 4, texels, dtype="f4")
+    texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
+    return texture
+
+
+def light_cosine_texture(ctx: moderngl.Context, light_vectors) -> moderngl.Texture:
+    """cos θ of each measured light, floored at ``rig.geometry.LIGHT_COSINE_FLOOR``: an
+    (n, 1) float32 texture the light blends divide by (``carry_light_cosine`` in
+    ``directions.glsl``), read by texelFetch."""
+    cosines = np.maximum(np.asarray(light_vectors, np.float64)[:, 2], LIGHT_COSINE_FLOOR)
+    texture = ctx.texture((len(cosines), 1), 1, cosines.astype(np.float32), dtype="f4")
     texture.filter = (moderngl.NEAREST, moderngl.NEAREST)
     return texture
 

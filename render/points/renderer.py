@@ -26,6 +26,7 @@ from render.core.textures import (
     BtfTextures,
     PbrTextures,
     PsTextures,
+    light_cosine_texture,
     lookup_texture,
     upload_btf,
     upload_pbr,
@@ -210,8 +211,11 @@ class Renderer:
                 f"{prefix}_METHOD": lookup.code, f"{prefix}_K": lookup.k,
                 f"{prefix}_CANDIDATES": lookup.length,
             })  # fmt: skip
+        cosines = light_cosine_texture(self.ctx, btf.light_vectors)
+        self._owned.append(cosines)
         self._attach(
-            {"btf_weights": textures.weights, "btf_images": textures.images},
+            {"btf_weights": textures.weights, "btf_images": textures.images,
+             "light_cosines": cosines},
             {"n_table_lights": textures.n_lights},
             {"COMPONENTS": textures.components, "CHANNELS": textures.channels,
              "PACKED": textures.packed},

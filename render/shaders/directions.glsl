@@ -120,3 +120,13 @@ Blend blend_barycentric(sampler2DArray cells, int count, vec3 q) {
     b.w = vec4(total > 0.0 ? weights / total : vec3(1.0, 0.0, 0.0), 0.0);
     return b;
 }
+
+// A light's blend carries the irradiance's cosine (rig.geometry.carry_light_cosine):
+// each measured light's weight times cos θ_q / cos θ_i, with cos θ_i (floored on the
+// CPU) read from texel (i, 0) of `cosines`. Exact at a measured light; zero at the horizon.
+Blend carry_light_cosine(Blend b, sampler2D cosines, vec3 q) {
+    float cos_q = on_hemisphere(q).z;
+    for (int m = 0; m < 4; ++m)
+        b.w[m] *= cos_q / texelFetch(cosines, ivec2(b.idx[m], 0), 0).r;
+    return b;
+}

@@ -43,6 +43,7 @@ uniform vec3 light_emission[N_LIGHTS];
 #if BTF_KIND > 0
 uniform sampler2DArray view_cells;
 uniform sampler2DArray light_cells;
+uniform sampler2D light_cosines; // cos θ of each measured light, floored (a texel each)
 uniform int n_table_lights;    // measured light directions
 uniform sampler2D btf_weights; // pca: row slot·n_table_lights + light; svd: row slot; c/4 RGBA
 
@@ -58,12 +59,13 @@ Blend blend_view(vec3 q) {
 
 Blend blend_light(vec3 q) {
 #if LIGHT_METHOD == 1
-    return blend_barycentric(light_cells, LIGHT_CANDIDATES, q);
+    Blend b = blend_barycentric(light_cells, LIGHT_CANDIDATES, q);
 #elif LIGHT_K == 1
-    return blend_nearest_one(light_cells, LIGHT_CANDIDATES, q);
+    Blend b = blend_nearest_one(light_cells, LIGHT_CANDIDATES, q);
 #else
-    return blend_nearest(light_cells, LIGHT_CANDIDATES, LIGHT_K, q);
+    Blend b = blend_nearest(light_cells, LIGHT_CANDIDATES, LIGHT_K, q);
 #endif
+    return carry_light_cosine(b, light_cosines, q);
 }
 #endif
 

@@ -44,7 +44,11 @@ def test_texel_light_table_is_rig_geometry_nearest_four():
     maps = visibility_maps(plane(), LIGHTS, resolution=6)
     expected = nearest_directions(LIGHTS, maps.directions, k=4)
     np.testing.assert_array_equal(maps.light_indices, expected.indices)
-    np.testing.assert_allclose(maps.light_weights.sum(axis=1), 1.0)
+    # Shepard's weights carrying the cosine: a texture of cos θ_i blends to the texel's cos θ.
+    cos_i = LIGHTS[maps.light_indices, 2] / np.linalg.norm(LIGHTS, axis=1)[maps.light_indices]
+    cos_q = np.maximum(maps.directions[:, 2], 0.0)
+    np.testing.assert_allclose(maps.light_weights / cos_q[:, None] * cos_i, expected.weights)
+    np.testing.assert_allclose(np.sum(maps.light_weights * cos_i, axis=1), cos_q, atol=1e-12)
     bary = visibility_maps(plane(), LIGHTS, resolution=6, light_method="barycentric")
     assert bary.light_indices.shape == (maps.texels, 3)
 
