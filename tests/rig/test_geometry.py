@@ -6,9 +6,11 @@ from numpy.testing import assert_allclose
 
 from rig.errors import ConfigError
 from rig.geometry import (
+    LIGHT_COSINE_FLOOR,
     Sampling,
     angular_distance_deg,
     barycentric_weights,
+    carry_light_cosine,
     direction_angles,
     direction_vector,
     nearest_directions,
@@ -122,6 +124,36 @@ def test_interpolation_weights_are_a_partition_of_unity(theta, phi):
         assert np.all(np.isfinite(interp.weights))
         assert np.all(interp.weights >= 0)
         assert_allclose(interp.weights.sum(), 1.0)
+
+
+@given(thetas, phis)
+def test_light_blends_carrying_the_cosine_interpolate_a_lambertian_plane_exactly(theta, phi):
+    """Textures of cos θ_i (a Lambertian plane under each measured light) blend to the
+    query's own cos θ, wherever the query lies; blends that sum to 1 do not."""
+    table = Sampling.named("H1").vectors
+    q = direction_vector(theta, phi)[None]
+    for found in (nearest_directions(table, q), barycentric_weights(table, q)):
+        weights = carry_light_cosine(found, table, q)
+        assert np.all(np.isfinite(weights)) and np.all(weights >= 0)
+        assert_allclose(weights @ table[found.indices[0], 2], q[:, 2], atol=1e-12)
+
+
+def test_light_blends_carrying_the_cosine_are_exact_at_measured_lights_and_dark_at_the_horizon():
+    table = Sampling.named("H1").vectors
+    exact = nearest_directions(table, table, k=4)
+    assert_allclose(carry_light_cosine(exact, table, table), exact.weights, atol=0)
+    horizon = np.array([[0.6, 0.8, 0.0]])
+    assert not carry_light_cosine(nearest_directions(table, horizon), table, horizon).any()
+    # Between 15° and 45° the plain blend mixes cos 15° and cos 45° (3 % off cos 30°).
+    rings = direction_vector(np.array([15.0, 45.0]), np.array([0.0, 0.0]))
+    q = direction_vector(30.0, 0.0)[None]
+    found = nearest_directions(rings, q, k=2)
+    assert abs(found.weights @ rings[found.indices[0], 2] / q[0, 2] - 1) > 0.03
+    # A measured light in the sample's plane gives no irradiance: divided by the floor.
+    grazing = direction_vector(np.array([0.0, 90.0]), np.array([0.0, 0.0]))
+    found = nearest_directions(grazing, direction_vector(89.9, 0.0)[None], k=2)
+    weights = carry_light_cosine(found, grazing, direction_vector(89.9, 0.0)[None])
+    assert np.all(np.isfinite(weights)) and weights.max() <= 1 / LIGHT_COSINE_FLOOR
 
 
 def test_barycentric_reproduces_linear_functions_inside_a_triangle():

@@ -9,6 +9,7 @@ from processing.btf import (
     BtfError,
     compress_btf,
     compress_global_svd,
+    direction_weights,
     interpolate,
     reconstruct,
     rmse,
@@ -63,6 +64,26 @@ def test_blending_beats_nearest_lookup_at_held_out_lights(btf):
         ])  # fmt: skip
     assert errors["nearest4"] < 0.7 * errors["nearest"]
     assert errors["barycentric"] < 0.7 * errors["nearest"]
+
+
+@pytest.mark.parametrize("method", ["nearest", "nearest4", "barycentric"])
+def test_a_lambertian_texture_interpolates_exactly_between_lights(method):
+    """ρ/π · cos θ_l under each measured light (a Lambertian plane): the light's cosine
+    is carried, so any light direction gets its own ρ/π · cos θ; weights that sum to
+    one (``direction_weights``) blend the measured cosines instead."""
+    rng = np.random.default_rng(5)
+    albedo = rng.uniform(0.2, 0.9, (N, N, 3))
+    cos_l = np.cos(np.radians(H2[:, 0]))
+    textures = albedo[None, None] / np.pi * cos_l[None, :, None, None, None]
+    model = compress_btf(textures, view_dirs_deg=H2[:1], light_dirs_deg=H2, components=1,
+                         storage=np.float32)  # fmt: skip
+    for light in ((38.0, 200.0), (52.0, 110.0), (7.0, 300.0), (82.0, 15.0)):
+        got = interpolate(model, view_deg=H2[0], light_deg=light, light_method=method)
+        truth = albedo / np.pi * np.cos(np.radians(light[0]))
+        np.testing.assert_allclose(got, truth, rtol=1e-5, atol=1e-7)
+    idx, w = direction_weights(model.light_vectors, (52.0, 110.0), method=method)
+    plain = model.blend([0], [1.0], idx, w)
+    assert np.abs(plain / (albedo / np.pi * np.cos(np.radians(52.0))) - 1).max() > 0.01
 
 
 def test_view_blending_stays_between_slots(model, btf):
