@@ -126,6 +126,7 @@ PROCESSINGS: dict[str, dict] = {
     "lights per texel": {"lights": "per texel"},
     "lights and views per texel": {"lights": "per texel", "views": "per texel"},
     "lights by model": {"lights": "model"},
+    "lights and views by model": {"lights": "model", "views": "model"},
 }
 
 #: The per-view PCA components scored beside the lossless model.

@@ -29,14 +29,22 @@ from matplotlib.figure import Figure
 from matplotlib.ticker import NullFormatter
 
 from orchestrator.local import run_local
-from processing.btf import CompressedBTF, interpolate, psnr_db, reconstruct, rmse
+from processing.btf import (
+    CompressedBTF,
+    direction_weights,
+    interpolate,
+    light_weights,
+    psnr_db,
+    reconstruct,
+    rmse,
+)
 from processing.offline import BtfStage, PbrStage, run_stages
 from render import DirectionalLight, Renderer
 from render.texel_view import texel_camera, texel_quad
 from rig.clock import VirtualClock
 from rig.config import RigConfig
 from rig.errors import RigError
-from rig.geometry import angular_distance_deg, direction_vector
+from rig.geometry import Sampling, angular_distance_deg, direction_vector
 from rig.material import Material, read_material
 from rig.plan import parse_plan
 from rig.schedule import compile_plan
@@ -53,10 +61,12 @@ __all__ = [
     "captured_pairs",
     "gaps_deg",
     "interpolated",
+    "interpolation_bound",
     "irradiance_scale",
     "loop_truth",
     "measure",
     "patient_cameras",
+    "plan_directions",
     "plot",
     "process",
     "reconstructed",
@@ -118,12 +128,61 @@ HELD_OUT: tuple[tuple[tuple[float, float], tuple[float, float]], ...] = (
 )
 
 
+def _ring_directions(spec) -> list[tuple[float, float]]:
+    """(θ, φ) degrees of a plan's rings ((θ, Δφ) pairs; Δφ = 0: the single direction)."""
+    return [(float(theta), float(phi)) for theta, dphi in spec
+            for phi in ([0.0] if dphi == 0 else np.arange(0.0, 360.0, dphi))]  # fmt: skip
+
+
 def _sampling_toml(spec) -> str:
     if isinstance(spec, str):
         return f'"{spec}"'
-    dirs = [(theta, float(phi)) for theta, dphi in spec
-            for phi in ([0.0] if dphi == 0 else np.arange(0.0, 360.0, dphi))]  # fmt: skip
-    return "[" + ", ".join(f"[{t}, {p:g}]" for t, p in dirs) + "]"
+    return "[" + ", ".join(f"[{t}, {p:g}]" for t, p in _ring_directions(spec)) + "]"
+
+
+def plan_directions(name: str) -> tuple[np.ndarray, np.ndarray]:
+    """The nominal (θ, φ) degrees of ``PLANS[name]``: views (n, 2) and lights (m, 2)."""
+    return tuple(
+        Sampling.named(spec).directions if isinstance(spec, str)
+        else np.array(_ring_directions(spec))
+        for spec in PLANS[name]
+    )  # fmt: skip
+
+
+def interpolation_bound(sim: Simulator, plan: str, size: int, held_out, *, rays: int = 4,
+                        light_blend: str = "cosine") -> dict:  # fmt: skip
+    """What interpolation alone costs: the truth at the plan's nominal directions (a
+    measurement without error) blended to the held-out pairs as
+    ``processing.btf.interpolate`` blends a material (the 4 nearest, Shepard), scored
+    against the truth there (peak: its maximum, PSNR dB). ``both``: views and lights
+    blended; ``lights only``: the truth at each held-out view, its lights blended;
+    ``views only``: at each held-out light, its views blended. ``light_blend``:
+    ``"cosine"`` (the weights carry the light's cosine, as the material's do) or
+    ``"plain"`` (weights that sum to 1)."""
+    if light_blend not in ("cosine", "plain"):
+        raise RigError(f"light_blend={light_blend!r}: valid are 'cosine', 'plain'")
+    views, lights = plan_directions(plan)
+    view_vectors, light_vectors = (direction_vector(*d.T) for d in (views, lights))
+    weights = light_weights if light_blend == "cosine" else direction_weights
+    truth = {}  # (view, light) → the footprint truth, each computed once
+
+    def at(view, light) -> np.ndarray:
+        key = (tuple(view), tuple(light))
+        if key not in truth:
+            truth[key] = sim.btf_truth(view, light, size, rays=rays).astype(np.float64)
+        return truth[key]
+
+    held = np.stack([at(v, light) for v, light in held_out])
+    blends: dict[str, list] = {"both": [], "lights only": [], "views only": []}
+    for view, light in held_out:
+        vs = list(zip(*direction_weights(view_vectors, view, method="nearest4"), strict=True))
+        ls = list(zip(*weights(light_vectors, light, method="nearest4"), strict=True))
+        blends["both"].append(sum(a * b * at(views[j], lights[i]) for j, a in vs for i, b in ls))
+        blends["lights only"].append(sum(b * at(view, lights[i]) for i, b in ls))
+        blends["views only"].append(sum(a * at(views[j], light) for j, a in vs))
+    peak = float(held.max())
+    return {name: round(psnr_db(rmse(np.stack(b), held), peak=peak), 2)
+            for name, b in blends.items()}  # fmt: skip
 
 
 def plan_toml(name: str) -> str:
