@@ -129,16 +129,23 @@ def _rotation(rotvec: np.ndarray) -> np.ndarray:
 
 
 def _rotvec(r: np.ndarray) -> np.ndarray:
-    cos = np.clip((np.trace(r) - 1) / 2, -1.0, 1.0)
-    angle = np.arccos(cos)
+    """The rotation vector of a rotation matrix, to the matrix's own precision at any angle.
+
+    R = cos θ·I + sin θ·[k]ₓ + (1 − cos θ)·k kᵀ: its antisymmetric part gives 2 sin θ·k, its
+    symmetric part (1 − cos θ)·k kᵀ. The angle comes from both (atan2); beyond a quarter turn
+    the axis comes from the symmetric part (its largest column, the sign from the
+    antisymmetric part), where sin θ, falling to 0 at a half turn, would amplify rounding."""
+    w = np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
+    cos = (np.trace(r) - 1) / 2
+    angle = np.arctan2(np.linalg.norm(w) / 2, cos)
     if angle < 1e-9:
         return np.zeros(3)
-    if np.pi - angle < 1e-6:  # a half turn: R = 2·a·aᵀ − I, the axis from its largest column
-        outer = (r + np.eye(3)) / 2
-        i = int(np.argmax(np.diag(outer)))
-        return angle * outer[:, i] / np.sqrt(outer[i, i])
-    w = np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
-    return angle * w / (2 * np.sin(angle))
+    if cos >= 0:
+        return angle * w / np.linalg.norm(w)
+    outer = ((r + r.T) / 2 - cos * np.eye(3)) / (1 - cos)
+    i = int(np.argmax(np.diag(outer)))
+    axis = outer[:, i] / np.sqrt(outer[i, i])
+    return angle * (-axis if axis @ w < 0 else axis)
 
 
 def _link(theta: float, d: float, a: float, alpha: float) -> np.ndarray:
