@@ -137,11 +137,10 @@ def _rotvec(r: np.ndarray) -> np.ndarray:
     antisymmetric part), where sin θ, falling to 0 at a half turn, would amplify rounding."""
     w = np.array([r[2, 1] - r[1, 2], r[0, 2] - r[2, 0], r[1, 0] - r[0, 1]])
     cos = (np.trace(r) - 1) / 2
-    angle = np.arctan2(np.linalg.norm(w) / 2, cos)
-    if angle < 1e-9:
-        return np.zeros(3)
+    sin = np.linalg.norm(w) / 2
+    angle = np.arctan2(sin, cos)
     if cos >= 0:
-        return angle * w / np.linalg.norm(w)
+        return angle * w / (2 * sin) if sin > 0 else np.zeros(3)
     outer = ((r + r.T) / 2 - cos * np.eye(3)) / (1 - cos)
     i = int(np.argmax(np.diag(outer)))
     axis = outer[:, i] / np.sqrt(outer[i, i])
