@@ -20,9 +20,9 @@ import pytest
 
 from render import DirectionalLight, Renderer
 from render.texel_view import texel_camera, texel_quad
+from rig.errors import RigError
 from sim.scene import scene_from_dict
 from sim.simulator import Simulator
-from rig.errors import RigError
 from studies.render_loop import HELD_OUT, SCENES, interpolation_bound, plot, run
 from tests.render.conftest import SAMPLE_MM, N, material, ps_view
 
