@@ -172,13 +172,17 @@ def truth_shadow(scene: ShadowScene) -> TruthShadow:
 
 
 def _shadow_material(scene: ShadowScene, view_dirs_deg) -> Material:
-    """A constant BTF (T ≡ 1 at every view and light, grey) with the relief's MDF."""
+    """A grey BTF that reads 1 on the plane under the scene's light, at every view: a
+    Lambertian texture, cos θ_i / cos θ_light under measured light i (the light blend carries
+    the cosine, so the plane's blend is cos θ_light / cos θ_light), with the relief's MDF."""
     n, views = scene.texels, np.asarray(view_dirs_deg, np.float64)
     lights = Sampling.named("H1").directions
     n_views, n_lights = len(views), len(lights)
+    lambert = np.cos(np.radians(lights[:, 0])) / np.cos(np.radians(scene.light_deg[0]))
     btf = CompressedBTF(
-        views, lights, np.ones((n_views, n, n, 1), np.float16),
-        np.zeros((n_views, 1, n, n, 1), np.float16), np.zeros((n_views, n_lights, 1), np.float32),
+        views, lights, np.zeros((n_views, n, n, 1), np.float16),
+        np.ones((n_views, 1, n, n, 1), np.float16),
+        np.broadcast_to(lambert[None, :, None], (n_views, n_lights, 1)).astype(np.float32),
         np.ones((n_views, n_lights), np.float32), np.ones(n_views, np.int32),
     )  # fmt: skip
     mdf = relief_mdf(scene.height(), views, sample_mm=scene.sample_mm, n=n,
@@ -190,8 +194,9 @@ def _shadow_material(scene: ShadowScene, view_dirs_deg) -> Material:
 def _rendered_lit(
     scene: ShadowScene, material: Material, *, mdf: bool, shadows: bool = True
 ) -> np.ndarray:
-    """(H, W) float32: the light's lit fraction per pixel, as the renderer shades it
-    (the constant BTF under a unit light, no ambient term); 0 where nothing is seen."""
+    """(H, W) float32: the light's lit fraction per pixel of the plane, as the renderer
+    shades it (the probe BTF under a unit light, no ambient term; on the ball, its shading
+    relative to the plane's); 0 where nothing is seen."""
     with Renderer(material, scene_mesh(scene), tile_mm=scene.tile_mm, mdf=mdf,
                   shadows=shadows, ambient=0.0) as renderer:  # fmt: skip
         return renderer.render(scene.camera(), [scene.light()])[..., 0]

@@ -47,4 +47,7 @@ def test_the_scene_has_a_shadow_and_a_lit_plane(check):
     assert 0.05 < shadowed.sum() / truth.relief.sum() < 0.5
     for name in ("lit_off", "lit_on"):
         lit = check[name]
-        assert np.all(np.isfinite(lit)) and lit.min() >= 0 and lit.max() <= 1 + 1e-6
+        assert np.all(np.isfinite(lit)) and lit.min() >= 0
+        # On the plane the probe reads the lit fraction (float16 texels: 2⁻¹¹); on the ball
+        # above it, its Lambertian shading relative to the plane's.
+        assert lit[truth.relief].max() <= 1 + 2.0**-11
