@@ -63,7 +63,8 @@ def brute_force_texture(btf, mesh, vertex: int, frame, environment, view_deg) ->
     Σ over the pixels above the vertex's horizon (``frame``: rows tangent,
     bitangent, normal) of radiance × solid angle × ray-cast visibility × the
     BTF at that light direction (the 4 nearest measured lights, Shepard
-    weights, as ``processing.btf.interpolate``) and at ``view_deg``.
+    weights carrying the light's cosine, as ``processing.btf.interpolate``) and at
+    ``view_deg``.
     """
     directions, solid = environment.pixel_directions()
     weighted = np.broadcast_to(solid[..., None] * environment.radiance, environment.radiance.shape)

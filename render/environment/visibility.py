@@ -52,8 +52,8 @@ class VisibilityMaps:
     solid_angles : (T,) float64
         Steradians per texel.
     light_indices, light_weights : (T, k) int64, float64
-        The measured light directions each texel blends and their weights
-        (rows sum to 1).
+        The measured light directions each texel blends and their weights, carrying
+        the light's cosine (``render.core.hemisphere.light_table``).
     light_method : str
     frames : (V, 3, 3) float32
         Rows: each vertex's tangent, bitangent and normal in the scene; a

@@ -17,7 +17,10 @@ show under a dense hemicube of directional lights (``render.core.hemisphere``'s
 texel directions and exact solid angles). By linearity that collapses to one
 weight per measured light,
 
-    L_a = Σ_i w_i T(x, y, v, l_i),    w_i = Σ_α Δω_α h_αi,    Σ_i w_i = 2π,
+    L_a = Σ_i w_i T(x, y, v, l_i),    w_i = Σ_α Δω_α h_αi,    Σ_i w_i cos θ_i = π,
+
+(h carrying the light's cosine, ``rig.geometry.carry_light_cosine``: a Lambertian
+texel's cos θ_i blends to cos θ_α, whose integral is π)
 
 and, per view slot, to one image: made once at load time
 (:func:`ambient_term`) and read by the shader with the view blend of the BTF.
@@ -56,7 +59,8 @@ def light_solid_angles(
     Returns
     -------
     (n,) float64, steradians
-        w_i = Σ_α Δω_α h_αi over the hemicube texels α; they sum to 2π.
+        w_i = Σ_α Δω_α h_αi over the hemicube texels α (h carrying the light's
+        cosine); Σ_i w_i cos θ_i is the hemicube's ∫ cos θ dω = π.
     """
     directions, solid_angles = hemicube(resolution)
     indices, weights = light_table(light_vectors, directions, light_method)
