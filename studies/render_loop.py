@@ -142,6 +142,8 @@ def _sampling_toml(spec) -> str:
 
 def plan_directions(name: str) -> tuple[np.ndarray, np.ndarray]:
     """The nominal (θ, φ) degrees of ``PLANS[name]``: views (n, 2) and lights (m, 2)."""
+    if name not in PLANS:
+        raise RigError(f"plan {name!r}: valid are {list(PLANS)}")
     return tuple(
         Sampling.named(spec).directions if isinstance(spec, str)
         else np.array(_ring_directions(spec))

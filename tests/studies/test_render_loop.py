@@ -92,6 +92,8 @@ def test_the_interpolation_bound_carries_the_light_cosine():
         plain = interpolation_bound(sim, "coarse", 16, HELD_OUT[:2], rays=2, light_blend="plain")
         with pytest.raises(RigError, match="light_blend"):
             interpolation_bound(sim, "coarse", 16, HELD_OUT[:1], light_blend="sum")
+        with pytest.raises(RigError, match="plan 'dense': valid are"):
+            interpolation_bound(sim, "dense", 16, HELD_OUT[:1])
     assert cosine["lights only"] > plain["lights only"] + 2.0
     assert cosine["both"] > plain["both"] + 0.5
     assert cosine["views only"] == plain["views only"]
