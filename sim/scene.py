@@ -29,7 +29,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import Any, Literal, get_args
 
 from pydantic import BaseModel, ConfigDict, Field, ValidationError
 
@@ -60,18 +60,6 @@ __all__ = [
     "scene_from_dict",
 ]
 
-EFFECTS = (
-    "shadows",
-    "specular",
-    "laser",
-    "noise",
-    "saturation",
-    "vignetting",
-    "lens_distortion",
-    "interreflection",
-    "motion_timing",
-    "response",
-)
 Effect = Literal[
     "shadows",
     "specular",
@@ -84,6 +72,8 @@ Effect = Literal[
     "motion_timing",
     "response",
 ]
+#: Every effect a scene may list.
+EFFECTS: tuple[str, ...] = get_args(Effect)
 
 
 class _Closed(BaseModel):

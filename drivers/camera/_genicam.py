@@ -19,9 +19,8 @@ import math
 import numpy as np
 
 from drivers.camera._checks import check_image, dtype_for, expected_shape, updated_settings
-from drivers.camera._interface import CameraSettings, Frame
+from drivers.camera._interface import CameraSettings, Frame, RetriedCapture
 from drivers.errors import DeviceError, DeviceTimeout, ProtocolError
-from drivers.retry import with_retries
 from rig.clock import Clock
 from rig.config import CameraSpec
 
@@ -39,7 +38,7 @@ _PIXEL_FORMATS = {
 }
 
 
-class GenicamCamera:
+class GenicamCamera(RetriedCapture):
     """One GenICam camera behind the camera interface."""
 
     def __init__(self, spec: CameraSpec, *, clock: Clock):
@@ -142,16 +141,6 @@ class GenicamCamera:
                 self._acquirer.start()
         self.settings = settings
         return settings
-
-    def capture(self) -> Frame:
-        """Trigger and fetch one frame; a timeout or malformed buffer is retried."""
-        return with_retries(
-            self._capture_once,
-            retry=self.retry,
-            clock=self.clock,
-            device=self.device,
-            operation="capture",
-        )
 
     def _capture_once(self) -> Frame:
         sequence = self._sequence

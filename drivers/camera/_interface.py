@@ -15,7 +15,9 @@ from typing import Protocol
 
 import numpy as np
 
-__all__ = ["Camera", "CameraSettings", "Frame"]
+from drivers.retry import with_retries
+
+__all__ = ["Camera", "CameraSettings", "Frame", "RetriedCapture"]
 
 
 @dataclass(frozen=True)
@@ -70,3 +72,20 @@ class Camera(Protocol):
 
     def close(self) -> None:
         """Release the camera; idempotent."""
+
+
+class RetriedCapture:
+    """:meth:`capture` for a driver whose ``_capture_once`` fetches one frame: retried as
+    its ``retry`` says on its ``clock``, the error naming its ``device``."""
+
+    def capture(self) -> Frame:
+        """One frame; a timeout, a dropped or a malformed frame is retried ``retry.retries``
+        times."""
+        return with_retries(
+            self._capture_once,
+            retry=self.retry,
+            clock=self.clock,
+            device=self.device,
+            operation="capture",
+        )
+

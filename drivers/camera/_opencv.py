@@ -20,9 +20,8 @@ import numpy as np
 
 from drivers._lock import DeviceLock, serial_lock_key
 from drivers.camera._checks import check_image, updated_settings
-from drivers.camera._interface import CameraSettings, Frame
+from drivers.camera._interface import CameraSettings, Frame, RetriedCapture
 from drivers.errors import DeviceError, DeviceTimeout
-from drivers.retry import with_retries
 from rig.clock import Clock
 from rig.config import CameraSpec
 
@@ -34,7 +33,7 @@ _V4L2_EXPOSURE_UNIT_S = 100e-6
 _V4L2_MANUAL_EXPOSURE = 1
 
 
-class OpenCvCamera:
+class OpenCvCamera(RetriedCapture):
     """A ``cv2.VideoCapture`` behind the camera interface."""
 
     def __init__(self, spec: CameraSpec, *, clock: Clock):
@@ -96,16 +95,6 @@ class OpenCvCamera:
     def _set(self, prop: int, value: float, what: str) -> None:
         if not self._capture.set(prop, value):
             raise DeviceError(self.device, "configure", f"the camera does not accept {what}")
-
-    def capture(self) -> Frame:
-        """The next frame, checked against the spec; retried when dropped or malformed."""
-        return with_retries(
-            self._capture_once,
-            retry=self.retry,
-            clock=self.clock,
-            device=self.device,
-            operation="capture",
-        )
 
     def _capture_once(self) -> Frame:
         timestamp = self.clock.now()

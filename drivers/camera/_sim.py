@@ -25,9 +25,8 @@ import zmq
 
 from drivers._lock import DeviceLock
 from drivers.camera._checks import check_image, dtype_for, expected_shape, updated_settings
-from drivers.camera._interface import CameraSettings, Frame
+from drivers.camera._interface import CameraSettings, Frame, RetriedCapture
 from drivers.errors import DeviceError, DeviceTimeout, ProtocolError
-from drivers.retry import with_retries
 from rig.clock import Clock
 from rig.config import CameraSpec
 
@@ -50,7 +49,7 @@ _HEADER_FIELDS = {
 }
 
 
-class SimCamera:
+class SimCamera(RetriedCapture):
     """A camera of the simulated rig; ``spec.connection.url`` is the server's address."""
 
     def __init__(self, spec: CameraSpec, *, clock: Clock, context: zmq.Context | None = None):
@@ -86,16 +85,6 @@ class SimCamera:
             bit_depths=(self.spec.bit_depth,),
         )
         return self.settings
-
-    def capture(self) -> Frame:
-        """One frame; a dropped or corrupt one is re-requested ``retry.retries`` times."""
-        return with_retries(
-            self._capture_once,
-            retry=self.retry,
-            clock=self.clock,
-            device=self.device,
-            operation="capture",
-        )
 
     def _capture_once(self) -> Frame:
         request_id = next(self._request_ids)
