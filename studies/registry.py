@@ -21,7 +21,11 @@ class Study:
 
     ``summary`` is the line ``rig bench --help`` lists; ``description`` what the
     study measures and what its table prints (``rig bench NAME --help``); ``figure``
-    whether the module draws its rows (``plot(rows, path)``, ``--plot FILE``).
+    whether the module draws its rows (``plot(rows, path)``, ``--plot FILE``);
+    ``selects`` which keyword arguments of ``run`` the command offers as options
+    (``orchestrator.cli.bench_cmd.SELECTIONS``: ``scenes``, ``plans``,
+    ``render_scale``, ``processings``, ``runs``), each checked against the module's
+    ``SCENES``, ``PLANS``, ``PROCESSINGS`` or ``TERMS``.
     """
 
     name: str
@@ -29,6 +33,7 @@ class Study:
     summary: str
     description: str
     figure: bool = False
+    selects: tuple[str, ...] = ()
 
     def load(self) -> ModuleType:
         """The study's module (imported on first use)."""
@@ -150,6 +155,7 @@ STUDIES: tuple[Study, ...] = (
             "against the noise-free truth beside each plan's capture time."
         ),
         figure=True,
+        selects=("scenes", "plans"),
     ),
     Study(
         name="error-budget",
@@ -164,6 +170,7 @@ STUDIES: tuple[Study, ...] = (
             "coarse plan at 32² texels)."
         ),
         figure=True,
+        selects=("scenes", "plans", "render_scale", "processings", "runs"),
     ),
     Study(
         name="lab-loop",
@@ -178,6 +185,7 @@ STUDIES: tuple[Study, ...] = (
             "and held-out pairs, and the calibrated lamps' errors "
             "(--quick: the bumps at 32² texels on the coarse plan)."
         ),
+        selects=("scenes", "plans"),
     ),
     Study(
         name="silhouettes",

@@ -4,6 +4,7 @@ against a truth or a baseline drawn in the same run; their tables and figures ar
 from __future__ import annotations
 
 import importlib.util
+import inspect
 import json
 from pathlib import Path
 from typing import Annotated
@@ -71,14 +72,69 @@ MarkdownOption = Annotated[
 PlotOption = Annotated[Path | None, typer.Option("--plot", help="also draw the rows (PNG)")]
 
 
+#: The options a study may offer beside ``--quick`` (``Study.selects``): the keyword of
+#: its ``run``, the option and its metavar, its type, its help, and the module's table
+#: of valid values.
+SELECTIONS: dict[str, tuple[str, type, str, str | None]] = {
+    "scenes": ("--sample <sample>", list[str] | None,
+               "a simulated sample: bumps or weave (repeat for several; default: both)", "SCENES"),
+    "plans": ("--plan <plan>", list[str] | None,
+              "a plan: coarse, medium, fine or H1 (repeat for several; default: the study's)",
+              "PLANS"),
+    "render_scale": ("--render-scale <scale>", float | None,
+                     "the frames' resolution as a fraction of the camera's, 0 < s ≤ 4 (1: its own;"
+                     " default: the loop's 0.5)", None),
+    "processings": ("--processing <processing>", list[str] | None,
+                    "how each session is processed: raw, irradiance-per-texel, lights-per-texel, "
+                    "lights-and-views-per-texel, lights-by-model, lights-and-views-by-model "
+                    "(repeat for several; default: raw and irradiance-per-texel)", "PROCESSINGS"),
+    "runs": ("--run <terms>", list[str] | None,
+             "one run: the error terms it switches off, comma-separated (noise, near-lamps, "
+             "point-pixels, perspective, marker-registration, box-filter), 'none' for all on, "
+             "'all' for all off (repeat for several; default: all on, each alone, all off)",
+             "TERMS"),
+}  # fmt: skip
+
+
+def _selected(module, name: str, values):
+    """The ``run`` argument of one selection, checked against the module's valid values
+    (a hyphen reads as a space): a bad one is the user's input, exit 2."""
+    option = SELECTIONS[name][0].split()[0]
+    table = SELECTIONS[name][3]
+    if name == "render_scale":
+        if not 0 < values <= 4:
+            raise typer.BadParameter(f"{values:g}: valid is 0 < scale ≤ 4", param_hint=option)
+        return float(values)
+    valid = list(getattr(module, table))
+
+    def known(value: str) -> str:
+        spaced = value.strip().replace("-", " ")
+        match = next((v for v in valid if v.lower() == spaced.lower()), None)
+        if match is None:
+            shown = ", ".join(v.replace(" ", "-") for v in valid)
+            raise typer.BadParameter(f"{value!r}: valid are {shown}", param_hint=option)
+        return match
+
+    if name != "runs":
+        return tuple(known(v) for v in values)
+    runs = []
+    for run in values:
+        spaced = run.strip().lower()
+        runs.append(() if spaced == "none" else tuple(valid) if spaced == "all"
+                    else tuple(known(term) for term in run.split(",")))  # fmt: skip
+    return tuple(runs)
+
+
 def _run(study: Study, quick: bool, json_out: Path | None, markdown: Path | None,
-         plot: Path | None) -> None:  # fmt: skip
+         plot: Path | None, selected: dict) -> None:  # fmt: skip
     # Studies that process (through Dask) log as `rig process` does; the rest need no Dask.
     if importlib.util.find_spec("distributed") is not None:
         quiet_dask_logs()
+    module = study.load()
+    chosen = {name: _selected(module, name, value)
+              for name, value in selected.items() if value not in (None, [])}  # fmt: skip
     with working(f"rig bench {study.name}: measuring" + (" (--quick)" if quick else "")):
-        module = study.load()
-        rows = module.run(quick)
+        rows = module.run(quick, **chosen)
     print_rows(f"rig bench {study.name}", rows)
     if json_out is not None:
         json_out.write_text(json.dumps(rows, indent=2, default=float))
@@ -89,24 +145,31 @@ def _run(study: Study, quick: bool, json_out: Path | None, markdown: Path | None
 
 
 def _make(study: Study):
-    """The study's command; ``--plot`` where its rows have a figure."""
+    """The study's command: ``--json``, ``--quick``, ``--markdown``, ``--plot`` where its
+    rows have a figure, and the options of its :data:`SELECTIONS`."""
 
-    def command(
-        json_out: JsonOption = None, quick: QuickOption = False, markdown: MarkdownOption = None
-    ) -> None:
-        _run(study, quick, json_out, markdown, None)
+    def command(**options) -> None:
+        selected = {name: options.pop(name) for name in study.selects}
+        _run(study, options["quick"], options["json_out"], options["markdown"],
+             options.get("plot"), selected)  # fmt: skip
 
-    def command_with_plot(
-        json_out: JsonOption = None,
-        quick: QuickOption = False,
-        markdown: MarkdownOption = None,
-        plot: PlotOption = None,
-    ) -> None:
-        _run(study, quick, json_out, markdown, plot)
-
-    chosen = command_with_plot if study.figure else command
-    chosen.__doc__ = study.description
-    return chosen
+    keyword = inspect.Parameter.KEYWORD_ONLY
+    params = [
+        inspect.Parameter("json_out", keyword, default=None, annotation=JsonOption),
+        inspect.Parameter("quick", keyword, default=False, annotation=QuickOption),
+        inspect.Parameter("markdown", keyword, default=None, annotation=MarkdownOption),
+    ]
+    if study.figure:
+        params.append(inspect.Parameter("plot", keyword, default=None, annotation=PlotOption))
+    for name in study.selects:
+        option, kind, text, _ = SELECTIONS[name]
+        flag, metavar = option.split()
+        params.append(inspect.Parameter(name, keyword, default=None, annotation=Annotated[
+            kind, typer.Option(flag, help=text, metavar=metavar)
+        ]))  # fmt: skip
+    command.__signature__ = inspect.Signature(params)
+    command.__doc__ = study.description
+    return command
 
 
 for _study in STUDIES:
