@@ -98,7 +98,7 @@ def texel_resampling(
     # each texel's triangles: its own directions at the nominal corners (mirrored alike)
     corners = own[owner] * flip[:, :, None, None, :]  # (T, 3, n, n, 3)
     corners = np.moveaxis(corners, (2, 3), (0, 1))  # (n, n, T, 3 corners, 3 xyz)
-    inverse = np.linalg.pinv(np.swapaxes(corners, -1, -2))  # w = inverse · q
+    inverse = _corner_inverse(corners)  # w = inverse · q
     n = own.shape[1]
     entries = len(nominal)
     indices = np.empty((entries, n, n, 3), np.int64)
@@ -118,6 +118,26 @@ def texel_resampling(
         outside[j] = out
     turn = np.degrees(np.arccos(np.clip(np.einsum("snmk,sk->snm", own, nominal), -1.0, 1.0)))
     return TexelResampling(indices, weights, outside, turn)
+
+
+#: A triangle whose corners' determinant is under this (three unit vectors nearly on one
+#: great circle) is inverted by the pseudo-inverse instead of the cofactors.
+_SINGULAR = 1e-9
+
+
+def _corner_inverse(corners: np.ndarray) -> np.ndarray:
+    """(…, 3 weights, 3 xyz): the inverse of each triangle's corner matrix (columns the
+    corners a, b, c), so that its weights for a direction q are ``inverse @ q``. Rows
+    b × c, c × a, a × b over the determinant: a 3 × 3 SVD per texel and triangle cost
+    seconds per slot; the pseudo-inverse only where the corners are (nearly) coplanar."""
+    a, b, c = corners[..., 0, :], corners[..., 1, :], corners[..., 2, :]
+    rows = np.stack([np.cross(b, c), np.cross(c, a), np.cross(a, b)], axis=-2)
+    det = np.einsum("...k,...k->...", a, rows[..., 0, :])
+    flat = np.abs(det) < _SINGULAR
+    inverse = rows / np.where(flat, 1.0, det)[..., None, None]
+    if flat.any():
+        inverse[flat] = np.linalg.pinv(np.swapaxes(corners[flat], -1, -2))
+    return inverse
 
 
 def blended(plan: TexelResampling, j: int, samples: dict[int, np.ndarray]) -> np.ndarray:
