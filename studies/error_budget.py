@@ -122,7 +122,7 @@ CONFIGS: tuple[tuple[str, ...], ...] = ((), *((term,) for term in TERMS), tuple(
 #: the first two unless asked.
 PROCESSINGS: dict[str, dict] = {
     "raw": {"raw": True},
-    "irradiance per texel": {},
+    "irradiance per texel": {"lights": "nominal"},
     "lights per texel": {"lights": "per texel"},
     "lights and views per texel": {"lights": "per texel", "views": "per texel"},
     "lights by model": {"lights": "model"},

@@ -127,13 +127,13 @@ def process(
         str,
         typer.Option(
             "--lights",
-            help="btf: nominal (each texel at its capture's light direction), per-texel "
-            "(each texel's own direction to the placed lamp, resampled onto the plan's "
-            "lights; texels outside the measured directions are kept and counted) or model "
+            help="btf: per-texel (the default: each texel's own direction to the placed lamp,"
+            " resampled onto the plan's lights; texels outside the measured directions are "
+            "kept and counted), nominal (each texel at its capture's light direction) or model "
             "(each texel scaled by how much the fitted PBR model changes between its own "
             "direction and the plan's; run the pbr stage at this --size first)",
         ),
-    ] = "nominal",
+    ] = "per-texel",
 ) -> None:
     """Run processing stages over an archive into its material/ group.
 

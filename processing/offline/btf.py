@@ -87,13 +87,14 @@ class BtfStage:
     ``raw``: frames as recorded, without the calibration's corrections; ``filter``:
     registration's resampling filter (``processing.registration.FILTERS``);
     ``from_pose``: register every frame from its camera's pose, not its markers;
-    ``views``: ``"nominal"`` (each texel keeps its slot's view direction) or ``"per
-    texel"`` (each texel resampled from its own view directions onto the slots',
-    ``processing.offline.texel_view``; not with ``raw``); ``lights``: the same for each
-    texel's own light directions to the placed lamps (``processing.offline.texel_light``;
-    not with ``raw``). ``"model"`` (either): each texel's capture scaled by how much the
-    material's fitted PBR model (the ``pbr`` stage's, at this ``size``) changes between
-    the texel's own directions and the nominal ones (``processing.offline.texel_model``)."""
+    ``views``: ``"nominal"`` (the default: each texel keeps its slot's view direction) or
+    ``"per texel"`` (each texel resampled from its own view directions onto the slots',
+    ``processing.offline.texel_view``; not with ``raw``); ``lights``: ``"per texel"`` (the
+    default: the same for each texel's own light directions to the placed lamps,
+    ``processing.offline.texel_light``; not with ``raw``) or ``"nominal"``. ``"model"``
+    (either): each texel's capture scaled by how much the material's fitted PBR model (the
+    ``pbr`` stage's, at this ``size``) changes between the texel's own directions and the
+    nominal ones (``processing.offline.texel_model``)."""
 
     size: int = 128
     components: int = 8
@@ -101,7 +102,7 @@ class BtfStage:
     filter: str = "box"
     from_pose: bool = False
     views: str = "nominal"
-    lights: str = "nominal"
+    lights: str = "per texel"
     name: str = "btf"
 
     def __post_init__(self) -> None:
