@@ -121,7 +121,8 @@ def _simulated_irradiance(path, slot, light):
 
 
 def test_each_texel_is_divided_by_its_near_lamp_irradiance_and_the_material_says_so(archive):
-    run_stages(archive, [BtfStage(size=SIZE, components=6)])
+    # each texel at its capture's own light: the irradiance alone is divided out
+    run_stages(archive, [BtfStage(size=SIZE, components=6, lights="nominal")])
     arrays, attrs = _material(archive)
     model = btf_from_arrays(arrays, attrs)
     radiometry = json.dumps(attrs)
@@ -195,10 +196,10 @@ def test_per_texel_views_are_resampled_and_recorded(archive):
 def test_per_texel_lights_are_resampled_and_recorded_with_per_texel_views(archive):
     """The lamps 650 mm away, placed from the rig config: each texel's captures moved onto
     the plan's lights, a few percent, and on the hull's rim some kept and counted; with
-    per-texel views too, both are recorded."""
-    run_stages(archive, [BtfStage(size=SIZE, components=6)])
+    per-texel views too, both are recorded; they are the stage's default."""
+    run_stages(archive, [BtfStage(size=SIZE, components=6, lights="nominal")])
     nominal = btf_from_arrays(*_material(archive))
-    run_stages(archive, [BtfStage(size=SIZE, components=6, lights="per texel")])
+    run_stages(archive, [BtfStage(size=SIZE, components=6)])
     arrays, attrs = _material(archive)
     radiometry = json.loads(json.dumps(attrs["radiometry"]))
     assert radiometry["sources"]["light"] == radiometry["sources"]["irradiance"]

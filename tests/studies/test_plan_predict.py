@@ -80,14 +80,22 @@ def test_the_read_view_slots_alone_give_the_whole_plans_scores(tmp_path):
     views = plan.captures.btf.views.resolve().directions
     read = scored_views(views, HELD_OUT)
     assert 0 < len(read) < len(views)
-    materials = []
+    # Each texel at its capture's own light: the two sessions turn the turntable by other
+    # paths and realise some lamps 0.07–0.24 mm apart, which moves the per-texel light
+    # resampling's hull rim (below).
+    materials, resampled = [], []
     for name, subset in (("whole", None), ("read", views[read])):
         (tmp_path / name).mkdir()
         archive, _ = record(scene, btf_only(plan, subset), tmp_path / name)
-        materials.append(process(archive, size=TEXELS, components=max(COMPONENTS)))
+        materials.append(process(archive, size=TEXELS, components=max(COMPONENTS),
+                                 lights="nominal"))  # fmt: skip
+        resampled.append(process(archive, size=TEXELS, components=max(COMPONENTS)))
     whole, part = materials
     assert len(part.btf.view_dirs_deg) == len(read) < len(whole.btf.view_dirs_deg)
     peak = float(np.abs(whole.btf.mean).max())
+    # with the default per-texel lights the scores still agree within 0.5 % of the peak
+    held = [interpolated(m.btf, np.asarray(m.btf_slot_valid, bool), HELD_OUT) for m in resampled]
+    np.testing.assert_allclose(held[1], held[0], rtol=0, atol=5e-3 * peak)
     for c in COMPONENTS:
         seen = []
         for material in (whole, part):
