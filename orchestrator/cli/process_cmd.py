@@ -153,8 +153,9 @@ def process(
     tilt, the lamp, the axes) are listed; mdf leaves out those never re-captured.
     When the archive's calibration has them, ps and btf frames are linearised
     by the camera's response curve and divided by their lamp's flat field; btf
-    texels are divided by their near lamp's irradiance (calibrated or nominal
-    lamp positions). --raw: none of it; the material records what was applied.
+    texels are divided by their near lamp's irradiance and resampled from their
+    own light directions onto the plan's (calibrated or nominal lamp positions;
+    --lights). --raw: none of it; the material records what was applied.
     """
     quiet_dask_logs()
     from processing.offline import STAGES, run_stages
