@@ -133,3 +133,26 @@ def test_the_record_sums_the_slots_and_names_the_lamps_source():
     assert "1 of 3 view slots keeps each capture" in said.skipped["light"]
     clean = light_record(Radiometry(sources={"irradiance": "x"}), [LightResampling(0, 100, 0.0)])
     assert "light" not in clean.skipped and clean.sources["light"] == "x"
+
+
+def test_the_corner_matrices_invert_as_the_pseudo_inverse_does_coplanar_ones_included():
+    """The resampling's weights come from each (texel, triangle) corner matrix's inverse,
+    by cofactors; nearly coplanar corners (no triangle on the sphere) fall back to the
+    pseudo-inverse."""
+    from processing.offline.texel_resample import _corner_inverse
+
+    rng = np.random.default_rng(7)
+    corners = rng.normal(size=(2000, 3, 3))
+    corners /= np.linalg.norm(corners, axis=-1, keepdims=True)
+    middle = corners[:5, 0] + corners[:5, 1]
+    corners[:5, 2] = middle / np.linalg.norm(middle, axis=-1, keepdims=True)  # on a great circle
+    want = np.linalg.pinv(np.swapaxes(corners, -1, -2))
+    got = _corner_inverse(corners)
+    np.testing.assert_allclose(got[:5], want[:5], rtol=0, atol=1e-12)
+    well = np.abs(np.linalg.det(corners)) > 1e-3
+    np.testing.assert_allclose(got[well], want[well], rtol=1e-9, atol=1e-9)
+    # the weights of a direction reproduce it from the corners
+    q = direction_vector(30.0, 40.0)
+    w = got[well] @ q
+    blended = np.einsum("tk,tkx->tx", w, corners[well])
+    np.testing.assert_allclose(blended, np.broadcast_to(q, blended.shape), atol=1e-9)
