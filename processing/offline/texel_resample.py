@@ -97,7 +97,7 @@ def texel_resampling(
     flip = np.where(mirrored[..., None], np.array([1.0, 1.0, -1.0]), 1.0)  # (T, 3, 3)
     # each texel's triangles: its own directions at the nominal corners (mirrored alike)
     corners = own[owner] * flip[:, :, None, None, :]  # (T, 3, n, n, 3)
-    corners = np.moveaxis(corners, (2, 3), (0, 1))  # (n, n, T, 3 corners, 3 xyz)
+    corners = np.moveaxis(corners, 1, 3)  # (T, n, n, 3 corners, 3 xyz)
     inverse = _corner_inverse(corners)  # w = inverse · q
     n = own.shape[1]
     entries = len(nominal)
@@ -105,9 +105,11 @@ def texel_resampling(
     weights = np.empty((entries, n, n, 3))
     outside = np.empty((entries, n, n), bool)
     for j in range(entries):
-        w = inverse @ nominal[j]  # (n, n, T, 3)
-        best = np.argmax(w.min(axis=-1), axis=-1)  # (n, n) the triangle holding it
-        wq = np.take_along_axis(w, best[..., None, None], axis=2)[:, :, 0]
+        near = _around(owner, j)
+        w = inverse[near] @ nominal[j]  # (t, n, n, 3)
+        best = np.argmax(w.min(axis=-1), axis=0)  # (n, n) the triangle holding it
+        wq = np.take_along_axis(w, best[None, ..., None], axis=0)[0]
+        best = near[best]
         below = (mirrored[best] & (wq > _EDGE_TOL)).any(axis=-1)
         out = below | (wq.min(axis=-1) < -_EDGE_TOL)
         wq = np.clip(wq, 0.0, None)
@@ -118,6 +120,16 @@ def texel_resampling(
         outside[j] = out
     turn = np.degrees(np.arccos(np.clip(np.einsum("snmk,sk->snm", own, nominal), -1.0, 1.0)))
     return TexelResampling(indices, weights, outside, turn)
+
+
+def _around(owner: np.ndarray, j: int) -> np.ndarray:
+    """Indices of the triangles within two rings of table entry ``j`` (sharing a corner
+    with a triangle that has ``j`` as a corner, mirrored corners included): a texel's own
+    directions turn each entry by a few degrees, far less than a triangle is wide, so
+    the triangle of the texel's own that holds nominal ``j`` is one of these."""
+    star = np.flatnonzero((owner == j).any(axis=1))
+    corners = np.unique(owner[star])
+    return np.flatnonzero(np.isin(owner, corners).any(axis=1))
 
 
 #: A triangle whose corners' determinant is under this (three unit vectors nearly on one
