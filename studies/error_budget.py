@@ -79,6 +79,7 @@ from studies.render_loop import (
 
 __all__ = [
     "CONFIGS",
+    "MAX_RENDER_SCALE",
     "PROCESSINGS",
     "REGISTRATION_TERMS",
     "TERMS",
@@ -111,6 +112,9 @@ REGISTRATION_TERMS: dict[str, dict] = {
 #: How much farther, with how much longer a lens, the cameras stand when
 #: ``perspective`` is off: the view turns by ±0.07° across the sample, not ±3.6°.
 TELECENTRIC_FACTOR = 50.0
+
+#: The largest ``render_scale`` (frames at this multiple of the camera's resolution).
+MAX_RENDER_SCALE = 4.0
 
 #: Shaded points per pixel side when ``point pixels`` is off.
 PIXEL_SUPERSAMPLE = 3
@@ -250,8 +254,9 @@ def run(
     plans = plans if plans is not None else (("coarse",) if quick else ("coarse", "medium"))
     unknown = [s for s in scenes if s not in SCENES] + [p for p in plans if p not in PLANS]
     unknown += [p for p in processings if p not in PROCESSINGS]
-    if render_scale is not None and not 0 < render_scale <= 4:
-        raise RigError(f"render_scale={render_scale}: valid is 0 < scale ≤ 4 (the camera's 1)")
+    if render_scale is not None and not 0 < render_scale <= MAX_RENDER_SCALE:
+        raise RigError(f"render_scale={render_scale}: valid is 0 < scale ≤ "
+                       f"{MAX_RENDER_SCALE:g} (the camera's 1)")  # fmt: skip
     if truth_rays < 8:
         raise RigError(f"truth_rays={truth_rays}: valid is ≥ 8 (the truth starts at 4 rays)")
     if unknown or not processings:

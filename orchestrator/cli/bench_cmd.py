@@ -74,7 +74,7 @@ PlotOption = Annotated[Path | None, typer.Option("--plot", help="also draw the r
 
 #: The options a study may offer beside ``--quick`` (``Study.selects``): the keyword of
 #: its ``run``, the option and its metavar, its type, its help, and the module's table
-#: of valid values.
+#: of valid values (for ``render_scale``, its largest value).
 SELECTIONS: dict[str, tuple[str, type, str, str | None]] = {
     "scenes": ("--sample <sample>", list[str] | None,
                "a simulated sample: bumps or weave (repeat for several; default: both)", "SCENES"),
@@ -83,7 +83,7 @@ SELECTIONS: dict[str, tuple[str, type, str, str | None]] = {
               "PLANS"),
     "render_scale": ("--render-scale <scale>", float | None,
                      "the frames' resolution as a fraction of the camera's, 0 < s ≤ 4 (1: its own;"
-                     " default: the loop's 0.5)", None),
+                     " default: the loop's 0.5)", "MAX_RENDER_SCALE"),
     "processings": ("--processing <processing>", list[str] | None,
                     "how each session is processed: raw, irradiance-per-texel, lights-per-texel, "
                     "lights-and-views-per-texel, lights-by-model, lights-and-views-by-model "
@@ -102,8 +102,10 @@ def _selected(module, name: str, values):
     option = SELECTIONS[name][0].split()[0]
     table = SELECTIONS[name][3]
     if name == "render_scale":
-        if not 0 < values <= 4:
-            raise typer.BadParameter(f"{values:g}: valid is 0 < scale ≤ 4", param_hint=option)
+        most = getattr(module, table)
+        if not 0 < values <= most:
+            raise typer.BadParameter(f"{values:g}: valid is 0 < scale ≤ {most:g}",
+                                     param_hint=option)  # fmt: skip
         return float(values)
     valid = list(getattr(module, table))
 

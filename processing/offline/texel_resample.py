@@ -126,7 +126,9 @@ def _around(owner: np.ndarray, j: int) -> np.ndarray:
     """Indices of the triangles within two rings of table entry ``j`` (sharing a corner
     with a triangle that has ``j`` as a corner, mirrored corners included): a texel's own
     directions turn each entry by a few degrees, far less than a triangle is wide, so
-    the triangle of the texel's own that holds nominal ``j`` is one of these."""
+    the triangle of the texel's own that holds nominal ``j`` is one of these. Were it not,
+    no triangle here would hold ``j`` and the texel would be kept as measured and
+    counted (``outside``), never blended from a wrong triangle."""
     star = np.flatnonzero((owner == j).any(axis=1))
     corners = np.unique(owner[star])
     return np.flatnonzero(np.isin(owner, corners).any(axis=1))

@@ -60,3 +60,15 @@ def test_hyphens_read_as_spaces_and_runs_name_their_terms():
         (), ("near lamps", "perspective"), tuple(error_budget.TERMS),
     )  # fmt: skip
     assert _selected(error_budget, "plans", ["h1"]) == ("H1",)
+
+
+def test_each_options_help_names_every_value_its_study_takes():
+    from orchestrator.cli.bench_cmd import SELECTIONS
+    from studies import error_budget
+
+    for name, (_, _, text, table) in SELECTIONS.items():
+        if name == "render_scale":
+            assert f"≤ {error_budget.MAX_RENDER_SCALE:g}" in text
+            continue
+        for value in getattr(error_budget, table):
+            assert value.replace(" ", "-") in text, (name, value)
